@@ -1,0 +1,163 @@
+//! Physical checks: reciprocity, the analytic energy bound and the directional-hemispherical
+//! reflectance (albedo) by heap-free quadrature.
+
+use crate::float::Float;
+use crate::model::{Brdf, Model};
+
+/// `(f(ti, tr, phi), f(tr, ti, phi))`: a reciprocal BRDF returns two equal values.
+/// Angles in radians.
+pub fn reciprocity_pair<T: Float, M: Brdf<T>>(model: &M, theta_i: T, theta_r: T, phi: T) -> (T, T) {
+    (
+        model.eval_angles(theta_i, theta_r, phi),
+        model.eval_angles(theta_r, theta_i, phi),
+    )
+}
+
+/// Outcome of [`energy_check`] at one incidence angle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EnergyCheck<T> {
+    /// The model's analytic sufficient bound (`kb + kd` for the six-parameter model), if any.
+    pub bound: Option<T>,
+    /// The analytic bound is at most 1, which proves energy conservation at every incidence.
+    pub bound_conserves: bool,
+    /// Directional-hemispherical reflectance at the checked incidence, by quadrature.
+    pub albedo: T,
+    /// `albedo <= 1` at the checked incidence (within the quadrature's stated accuracy).
+    pub albedo_conserves: bool,
+}
+
+/// Energy check at incidence `theta_i` (radians): the analytic bound and the quadrature
+/// albedo with [`AlbedoRule::DEFAULT`].
+pub fn energy_check<T: Float, M: Model<T>>(model: &M, theta_i: T) -> EnergyCheck<T> {
+    let bound = model.energy_bound();
+    let albedo = albedo(model, theta_i, AlbedoRule::DEFAULT);
+    EnergyCheck {
+        bound,
+        bound_conserves: matches!(bound, Some(b) if b <= T::ONE),
+        albedo,
+        albedo_conserves: albedo <= T::ONE,
+    }
+}
+
+/// A composite Gauss–Legendre rule over the viewing hemisphere.
+///
+/// `theta_r` is split at `theta_i` (so the retro and mirror features, both at
+/// `theta_r = theta_i`, lie on panel edges) and each side into `panels` panels, the side
+/// towards the horizon in the variable `s = sqrt(pi/2 - theta_r)`; `phi` over
+/// `[0, pi]` (the family depends on `cos phi` only) into `panels` panels; 8 nodes per panel
+/// and dimension. Cost: `128 * panels^2` model evaluations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AlbedoRule {
+    /// Panels per `theta_r` side and along `phi`; at least 1.
+    pub panels: u16,
+}
+
+impl AlbedoRule {
+    /// 8 panels (8192 evaluations). Measured accuracy (test `albedo_default_rule_accuracy`
+    /// against a 48-panel rule): relative error below [`ALBEDO_DEFAULT_REL_ACCURACY`] for the
+    /// Table 1 materials at incidences 0 to 80 degrees and for random valid six-parameter
+    /// sets with `|b| <= 60`.
+    pub const DEFAULT: AlbedoRule = AlbedoRule { panels: 8 };
+}
+
+/// Stated relative accuracy of [`AlbedoRule::DEFAULT`] (see its documentation).
+pub const ALBEDO_DEFAULT_REL_ACCURACY: f64 = 1e-6;
+
+/// 8-point Gauss–Legendre nodes on [-1, 1] (positive half) and weights.
+const GL8_X: [f64; 4] = [
+    0.183_434_642_495_649_8,
+    0.525_532_409_916_329,
+    0.796_666_477_413_626_7,
+    0.960_289_856_497_536_3,
+];
+const GL8_W: [f64; 4] = [
+    0.362_683_783_378_362,
+    0.313_706_645_877_887_3,
+    0.222_381_034_453_374_5,
+    0.101_228_536_290_376_3,
+];
+
+/// Calls `f(x, w)` for the 8-point rule's nodes `x` and weights `w` on `[lo, hi]`.
+#[inline]
+fn gl8<T: Float>(lo: T, hi: T, mut f: impl FnMut(T, T)) {
+    let mid = (lo + hi) * T::HALF;
+    let half = (hi - lo) * T::HALF;
+    for k in 0..4 {
+        let dx = half * T::from_f64(GL8_X[k]);
+        let w = half * T::from_f64(GL8_W[k]);
+        f(mid - dx, w);
+        f(mid + dx, w);
+    }
+}
+
+/// Directional-hemispherical reflectance `rho(theta_i) = int f_r cos(theta_r) d omega_r`
+/// (dimensionless) at incidence `theta_i` (radians), by the composite rule `rule`.
+/// No heap; evaluate in f64 for reference figures.
+pub fn albedo<T: Float, M: Brdf<T>>(model: &M, theta_i: T, rule: AlbedoRule) -> T {
+    let panels = rule.panels.max(1);
+    let n = T::from_f64(f64::from(panels));
+    let half_pi = T::PI * T::HALF;
+    let mut total = T::ZERO;
+    // Inner integral over phi in [0, pi], times sin(theta_r) cos(theta_r).
+    let ring = |theta_r: T| -> T {
+        let (s, c) = theta_r.sin_cos();
+        let step_p = T::PI / n;
+        let mut inner = T::ZERO;
+        for pp in 0..panels {
+            let p0 = step_p * T::from_f64(f64::from(pp));
+            gl8(p0, p0 + step_p, |phi, wp| {
+                inner = inner + wp * model.eval_angles(theta_i, theta_r, phi);
+            });
+        }
+        s * c * inner
+    };
+    // theta_r in [0, theta_i], uniform panels.
+    if theta_i > T::ZERO {
+        let step = theta_i / n;
+        for pt in 0..panels {
+            let t0 = step * T::from_f64(f64::from(pt));
+            gl8(t0, t0 + step, |theta_r, w| total = total + w * ring(theta_r));
+        }
+    }
+    // theta_r in [theta_i, pi/2] as theta_r = pi/2 - s^2: grazing factors such as
+    // cos(theta_r)^k (Minnaert, small c) become smooth in s.
+    let s_max = (half_pi - theta_i).max(T::ZERO).sqrt();
+    let step = s_max / n;
+    for ps in 0..panels {
+        let s0 = step * T::from_f64(f64::from(ps));
+        gl8(s0, s0 + step, |s, w| {
+            total = total + w * T::TWO * s * ring(half_pi - s * s);
+        });
+    }
+    T::TWO * total
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::models::{Lambert, Minnaert};
+
+    #[test]
+    fn lambert_albedo_is_rho0() {
+        let m = Lambert::<f64>::from_params(&[0.7]).unwrap();
+        for ti in [0.0, 0.5, 1.3] {
+            let a = albedo(&m, ti, AlbedoRule::DEFAULT);
+            assert!((a - 0.7).abs() < 1e-13, "{a}");
+        }
+    }
+
+    #[test]
+    fn minnaert_albedo_matches_closed_form() {
+        for k in [1.0, 0.8, 0.5] {
+            let m = Minnaert::<f64>::from_params(&[0.6, k]).unwrap();
+            for ti in [0.0_f64, 0.7, 1.2] {
+                let exact = m.albedo(libm::cos(ti));
+                let q = albedo(&m, ti, AlbedoRule::DEFAULT);
+                assert!(
+                    ((q - exact) / exact).abs() < 1e-5,
+                    "k={k} ti={ti}: {q} vs {exact}"
+                );
+            }
+        }
+    }
+}

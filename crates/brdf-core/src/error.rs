@@ -1,0 +1,89 @@
+//! Typed errors of the core: no allocation, `Display` and `core::error::Error`.
+
+use core::fmt;
+
+/// A parameter set a model cannot be built from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum ParamError {
+    /// The slice holds the wrong number of values for the model.
+    WrongCount {
+        /// Number of parameters the model takes.
+        expected: usize,
+        /// Number supplied.
+        got: usize,
+    },
+    /// A parameter is NaN or infinite.
+    NotFinite {
+        /// Paper name of the parameter.
+        name: &'static str,
+    },
+    /// A parameter lies outside the model's valid range.
+    OutOfRange {
+        /// Paper name of the parameter.
+        name: &'static str,
+        /// The rejected value.
+        value: f64,
+        /// The valid range, as text (e.g. `"> 0"`).
+        range: &'static str,
+    },
+}
+
+impl fmt::Display for ParamError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ParamError::WrongCount { expected, got } => {
+                write!(f, "expected {expected} parameters, got {got}")
+            }
+            ParamError::NotFinite { name } => write!(f, "parameter {name} is not finite"),
+            ParamError::OutOfRange { name, value, range } => {
+                write!(f, "parameter {name} = {value} is out of range (must be {range})")
+            }
+        }
+    }
+}
+
+impl core::error::Error for ParamError {}
+
+/// An input direction the checked evaluation API refuses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum DomainError {
+    /// An input is NaN or infinite.
+    NotFinite {
+        /// Which input (`"theta_i"`, `"cos_phi"`, `"wr"`, ...).
+        what: &'static str,
+    },
+    /// An input lies outside its domain.
+    OutOfRange {
+        /// Which input.
+        what: &'static str,
+        /// The rejected value.
+        value: f64,
+        /// The accepted range, as text.
+        range: &'static str,
+    },
+    /// A direction vector is not of unit length.
+    NotUnitVector {
+        /// Which vector (`"wi"` or `"wr"`).
+        what: &'static str,
+        /// Its squared norm.
+        norm_squared: f64,
+    },
+}
+
+impl fmt::Display for DomainError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DomainError::NotFinite { what } => write!(f, "{what} is not finite"),
+            DomainError::OutOfRange { what, value, range } => {
+                write!(f, "{what} = {value} is outside {range}")
+            }
+            DomainError::NotUnitVector { what, norm_squared } => {
+                write!(f, "{what} is not a unit vector (|{what}|^2 = {norm_squared})")
+            }
+        }
+    }
+}
+
+impl core::error::Error for DomainError {}

@@ -1,0 +1,157 @@
+//! The one float abstraction of the core: f32 and f64, all math through `libm`.
+//!
+//! The trait is sealed (only `f32` and `f64` implement it) so that host code and the
+//! firmware always run the same `libm` arithmetic; num-traits' `Float` is avoided on
+//! purpose because its `std` feature would switch the host to std math.
+
+use core::fmt::{Debug, Display};
+use core::ops::{Add, Div, Mul, Neg, Sub};
+
+mod sealed {
+    pub trait Sealed {}
+    impl Sealed for f32 {}
+    impl Sealed for f64 {}
+}
+
+/// A floating-point type the models can be evaluated in: `f32` (the device path) or
+/// `f64` (the host reference). Sealed: it cannot be implemented outside this crate.
+pub trait Float:
+    sealed::Sealed
+    + Copy
+    + Debug
+    + Display
+    + Default
+    + PartialOrd
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// 0
+    const ZERO: Self;
+    /// 1
+    const ONE: Self;
+    /// 2
+    const TWO: Self;
+    /// 1/2
+    const HALF: Self;
+    /// pi
+    const PI: Self;
+    /// 1/pi
+    const FRAC_1_PI: Self;
+    /// ln 2
+    const LN_2: Self;
+    /// Machine epsilon.
+    const EPSILON: Self;
+
+    /// Nearest value of this type to `x` (rounds once).
+    fn from_f64(x: f64) -> Self;
+    /// Exact widening (f32) or identity (f64).
+    fn to_f64(self) -> f64;
+
+    /// `sqrt(x)`, correctly rounded.
+    fn sqrt(self) -> Self;
+    /// `e^x`.
+    fn exp(self) -> Self;
+    /// Natural logarithm.
+    fn ln(self) -> Self;
+    /// `ln(1 + x)`, accurate for small `x`.
+    fn ln_1p(self) -> Self;
+    /// `x^y`.
+    fn powf(self, y: Self) -> Self;
+    /// Sine of radians.
+    fn sin(self) -> Self;
+    /// Cosine of radians.
+    fn cos(self) -> Self;
+    /// `(sin x, cos x)` with one argument reduction.
+    fn sin_cos(self) -> (Self, Self);
+    /// Absolute value.
+    fn abs(self) -> Self;
+    /// Neither infinite nor NaN.
+    fn is_finite(self) -> bool;
+    /// Smaller of the two; NaN if either is NaN is not guaranteed (use on finite values).
+    fn min(self, other: Self) -> Self {
+        if other < self {
+            other
+        } else {
+            self
+        }
+    }
+    /// Larger of the two (use on finite values).
+    fn max(self, other: Self) -> Self {
+        if other > self {
+            other
+        } else {
+            self
+        }
+    }
+}
+
+macro_rules! impl_float {
+    ($t:ident, $sqrt:ident, $exp:ident, $ln:ident, $ln1p:ident, $pow:ident, $sin:ident,
+     $cos:ident, $sincos:ident, $fabs:ident) => {
+        impl Float for $t {
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            const TWO: Self = 2.0;
+            const HALF: Self = 0.5;
+            const PI: Self = core::$t::consts::PI;
+            const FRAC_1_PI: Self = core::$t::consts::FRAC_1_PI;
+            const LN_2: Self = core::$t::consts::LN_2;
+            const EPSILON: Self = $t::EPSILON;
+
+            #[inline]
+            fn from_f64(x: f64) -> Self {
+                x as $t
+            }
+            #[inline]
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+            #[inline]
+            fn sqrt(self) -> Self {
+                libm::$sqrt(self)
+            }
+            #[inline]
+            fn exp(self) -> Self {
+                libm::$exp(self)
+            }
+            #[inline]
+            fn ln(self) -> Self {
+                libm::$ln(self)
+            }
+            #[inline]
+            fn ln_1p(self) -> Self {
+                libm::$ln1p(self)
+            }
+            #[inline]
+            fn powf(self, y: Self) -> Self {
+                libm::$pow(self, y)
+            }
+            #[inline]
+            fn sin(self) -> Self {
+                libm::$sin(self)
+            }
+            #[inline]
+            fn cos(self) -> Self {
+                libm::$cos(self)
+            }
+            #[inline]
+            fn sin_cos(self) -> (Self, Self) {
+                libm::$sincos(self)
+            }
+            #[inline]
+            fn abs(self) -> Self {
+                libm::$fabs(self)
+            }
+            #[inline]
+            fn is_finite(self) -> bool {
+                $t::is_finite(self)
+            }
+        }
+    };
+}
+
+impl_float!(f32, sqrtf, expf, logf, log1pf, powf, sinf, cosf, sincosf, fabsf);
+impl_float!(f64, sqrt, exp, log, log1p, pow, sin, cos, sincos, fabs);

@@ -1,0 +1,353 @@
+//! Scattering geometry: the facet angles `alpha` and `gamma` of MODEL.md, computed so that
+//! they stay accurate in f32 near the retro and mirror directions and at grazing angles.
+//!
+//! Convention (MODEL.md): directions point away from the surface; `phi = phi_r - phi_i`;
+//! the mirror direction is `theta_r = theta_i, phi = pi`, the retro direction
+//! `theta_r = theta_i, phi = 0`. With unit vectors `wi` (to the source) and `wr` (to the
+//! receiver) and the half vector `h = (wi + wr) / |wi + wr|`:
+//!
+//! - `cos(gamma) = |wi + wr| / 2`, `sin(gamma) = |wi - wr| / 2` (gamma: local incidence angle
+//!   on the facet that mirrors source into receiver);
+//! - `cos(alpha) = h_z = (cos theta_i + cos theta_r) / (2 cos gamma)` (alpha: that facet's tilt).
+//!
+//! Every constructor reduces its input to three non-negative sums of squares, none of which
+//! cancels:
+//!
+//! - `S = sin^2(gamma) = |wi - wr|^2 / 4`,
+//! - `C = cos^2(gamma) = |wi + wr|^2 / 4`,
+//! - `P = (wi + wr)_x^2 + (wi + wr)_y^2`,
+//!
+//! and then forms `1 - cos(gamma) = S / (1 + cos gamma)` and
+//! `1 - cos(alpha) = (h_x^2 + h_y^2) / (1 + h_z) = P / (4 C (1 + cos alpha))`.
+//! The textbook `1 - sqrt(C)` loses every digit at the retro direction in f32; these forms
+//! keep a few ulp of relative error (measured in `tests/f32_accuracy.rs`).
+
+use crate::error::DomainError;
+use crate::float::Float;
+
+/// Everything a model of the family needs about one (incidence, viewing) pair.
+///
+/// Build it once per direction pair with [`Geometry::from_angles`],
+/// [`Geometry::from_cosines`] or [`Geometry::from_vectors`] and evaluate any number of
+/// models on it. A direction at or below the horizon (`cos theta <= 0`) is kept as is; the
+/// models return 0 for it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Geometry<T> {
+    cos_theta_i: T,
+    cos_theta_r: T,
+    cos_gamma: T,
+    one_minus_cos_gamma: T,
+    cos_alpha: T,
+    one_minus_cos_alpha: T,
+}
+
+impl<T: Float> Geometry<T> {
+    /// From the three sums of squares described in the module documentation.
+    #[inline]
+    fn from_parts(cos_theta_i: T, cos_theta_r: T, sin2_gamma: T, cos2_gamma: T, p: T) -> Self {
+        let cos_gamma = cos2_gamma.sqrt();
+        let one_minus_cos_gamma = sin2_gamma / (T::ONE + cos_gamma);
+        let cos_alpha = (cos_theta_i + cos_theta_r) / (T::TWO * cos_gamma);
+        let one_minus_cos_alpha = p / ((T::TWO + T::TWO) * cos2_gamma * (T::ONE + cos_alpha));
+        Geometry {
+            cos_theta_i,
+            cos_theta_r,
+            cos_gamma,
+            one_minus_cos_gamma,
+            cos_alpha,
+            one_minus_cos_alpha,
+        }
+    }
+
+    /// From zenith angles `theta_i`, `theta_r` and relative azimuth `phi = phi_r - phi_i`
+    /// (radians, canonical convention). Intended domain: zeniths in `[0, pi/2]`, any `phi`.
+    ///
+    /// Uses `sin((theta_i - theta_r)/2)`, `cos((theta_i + theta_r)/2)` and `sin`, `cos` of
+    /// `phi/2` so that neither `sin^2(gamma)` nor `1 - cos(alpha)` cancels:
+    /// `S = sin^2((ti-tr)/2) + sin ti sin tr sin^2(phi/2)`,
+    /// `C = cos^2((ti+tr)/2) + sin ti sin tr cos^2(phi/2)`,
+    /// `P = 4 cos^2((ti+tr)/2) sin^2((ti-tr)/2) + 4 sin ti sin tr cos^2(phi/2)`.
+    #[inline]
+    pub fn from_angles(theta_i: T, theta_r: T, phi: T) -> Self {
+        let (sin_i, cos_i) = theta_i.sin_cos();
+        let (sin_r, cos_r) = theta_r.sin_cos();
+        let (sin_hp, cos_hp) = (phi * T::HALF).sin_cos();
+        let sin_hd = ((theta_i - theta_r) * T::HALF).sin();
+        let cos_hs = ((theta_i + theta_r) * T::HALF).cos();
+        let ss = sin_i * sin_r;
+        let sin2_gamma = sin_hd * sin_hd + ss * (sin_hp * sin_hp);
+        let cos2_gamma = cos_hs * cos_hs + ss * (cos_hp * cos_hp);
+        let four = T::TWO + T::TWO;
+        let diff = cos_hs * sin_hd;
+        let p = four * (diff * diff + ss * (cos_hp * cos_hp));
+        Self::from_parts(cos_i, cos_r, sin2_gamma, cos2_gamma, p)
+    }
+
+    /// From `cos theta_i`, `cos theta_r` and `cos phi` — the device path, with no
+    /// trigonometric call (two square roots and four divisions).
+    ///
+    /// Accurate to a few ulp for the given cosines: `1 - cos phi` and `1 + cos phi` are exact
+    /// where they are small (Sterbenz), and `theta_i - theta_r` enters only through
+    /// `sin(ti - tr) = (cos tr - cos ti)(cos tr + cos ti) / sin(ti + tr)`. Resolution near the
+    /// retro direction is limited by how finely `cos phi` itself can say `phi` (in f32,
+    /// `phi` below about 3e-4 rad rounds `cos phi` to 1); callers who need that region should
+    /// use [`Geometry::from_angles`] or [`Geometry::from_vectors`].
+    #[inline]
+    pub fn from_cosines(cos_theta_i: T, cos_theta_r: T, cos_phi: T) -> Self {
+        let (mi, mr) = (cos_theta_i, cos_theta_r);
+        let si = ((T::ONE - mi) * (T::ONE + mi)).sqrt();
+        let sr = ((T::ONE - mr) * (T::ONE + mr)).sqrt();
+        let ss = si * sr;
+        let mm = mi * mr;
+        // (cos tr - cos ti)(cos tr + cos ti) = sin^2 ti - sin^2 tr, exact difference.
+        let d2 = (mr - mi) * (mr + mi);
+        // sin(ti - tr) = d2 / sin(ti + tr); 1 - cos(ti - tr) = sin^2 / (1 + cos).
+        let sin_sum = si * mr + mi * sr;
+        let sin_diff = if sin_sum > T::ZERO { d2 / sin_sum } else { T::ZERO };
+        let cos_diff = mm + ss;
+        let one_minus_cos_diff = sin_diff * sin_diff / (T::ONE + cos_diff);
+        // 1 + cos(ti + tr): direct where cos(ti + tr) >= 0, else sin^2 / (1 - cos).
+        let cos_sum = mm - ss;
+        let one_plus_cos_sum = if cos_sum >= T::ZERO {
+            T::ONE + cos_sum
+        } else {
+            sin_sum * sin_sum / (T::ONE - cos_sum)
+        };
+        // sin ti - sin tr = d2 / (sin ti + sin tr).
+        let sin_sum_r = si + sr;
+        let sin_dr = if sin_sum_r > T::ZERO {
+            d2 / sin_sum_r
+        } else {
+            T::ZERO
+        };
+        let one_minus_cp = T::ONE - cos_phi;
+        let one_plus_cp = T::ONE + cos_phi;
+        let sin2_gamma = (one_minus_cos_diff + ss * one_minus_cp) * T::HALF;
+        let cos2_gamma = (one_plus_cos_sum + ss * one_plus_cp) * T::HALF;
+        let p = sin_dr * sin_dr + T::TWO * ss * one_plus_cp;
+        Self::from_parts(mi, mr, sin2_gamma, cos2_gamma, p)
+    }
+
+    /// From unit vectors `wi` (towards the source) and `wr` (towards the receiver), `z` along
+    /// the surface normal. Exact differences make this the most accurate constructor near
+    /// the retro direction. Vectors are not renormalised; see [`Geometry::try_from_vectors`].
+    #[inline]
+    pub fn from_vectors(wi: [T; 3], wr: [T; 3]) -> Self {
+        let s = [wi[0] + wr[0], wi[1] + wr[1], wi[2] + wr[2]];
+        let d = [wi[0] - wr[0], wi[1] - wr[1], wi[2] - wr[2]];
+        let p = s[0] * s[0] + s[1] * s[1];
+        let quarter = T::HALF * T::HALF;
+        let sin2_gamma = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * quarter;
+        let cos2_gamma = (p + s[2] * s[2]) * quarter;
+        Self::from_parts(wi[2], wr[2], sin2_gamma, cos2_gamma, p)
+    }
+
+    /// [`Geometry::from_angles`] for checked input: every value finite, zeniths in
+    /// `[0, pi]` (above `pi/2` is below the horizon and evaluates to 0), `phi` finite.
+    pub fn try_from_angles(theta_i: T, theta_r: T, phi: T) -> Result<Self, DomainError> {
+        check_zenith(theta_i, "theta_i")?;
+        check_zenith(theta_r, "theta_r")?;
+        if !phi.is_finite() {
+            return Err(DomainError::NotFinite { what: "phi" });
+        }
+        Ok(Self::from_angles(theta_i, theta_r, phi))
+    }
+
+    /// [`Geometry::from_cosines`] for checked input: all three finite and within `[-1, 1]`.
+    pub fn try_from_cosines(cos_theta_i: T, cos_theta_r: T, cos_phi: T) -> Result<Self, DomainError> {
+        check_cosine(cos_theta_i, "cos_theta_i")?;
+        check_cosine(cos_theta_r, "cos_theta_r")?;
+        check_cosine(cos_phi, "cos_phi")?;
+        Ok(Self::from_cosines(cos_theta_i, cos_theta_r, cos_phi))
+    }
+
+    /// [`Geometry::from_vectors`] for checked input: finite components and
+    /// `| |w|^2 - 1 | <= 1e-4` for both vectors (catches unnormalised or garbage input;
+    /// results are accurate to the caller's normalisation).
+    pub fn try_from_vectors(wi: [T; 3], wr: [T; 3]) -> Result<Self, DomainError> {
+        check_unit(wi, "wi")?;
+        check_unit(wr, "wr")?;
+        Ok(Self::from_vectors(wi, wr))
+    }
+
+    /// `cos theta_i` (may be <= 0: below the horizon).
+    #[inline]
+    pub fn cos_theta_i(&self) -> T {
+        self.cos_theta_i
+    }
+    /// `cos theta_r` (may be <= 0: below the horizon).
+    #[inline]
+    pub fn cos_theta_r(&self) -> T {
+        self.cos_theta_r
+    }
+    /// `cos gamma`, gamma the local incidence angle on the mirroring facet.
+    #[inline]
+    pub fn cos_gamma(&self) -> T {
+        self.cos_gamma
+    }
+    /// `1 - cos gamma`, computed without cancellation (exactly 0 at the retro direction).
+    #[inline]
+    pub fn one_minus_cos_gamma(&self) -> T {
+        self.one_minus_cos_gamma
+    }
+    /// `cos alpha`, alpha the tilt of the mirroring facet from the surface normal.
+    #[inline]
+    pub fn cos_alpha(&self) -> T {
+        self.cos_alpha
+    }
+    /// `1 - cos alpha`, computed without cancellation (exactly 0 at the mirror direction).
+    #[inline]
+    pub fn one_minus_cos_alpha(&self) -> T {
+        self.one_minus_cos_alpha
+    }
+    /// Both directions strictly above the horizon. False for NaN input.
+    #[inline]
+    pub fn above_horizon(&self) -> bool {
+        self.cos_theta_i > T::ZERO && self.cos_theta_r > T::ZERO
+    }
+    /// The value every model returns without evaluating: `Some(0)` when either direction is
+    /// at or below the horizon, `Some(NaN)` when an input was NaN, `None` otherwise.
+    #[inline]
+    pub(crate) fn outside(&self) -> Option<T> {
+        if self.above_horizon() {
+            None
+        } else if self.cos_theta_i <= T::ZERO || self.cos_theta_r <= T::ZERO {
+            Some(T::ZERO)
+        } else {
+            Some(self.cos_theta_i * self.cos_theta_r)
+        }
+    }
+}
+
+fn check_zenith<T: Float>(theta: T, what: &'static str) -> Result<(), DomainError> {
+    if !theta.is_finite() {
+        return Err(DomainError::NotFinite { what });
+    }
+    if theta < T::ZERO || theta > T::PI {
+        return Err(DomainError::OutOfRange {
+            what,
+            value: theta.to_f64(),
+            range: "[0, pi] rad",
+        });
+    }
+    Ok(())
+}
+
+fn check_cosine<T: Float>(c: T, what: &'static str) -> Result<(), DomainError> {
+    if !c.is_finite() {
+        return Err(DomainError::NotFinite { what });
+    }
+    if c < -T::ONE || c > T::ONE {
+        return Err(DomainError::OutOfRange {
+            what,
+            value: c.to_f64(),
+            range: "[-1, 1]",
+        });
+    }
+    Ok(())
+}
+
+fn check_unit<T: Float>(w: [T; 3], what: &'static str) -> Result<(), DomainError> {
+    if !(w[0].is_finite() && w[1].is_finite() && w[2].is_finite()) {
+        return Err(DomainError::NotFinite { what });
+    }
+    let n2 = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).to_f64();
+    if (n2 - 1.0).abs() > UNIT_NORM_TOLERANCE {
+        return Err(DomainError::NotUnitVector {
+            what,
+            norm_squared: n2,
+        });
+    }
+    Ok(())
+}
+
+/// Largest accepted `| |w|^2 - 1 |` in [`Geometry::try_from_vectors`].
+pub const UNIT_NORM_TOLERANCE: f64 = 1e-4;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use core::f64::consts::PI;
+
+    fn vectors(ti: f64, tr: f64, phi: f64) -> ([f64; 3], [f64; 3]) {
+        let wi = [libm::sin(ti), 0.0, libm::cos(ti)];
+        let wr = [
+            libm::sin(tr) * libm::cos(phi),
+            libm::sin(tr) * libm::sin(phi),
+            libm::cos(tr),
+        ];
+        (wi, wr)
+    }
+
+    fn close(a: f64, b: f64, tol: f64) -> bool {
+        (a - b).abs() <= tol * (1.0 + a.abs().max(b.abs()))
+    }
+
+    #[test]
+    fn three_constructors_agree_on_generic_directions() {
+        for &(ti, tr, phi) in &[(0.3, 0.7, 1.1), (1.2, 0.1, 2.9), (0.5, 0.5, 0.4), (1.5, 1.4, 3.0)] {
+            let a = Geometry::from_angles(ti, tr, phi);
+            let c = Geometry::from_cosines(libm::cos(ti), libm::cos(tr), libm::cos(phi));
+            let (wi, wr) = vectors(ti, tr, phi);
+            let v = Geometry::from_vectors(wi, wr);
+            for g in [c, v] {
+                assert!(close(a.cos_gamma, g.cos_gamma, 1e-14), "{a:?} {g:?}");
+                assert!(close(a.one_minus_cos_gamma, g.one_minus_cos_gamma, 1e-13));
+                assert!(close(a.cos_alpha, g.cos_alpha, 1e-14));
+                assert!(close(a.one_minus_cos_alpha, g.one_minus_cos_alpha, 1e-13));
+            }
+        }
+    }
+
+    #[test]
+    fn retro_and_mirror_are_exact_zeros() {
+        // Retro: gamma = 0 exactly; mirror: alpha = 0 exactly.
+        let retro = Geometry::from_angles(0.4_f32, 0.4, 0.0);
+        assert_eq!(retro.one_minus_cos_gamma, 0.0);
+        let mirror = Geometry::from_angles(0.4_f64, 0.4, PI);
+        assert!(mirror.one_minus_cos_alpha < 1e-32);
+        let mirror_c = Geometry::from_cosines(0.6_f32, 0.6, -1.0);
+        assert_eq!(mirror_c.one_minus_cos_alpha, 0.0);
+        let retro_c = Geometry::from_cosines(0.6_f32, 0.6, 1.0);
+        assert_eq!(retro_c.one_minus_cos_gamma, 0.0);
+    }
+
+    #[test]
+    fn angle_identities_hold() {
+        // gamma is half the angle between wi and wr; at the mirror, gamma = theta_i.
+        let g = Geometry::from_angles(0.3_f64, 0.3, PI);
+        assert!(close(g.cos_gamma, libm::cos(0.3), 1e-15));
+        // At the retro direction alpha = theta_i.
+        let g = Geometry::from_angles(0.3_f64, 0.3, 0.0);
+        assert!(close(g.cos_alpha, libm::cos(0.3), 1e-15));
+        assert!(close(g.cos_gamma, 1.0, 1e-15));
+    }
+
+    #[test]
+    fn checked_constructors_reject_bad_input() {
+        assert!(matches!(
+            Geometry::try_from_angles(f64::NAN, 0.1, 0.0),
+            Err(DomainError::NotFinite { what: "theta_i" })
+        ));
+        assert!(matches!(
+            Geometry::try_from_angles(0.1_f32, -0.1, 0.0),
+            Err(DomainError::OutOfRange { what: "theta_r", .. })
+        ));
+        assert!(matches!(
+            Geometry::try_from_angles(0.1_f32, 0.1, f32::INFINITY),
+            Err(DomainError::NotFinite { what: "phi" })
+        ));
+        assert!(matches!(
+            Geometry::try_from_cosines(1.5_f64, 0.1, 0.0),
+            Err(DomainError::OutOfRange {
+                what: "cos_theta_i",
+                ..
+            })
+        ));
+        assert!(matches!(
+            Geometry::try_from_vectors([1.0_f64, 1.0, 0.0], [0.0, 0.0, 1.0]),
+            Err(DomainError::NotUnitVector { what: "wi", .. })
+        ));
+        assert!(Geometry::try_from_angles(0.1_f64, 2.0, 0.3).is_ok());
+    }
+}

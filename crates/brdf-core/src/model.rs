@@ -1,0 +1,251 @@
+//! The common model interface: evaluation ([`Brdf`]), parameter vectors ([`Model`]) and
+//! run-time dispatch over the family ([`ModelKind`], [`AnyModel`]).
+
+use crate::error::{DomainError, ParamError};
+use crate::float::Float;
+use crate::geometry::Geometry;
+use crate::models::{FiveParam, Lambert, Minnaert, SixParam, SixParamCos2};
+
+/// Largest parameter count of any model in the family.
+pub const MAX_PARAMS: usize = 6;
+
+/// A bidirectional reflectance distribution function `f_r` in 1/sr.
+///
+/// Implementors provide [`Brdf::eval`] on a precomputed [`Geometry`]; the other methods
+/// build the geometry first. Evaluation never panics. Directions at or below the horizon
+/// (`cos theta <= 0`) give 0; NaN input gives NaN (use the `try_` methods to reject it).
+pub trait Brdf<T: Float> {
+    /// `f_r` in 1/sr for a precomputed geometry.
+    fn eval(&self, g: &Geometry<T>) -> T;
+
+    /// `f_r` from `theta_i`, `theta_r`, `phi` in radians (canonical convention).
+    #[inline]
+    fn eval_angles(&self, theta_i: T, theta_r: T, phi: T) -> T {
+        self.eval(&Geometry::from_angles(theta_i, theta_r, phi))
+    }
+
+    /// `f_r` from `cos theta_i`, `cos theta_r`, `cos phi` (no trigonometric call).
+    #[inline]
+    fn eval_cosines(&self, cos_theta_i: T, cos_theta_r: T, cos_phi: T) -> T {
+        self.eval(&Geometry::from_cosines(cos_theta_i, cos_theta_r, cos_phi))
+    }
+
+    /// `f_r` from unit vectors towards source and receiver (`z` = surface normal).
+    #[inline]
+    fn eval_vectors(&self, wi: [T; 3], wr: [T; 3]) -> T {
+        self.eval(&Geometry::from_vectors(wi, wr))
+    }
+
+    /// Checked [`Brdf::eval_angles`]: rejects non-finite input and zeniths outside `[0, pi]`.
+    fn try_eval_angles(&self, theta_i: T, theta_r: T, phi: T) -> Result<T, DomainError> {
+        Geometry::try_from_angles(theta_i, theta_r, phi).map(|g| self.eval(&g))
+    }
+
+    /// Checked [`Brdf::eval_cosines`]: rejects non-finite input and cosines outside `[-1, 1]`.
+    fn try_eval_cosines(&self, cos_theta_i: T, cos_theta_r: T, cos_phi: T) -> Result<T, DomainError> {
+        Geometry::try_from_cosines(cos_theta_i, cos_theta_r, cos_phi).map(|g| self.eval(&g))
+    }
+
+    /// Checked [`Brdf::eval_vectors`]: rejects non-finite and non-unit vectors.
+    fn try_eval_vectors(&self, wi: [T; 3], wr: [T; 3]) -> Result<T, DomainError> {
+        Geometry::try_from_vectors(wi, wr).map(|g| self.eval(&g))
+    }
+}
+
+/// A model of the family with a parameter vector in the paper's order.
+pub trait Model<T: Float>: Brdf<T> + Sized {
+    /// Which member of the family this is.
+    const KIND: ModelKind;
+
+    /// Builds the model from `KIND.param_names().len()` values in that order, validating
+    /// each (see each model's constructor for the ranges).
+    fn from_params(values: &[T]) -> Result<Self, ParamError>;
+
+    /// The parameter vector in the paper's order; entries past the count are zero.
+    fn to_params(&self) -> [T; MAX_PARAMS];
+
+    /// Sufficient energy bound: an upper bound on the directional-hemispherical reflectance
+    /// at every incidence, if the model has one (`kb + kd` for the six-parameter model).
+    fn energy_bound(&self) -> Option<T>;
+}
+
+/// The members of the model family, for run-time selection (CLI, wire formats).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ModelKind {
+    /// Six-parameter model, eq. 3 (canonical).
+    Six,
+    /// Six-parameter model with the `cos^2(alpha)` denominator of eq. 4 (a variant).
+    SixCos2,
+    /// Five-parameter model, eq. 1, with the V-groove Torrance–Sparrow shadowing factor.
+    Five,
+    /// Minnaert model, eq. 2.
+    Minnaert,
+    /// Lambertian reflector.
+    Lambert,
+}
+
+impl ModelKind {
+    /// Every member, simplest last.
+    pub const ALL: [ModelKind; 5] = [
+        ModelKind::Six,
+        ModelKind::SixCos2,
+        ModelKind::Five,
+        ModelKind::Minnaert,
+        ModelKind::Lambert,
+    ];
+
+    /// Short name used on the command line and in files.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ModelKind::Six => "six",
+            ModelKind::SixCos2 => "six-cos2",
+            ModelKind::Five => "five",
+            ModelKind::Minnaert => "minnaert",
+            ModelKind::Lambert => "lambert",
+        }
+    }
+
+    /// Looks a member up by [`ModelKind::name`].
+    pub fn from_name(name: &str) -> Option<ModelKind> {
+        Self::ALL.iter().copied().find(|k| k.name() == name)
+    }
+
+    /// Parameter names in the paper's order.
+    pub const fn param_names(self) -> &'static [&'static str] {
+        match self {
+            ModelKind::Six | ModelKind::SixCos2 => &["kb", "kr", "b", "a", "kd", "c"],
+            ModelKind::Five => &["kb", "kr", "b", "a", "kd"],
+            ModelKind::Minnaert => &["rho0", "k"],
+            ModelKind::Lambert => &["rho0"],
+        }
+    }
+
+    /// Number of parameters.
+    pub const fn param_count(self) -> usize {
+        self.param_names().len()
+    }
+
+    /// Whether `f(i, r) = f(r, i)` holds for every parameter set.
+    pub const fn is_reciprocal(self) -> bool {
+        !matches!(self, ModelKind::Five)
+    }
+}
+
+/// Any model of the family, chosen at run time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AnyModel<T> {
+    /// See [`SixParam`].
+    Six(SixParam<T>),
+    /// See [`SixParamCos2`].
+    SixCos2(SixParamCos2<T>),
+    /// See [`FiveParam`].
+    Five(FiveParam<T>),
+    /// See [`Minnaert`].
+    Minnaert(Minnaert<T>),
+    /// See [`Lambert`].
+    Lambert(Lambert<T>),
+}
+
+macro_rules! dispatch {
+    ($self:expr, $m:ident => $e:expr) => {
+        match $self {
+            AnyModel::Six($m) => $e,
+            AnyModel::SixCos2($m) => $e,
+            AnyModel::Five($m) => $e,
+            AnyModel::Minnaert($m) => $e,
+            AnyModel::Lambert($m) => $e,
+        }
+    };
+}
+
+impl<T: Float> AnyModel<T> {
+    /// Builds the model `kind` from its parameter vector (paper order), validated.
+    pub fn new(kind: ModelKind, values: &[T]) -> Result<Self, ParamError> {
+        Ok(match kind {
+            ModelKind::Six => AnyModel::Six(SixParam::from_params(values)?),
+            ModelKind::SixCos2 => AnyModel::SixCos2(SixParamCos2::from_params(values)?),
+            ModelKind::Five => AnyModel::Five(FiveParam::from_params(values)?),
+            ModelKind::Minnaert => AnyModel::Minnaert(Minnaert::from_params(values)?),
+            ModelKind::Lambert => AnyModel::Lambert(Lambert::from_params(values)?),
+        })
+    }
+
+    /// Which member this is.
+    pub fn kind(&self) -> ModelKind {
+        match self {
+            AnyModel::Six(_) => ModelKind::Six,
+            AnyModel::SixCos2(_) => ModelKind::SixCos2,
+            AnyModel::Five(_) => ModelKind::Five,
+            AnyModel::Minnaert(_) => ModelKind::Minnaert,
+            AnyModel::Lambert(_) => ModelKind::Lambert,
+        }
+    }
+
+    /// The parameter vector (paper order); entries past the count are zero.
+    pub fn to_params(&self) -> [T; MAX_PARAMS] {
+        dispatch!(self, m => m.to_params())
+    }
+
+    /// See [`Model::energy_bound`].
+    pub fn energy_bound(&self) -> Option<T> {
+        dispatch!(self, m => m.energy_bound())
+    }
+}
+
+impl<T: Float> Brdf<T> for AnyModel<T> {
+    #[inline]
+    fn eval(&self, g: &Geometry<T>) -> T {
+        dispatch!(self, m => m.eval(g))
+    }
+}
+
+/// Validation helpers shared by the model constructors.
+pub(crate) fn check_count(values_len: usize, expected: usize) -> Result<(), ParamError> {
+    if values_len != expected {
+        return Err(ParamError::WrongCount {
+            expected,
+            got: values_len,
+        });
+    }
+    Ok(())
+}
+
+pub(crate) fn finite<T: Float>(name: &'static str, v: T) -> Result<T, ParamError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(ParamError::NotFinite { name })
+    }
+}
+
+pub(crate) fn non_negative<T: Float>(name: &'static str, v: T) -> Result<T, ParamError> {
+    let v = finite(name, v)?;
+    if v >= T::ZERO {
+        Ok(v)
+    } else {
+        Err(ParamError::OutOfRange {
+            name,
+            value: v.to_f64(),
+            range: ">= 0",
+        })
+    }
+}
+
+pub(crate) fn positive<T: Float>(name: &'static str, v: T) -> Result<T, ParamError> {
+    let v = finite(name, v)?;
+    if v > T::ZERO {
+        Ok(v)
+    } else {
+        Err(ParamError::OutOfRange {
+            name,
+            value: v.to_f64(),
+            range: "> 0",
+        })
+    }
+}
+
+pub(crate) fn params_array<T: Float>(values: &[T]) -> [T; MAX_PARAMS] {
+    let mut out = [T::ZERO; MAX_PARAMS];
+    out[..values.len()].copy_from_slice(values);
+    out
+}

@@ -1,0 +1,187 @@
+//! Six-parameter model of Yang, Wu and Cao (2012), eq. 3 — the project's canonical model.
+
+use super::{facet, lobe};
+use crate::error::ParamError;
+use crate::float::Float;
+use crate::geometry::Geometry;
+use crate::model::{
+    check_count, finite, non_negative, params_array, positive, Brdf, Model, ModelKind, MAX_PARAMS,
+};
+
+/// Parameters of the six-parameter model, named as in the paper.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SixParams<T> {
+    /// Specular (facet) weight, `>= 0`.
+    pub kb: T,
+    /// Facet refractive-index-like shape parameter, `> 0`.
+    pub kr: T,
+    /// Lobe steepness; used as `|b|` (the paper prints it negative), finite.
+    pub b: T,
+    /// Lobe exponent, `> 0`.
+    pub a: T,
+    /// Diffuse weight, `>= 0`.
+    pub kd: T,
+    /// Diffuse (Minnaert-like) exponent, `>= 0`.
+    pub c: T,
+}
+
+impl<T: Float> SixParams<T> {
+    /// Checks every range listed on the fields.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        non_negative("kb", self.kb)?;
+        positive("kr", self.kr)?;
+        finite("b", self.b)?;
+        positive("a", self.a)?;
+        non_negative("kd", self.kd)?;
+        non_negative("c", self.c)?;
+        Ok(())
+    }
+
+    pub(crate) fn from_slice(values: &[T]) -> Result<Self, ParamError> {
+        check_count(values.len(), 6)?;
+        let p = SixParams {
+            kb: values[0],
+            kr: values[1],
+            b: values[2],
+            a: values[3],
+            kd: values[4],
+            c: values[5],
+        };
+        p.validate()?;
+        Ok(p)
+    }
+
+    pub(crate) fn to_array(self) -> [T; MAX_PARAMS] {
+        params_array(&[self.kb, self.kr, self.b, self.a, self.kd, self.c])
+    }
+}
+
+/// Six-parameter BRDF (eq. 3), in 1/sr:
+///
+/// ```text
+/// f_r = kb/(pi ln 2) * kr^2 cos(alpha) / (1 + (kr^2 - 1) cos(alpha))
+///                    * exp(-|b| (1 - cos(gamma))^a) * ln(1 + cos ti cos tr)
+///     + kd/pi * (cos ti cos tr)^c
+/// ```
+///
+/// Reciprocal by construction (exactly, in floating point, with this crate's geometry).
+/// Energy: the directional-hemispherical reflectance is at most `kb + kd` (eq. 5).
+/// Per-material constants (`kb/(pi ln 2)`, `kr^2`, `|b|`, `kd/pi`) are computed once here.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SixParam<T> {
+    params: SixParams<T>,
+    spec_scale: T,
+    kr2: T,
+    abs_b: T,
+    diffuse_scale: T,
+}
+
+impl<T: Float> SixParam<T> {
+    /// Validates `params` and precomputes the per-material constants.
+    pub fn new(params: SixParams<T>) -> Result<Self, ParamError> {
+        params.validate()?;
+        Ok(SixParam {
+            params,
+            spec_scale: params.kb / (T::PI * T::LN_2),
+            kr2: params.kr * params.kr,
+            abs_b: params.b.abs(),
+            diffuse_scale: params.kd * T::FRAC_1_PI,
+        })
+    }
+
+    /// The parameters this model was built from.
+    pub fn params(&self) -> SixParams<T> {
+        self.params
+    }
+
+    /// The specular (facet) term alone, 1/sr; 0 below the horizon.
+    #[inline]
+    pub fn specular(&self, g: &Geometry<T>) -> T {
+        if let Some(v) = g.outside() {
+            return v;
+        }
+        let m = g.cos_theta_i() * g.cos_theta_r();
+        self.spec_scale * facet(self.kr2, g) * lobe(self.abs_b, self.params.a, g) * m.ln_1p()
+    }
+
+    /// The diffuse term alone, `kd/pi (cos ti cos tr)^c`, 1/sr; 0 below the horizon.
+    #[inline]
+    pub fn diffuse(&self, g: &Geometry<T>) -> T {
+        if let Some(v) = g.outside() {
+            return v;
+        }
+        self.diffuse_scale * (g.cos_theta_i() * g.cos_theta_r()).powf(self.params.c)
+    }
+}
+
+impl<T: Float> Brdf<T> for SixParam<T> {
+    #[inline]
+    fn eval(&self, g: &Geometry<T>) -> T {
+        if let Some(v) = g.outside() {
+            return v;
+        }
+        let m = g.cos_theta_i() * g.cos_theta_r();
+        let spec = self.spec_scale * facet(self.kr2, g) * lobe(self.abs_b, self.params.a, g) * m.ln_1p();
+        spec + self.diffuse_scale * m.powf(self.params.c)
+    }
+}
+
+impl<T: Float> Model<T> for SixParam<T> {
+    const KIND: ModelKind = ModelKind::Six;
+
+    fn from_params(values: &[T]) -> Result<Self, ParamError> {
+        Self::new(SixParams::from_slice(values)?)
+    }
+
+    fn to_params(&self) -> [T; MAX_PARAMS] {
+        self.params.to_array()
+    }
+
+    fn energy_bound(&self) -> Option<T> {
+        Some(self.params.kb + self.params.kd)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn constructor_rejects_each_bad_parameter() {
+        let good = [0.25_f64, 21.8, -27.6, 0.67, 0.37, 1.2];
+        assert!(SixParam::from_params(&good).is_ok());
+        let cases: [(usize, f64, &str); 6] = [
+            (0, -0.1, "kb"),
+            (1, 0.0, "kr"),
+            (2, f64::NAN, "b"),
+            (3, 0.0, "a"),
+            (4, -1.0, "kd"),
+            (5, -0.5, "c"),
+        ];
+        for (i, v, name) in cases {
+            let mut p = good;
+            p[i] = v;
+            let err = SixParam::from_params(&p).unwrap_err();
+            match err {
+                ParamError::OutOfRange { name: n, .. } | ParamError::NotFinite { name: n } => {
+                    assert_eq!(n, name)
+                }
+                other => panic!("unexpected {other:?}"),
+            }
+        }
+        assert_eq!(
+            SixParam::<f32>::from_params(&[1.0; 5]).unwrap_err(),
+            ParamError::WrongCount { expected: 6, got: 5 }
+        );
+    }
+
+    #[test]
+    fn terms_add_up_and_horizon_gives_zero() {
+        let m = SixParam::from_params(&[0.2545_f64, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
+        let g = Geometry::from_angles(0.3, 0.9, 2.0);
+        assert_eq!(m.eval(&g), m.specular(&g) + m.diffuse(&g));
+        assert_eq!(m.eval_angles(0.3, 1.7, 2.0), 0.0);
+        assert_eq!(m.eval_cosines(-0.1, 0.5, 0.0), 0.0);
+        assert!(m.eval_angles(f64::NAN, 0.5, 0.0).is_nan());
+    }
+}

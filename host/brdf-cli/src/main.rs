@@ -1,0 +1,34 @@
+//! `brdf`: evaluate the six-parameter BRDF model family from the command line.
+
+mod eval;
+mod params;
+
+use clap::{Parser, Subcommand};
+
+/// BRDF toolkit: the six-parameter model of Yang, Wu and Cao (2012) and its family.
+#[derive(Debug, Parser)]
+#[command(name = "brdf", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Evaluate a model over a CSV of angles (theta_i, theta_r, phi in degrees).
+    Eval(eval::EvalCmd),
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Eval(cmd) => cmd.run(),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
