@@ -1,1 +1,139 @@
-pub fn placeholder() {}
+//! Shared fixtures for the cross-checks: the paper's Table 1, the 50-digit reference values
+//! of MODEL.md, a deterministic generator and dense direction grids.
+
+use brdf_core::SixParams;
+
+/// Table 1 of the paper: (material, [kb, kr, b, a, kd, c]).
+pub const TABLE1: [(&str, [f64; 6]); 3] = [
+    ("khaki", [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2000]),
+    ("yellow", [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420]),
+    ("white", [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415]),
+];
+
+/// MODEL.md reference values of the six-parameter model (50-digit evaluation rounded to 15
+/// significant digits): (theta_i, theta_r, phi in degrees, [khaki, yellow, white]).
+pub const SIX_REFERENCE: [(f64, f64, f64, [f64; 3]); 7] = [
+    (0.0, 0.0, 0.0, [0.198020580194936, 0.180004240636934, 15.9005019135503]),
+    (10.0, 10.0, 180.0, [0.127789612947914, 0.13598092346465, 1.63816561226462]),
+    (10.0, 10.0, 0.0, [0.192021427058205, 0.178497558291979, 6.38345406700268]),
+    (30.0, 45.0, 180.0, [0.0649636175020779, 0.116091761169466, 0.17724892072584]),
+    (30.0, 20.0, 0.0, [0.127415638822464, 0.153251861727361, 0.658696808063585]),
+    (60.0, 75.0, 90.0, [0.0100599797939098, 0.108754167953511, 0.121764031119333]),
+    (0.0, 89.0, 180.0, [0.000908779161217468, 0.0999772282339606, 0.0750563053192225]),
+];
+
+/// MODEL.md reference values of the five-parameter model with khaki's kb, kr, b, a, kd and
+/// the V-groove G: (theta_i, theta_r, phi in degrees, value). The first is given to 7 digits.
+pub const FIVE_REFERENCE: [(f64, f64, f64, f64); 6] = [
+    (0.0, 0.0, 0.0, 0.3480542),
+    (10.0, 10.0, 180.0, 0.144675215904701),
+    (10.0, 10.0, 0.0, 0.357401620387958),
+    (30.0, 45.0, 180.0, 0.10805582325029),
+    (30.0, 20.0, 0.0, 0.269976846362571),
+    (60.0, 75.0, 90.0, 0.187121763221369),
+];
+
+/// Six-parameter struct from a Table 1 row.
+pub fn six_params(p: [f64; 6]) -> SixParams<f64> {
+    SixParams {
+        kb: p[0],
+        kr: p[1],
+        b: p[2],
+        a: p[3],
+        kd: p[4],
+        c: p[5],
+    }
+}
+
+/// Degrees to radians in f64.
+pub fn rad(deg: f64) -> f64 {
+    deg.to_radians()
+}
+
+/// Relative difference `|a - b| / |b|` (`|a - b|` when `b == 0`).
+pub fn rel_err(a: f64, b: f64) -> f64 {
+    if b == 0.0 {
+        (a - b).abs()
+    } else {
+        ((a - b) / b).abs()
+    }
+}
+
+/// Distance in units in the last place between two finite f64 of the same sign.
+pub fn ulps(a: f64, b: f64) -> u64 {
+    if a == b {
+        return 0;
+    }
+    (a.to_bits() as i64).abs_diff(b.to_bits() as i64)
+}
+
+/// SplitMix64: a tiny deterministic generator for reproducible random cases.
+#[derive(Debug, Clone)]
+pub struct SplitMix(pub u64);
+
+impl SplitMix {
+    /// Next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    pub fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Uniform in [lo, hi).
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+    /// Log-uniform in [lo, hi).
+    pub fn log_uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        (lo.ln() + (hi.ln() - lo.ln()) * self.unit()).exp()
+    }
+}
+
+/// A random valid six-parameter set from the ranges the accuracy claims cover:
+/// kb in [0.01, 2], kr in [0.05, 50] (log-uniform), b in [-60, 60], a in [0.2, 2],
+/// kd in [0, 1], c in [0, 2].
+pub fn random_six(rng: &mut SplitMix) -> [f64; 6] {
+    [
+        rng.uniform(0.01, 2.0),
+        rng.log_uniform(0.05, 50.0),
+        rng.uniform(-60.0, 60.0),
+        rng.uniform(0.2, 2.0),
+        rng.uniform(0.0, 1.0),
+        rng.uniform(0.0, 2.0),
+    ]
+}
+
+/// Direction triples (theta_i, theta_r, phi) in radians, f32-representable, covering the
+/// hemisphere up to 89.9 degrees on a regular grid plus points within 1e-4 rad (and much
+/// closer) of the retro and mirror directions.
+pub fn dense_grid_f32() -> Vec<[f32; 3]> {
+    let max_zenith = 89.9_f64.to_radians();
+    let n_z = 46;
+    let n_phi = 37;
+    let mut out = Vec::new();
+    for i in 0..n_z {
+        let ti = max_zenith * i as f64 / (n_z - 1) as f64;
+        for j in 0..n_z {
+            let tr = max_zenith * j as f64 / (n_z - 1) as f64;
+            for k in 0..n_phi {
+                let phi = std::f64::consts::PI * k as f64 / (n_phi - 1) as f64;
+                out.push([ti as f32, tr as f32, phi as f32]);
+            }
+        }
+        // Near retro (phi ~ 0) and mirror (phi ~ pi), theta_r ~ theta_i.
+        let offsets = [0.0, 1e-7, -1e-7, 1e-6, -1e-6, 1e-5, -1e-5, 1e-4, -1e-4];
+        for &dt in &offsets {
+            let tr = (ti + dt).clamp(0.0, max_zenith);
+            for &dp in &[0.0, 1e-7, 1e-6, 1e-5, 1e-4] {
+                out.push([ti as f32, tr as f32, dp as f32]);
+                out.push([ti as f32, tr as f32, (std::f64::consts::PI - dp) as f32]);
+            }
+        }
+    }
+    out
+}

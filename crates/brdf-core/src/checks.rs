@@ -53,15 +53,10 @@ pub struct AlbedoRule {
 }
 
 impl AlbedoRule {
-    /// 8 panels (8192 evaluations). Measured accuracy (test `albedo_default_rule_accuracy`
-    /// against a 48-panel rule): relative error below [`ALBEDO_DEFAULT_REL_ACCURACY`] for the
-    /// Table 1 materials at incidences 0 to 80 degrees and for random valid six-parameter
-    /// sets with `|b| <= 60`.
+    /// 8 panels (8192 evaluations), relative accuracy
+    /// [`crate::tolerance::ALBEDO_DEFAULT_REL`] (see there for where it is measured).
     pub const DEFAULT: AlbedoRule = AlbedoRule { panels: 8 };
 }
-
-/// Stated relative accuracy of [`AlbedoRule::DEFAULT`] (see its documentation).
-pub const ALBEDO_DEFAULT_REL_ACCURACY: f64 = 1e-6;
 
 /// 8-point Gauss–Legendre nodes on [-1, 1] (positive half) and weights.
 const GL8_X: [f64; 4] = [

@@ -44,6 +44,8 @@ pub trait Float:
     const LN_2: Self;
     /// Machine epsilon.
     const EPSILON: Self;
+    /// Veltkamp splitting constant `2^ceil(p/2) + 1` (p = mantissa bits) for exact products.
+    const SPLITTER: Self;
 
     /// Nearest value of this type to `x` (rounds once).
     fn from_f64(x: f64) -> Self;
@@ -89,7 +91,7 @@ pub trait Float:
 }
 
 macro_rules! impl_float {
-    ($t:ident, $sqrt:ident, $exp:ident, $ln:ident, $ln1p:ident, $pow:ident, $sin:ident,
+    ($t:ident, $splitter:expr, $sqrt:ident, $exp:ident, $ln:ident, $ln1p:ident, $pow:ident, $sin:ident,
      $cos:ident, $sincos:ident, $fabs:ident) => {
         impl Float for $t {
             const ZERO: Self = 0.0;
@@ -100,6 +102,7 @@ macro_rules! impl_float {
             const FRAC_1_PI: Self = core::$t::consts::FRAC_1_PI;
             const LN_2: Self = core::$t::consts::LN_2;
             const EPSILON: Self = $t::EPSILON;
+            const SPLITTER: Self = $splitter;
 
             #[inline]
             fn from_f64(x: f64) -> Self {
@@ -153,5 +156,21 @@ macro_rules! impl_float {
     };
 }
 
-impl_float!(f32, sqrtf, expf, logf, log1pf, powf, sinf, cosf, sincosf, fabsf);
-impl_float!(f64, sqrt, exp, log, log1p, pow, sin, cos, sincos, fabs);
+impl_float!(f32, 4097.0, sqrtf, expf, logf, log1pf, powf, sinf, cosf, sincosf, fabsf);
+impl_float!(f64, 134_217_729.0, sqrt, exp, log, log1p, pow, sin, cos, sincos, fabs);
+
+/// Veltkamp split: `x = hi + lo` exactly, each half with at most half the mantissa bits.
+#[inline]
+pub(crate) fn split<T: Float>(x: T) -> (T, T) {
+    let t = T::SPLITTER * x;
+    let hi = t - (t - x);
+    (hi, x - hi)
+}
+
+/// Dekker's TwoProduct error term: with `p = fl(a * b)` and `a = a_hi + a_lo` from
+/// [`split`], returns `a * b - p` exactly (barring underflow), without an FMA.
+#[inline]
+pub(crate) fn product_error<T: Float>(a_hi: T, a_lo: T, b: T, p: T) -> T {
+    let (b_hi, b_lo) = split(b);
+    ((a_hi * b_hi - p) + a_hi * b_lo + a_lo * b_hi) + a_lo * b_lo
+}

@@ -73,7 +73,13 @@ impl<T: Float> Geometry<T> {
         let (sin_r, cos_r) = theta_r.sin_cos();
         let (sin_hp, cos_hp) = (phi * T::HALF).sin_cos();
         let sin_hd = ((theta_i - theta_r) * T::HALF).sin();
-        let cos_hs = ((theta_i + theta_r) * T::HALF).cos();
+        // cos((ti+tr)/2) is ill-conditioned near pi/2 (both directions grazing): correct
+        // for the rounding error `e` of the sum (TwoSum), cos(x + e/2) ~ cos x - sin x * e/2.
+        let sum = theta_i + theta_r;
+        let v = sum - theta_i;
+        let e = (theta_i - (sum - v)) + (theta_r - v);
+        let (sin_hs, cos_hs) = (sum * T::HALF).sin_cos();
+        let cos_hs = cos_hs - sin_hs * e * T::HALF;
         let ss = sin_i * sin_r;
         let sin2_gamma = sin_hd * sin_hd + ss * (sin_hp * sin_hp);
         let cos2_gamma = cos_hs * cos_hs + ss * (cos_hp * cos_hp);

@@ -36,6 +36,7 @@ mod float;
 mod geometry;
 mod model;
 pub mod models;
+pub mod tolerance;
 
 pub use error::{DomainError, ParamError};
 pub use float::Float;

@@ -1,7 +1,7 @@
 //! Five-parameter model (Cao et al. 2008; Zhang et al. 2010), eq. 1 — the baseline the
 //! six-parameter model replaced.
 
-use super::{facet, lobe};
+use super::{facet, Lobe};
 use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;
@@ -40,7 +40,7 @@ pub struct FiveParams<T> {
 pub struct FiveParam<T> {
     params: FiveParams<T>,
     kr2: T,
-    abs_b: T,
+    lobe: Lobe<T>,
 }
 
 impl<T: Float> FiveParam<T> {
@@ -54,7 +54,7 @@ impl<T: Float> FiveParam<T> {
         Ok(FiveParam {
             params,
             kr2: params.kr * params.kr,
-            abs_b: params.b.abs(),
+            lobe: Lobe::new(params.b, params.a),
         })
     }
 
@@ -78,7 +78,7 @@ impl<T: Float> Brdf<T> for FiveParam<T> {
             return v;
         }
         let (mi, mr) = (g.cos_theta_i(), g.cos_theta_r());
-        let spec = facet(self.kr2, g) * lobe(self.abs_b, self.params.a, g) * Self::shadowing(g) / (mi * mr);
+        let spec = facet(self.kr2, g) * self.lobe.eval(g) * Self::shadowing(g) / (mi * mr);
         self.params.kb * (spec + self.params.kd / mi)
     }
 }

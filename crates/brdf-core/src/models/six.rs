@@ -1,6 +1,6 @@
 //! Six-parameter model of Yang, Wu and Cao (2012), eq. 3 — the project's canonical model.
 
-use super::{facet, lobe};
+use super::{facet, Lobe};
 use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;
@@ -72,7 +72,7 @@ pub struct SixParam<T> {
     params: SixParams<T>,
     spec_scale: T,
     kr2: T,
-    abs_b: T,
+    lobe: Lobe<T>,
     diffuse_scale: T,
 }
 
@@ -84,7 +84,7 @@ impl<T: Float> SixParam<T> {
             params,
             spec_scale: params.kb / (T::PI * T::LN_2),
             kr2: params.kr * params.kr,
-            abs_b: params.b.abs(),
+            lobe: Lobe::new(params.b, params.a),
             diffuse_scale: params.kd * T::FRAC_1_PI,
         })
     }
@@ -101,7 +101,7 @@ impl<T: Float> SixParam<T> {
             return v;
         }
         let m = g.cos_theta_i() * g.cos_theta_r();
-        self.spec_scale * facet(self.kr2, g) * lobe(self.abs_b, self.params.a, g) * m.ln_1p()
+        self.spec_scale * facet(self.kr2, g) * self.lobe.eval(g) * m.ln_1p()
     }
 
     /// The diffuse term alone, `kd/pi (cos ti cos tr)^c`, 1/sr; 0 below the horizon.
@@ -121,7 +121,7 @@ impl<T: Float> Brdf<T> for SixParam<T> {
             return v;
         }
         let m = g.cos_theta_i() * g.cos_theta_r();
-        let spec = self.spec_scale * facet(self.kr2, g) * lobe(self.abs_b, self.params.a, g) * m.ln_1p();
+        let spec = self.spec_scale * facet(self.kr2, g) * self.lobe.eval(g) * m.ln_1p();
         spec + self.diffuse_scale * m.powf(self.params.c)
     }
 }

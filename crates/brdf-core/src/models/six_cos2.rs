@@ -1,6 +1,6 @@
 //! The `cos^2(alpha)` variant of the six-parameter model (the paper's eq. 4 denominator).
 
-use super::lobe;
+use super::Lobe;
 use super::six::SixParams;
 use crate::error::ParamError;
 use crate::float::Float;
@@ -23,7 +23,7 @@ pub struct SixParamCos2<T> {
     params: SixParams<T>,
     spec_scale: T,
     kr2: T,
-    abs_b: T,
+    lobe: Lobe<T>,
     diffuse_scale: T,
 }
 
@@ -35,7 +35,7 @@ impl<T: Float> SixParamCos2<T> {
             params,
             spec_scale: params.kb / (T::PI * T::LN_2),
             kr2: params.kr * params.kr,
-            abs_b: params.b.abs(),
+            lobe: Lobe::new(params.b, params.a),
             diffuse_scale: params.kd * T::FRAC_1_PI,
         })
     }
@@ -56,7 +56,7 @@ impl<T: Float> Brdf<T> for SixParamCos2<T> {
         // 1 + (kr^2 - 1) cos^2 = kr^2 cos^2 + (1 - cos)(1 + cos), without cancellation.
         let facet = self.kr2 * ca / (self.kr2 * ca * ca + g.one_minus_cos_alpha() * (T::ONE + ca));
         let m = g.cos_theta_i() * g.cos_theta_r();
-        let spec = self.spec_scale * facet * lobe(self.abs_b, self.params.a, g) * m.ln_1p();
+        let spec = self.spec_scale * facet * self.lobe.eval(g) * m.ln_1p();
         spec + self.diffuse_scale * m.powf(self.params.c)
     }
 }
