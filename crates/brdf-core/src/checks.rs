@@ -42,8 +42,8 @@ pub fn energy_check<T: Float, M: Model<T>>(model: &M, theta_i: T) -> EnergyCheck
 /// A composite Gauss–Legendre rule over the viewing hemisphere.
 ///
 /// `theta_r` is split at `theta_i` (so the retro and mirror features, both at
-/// `theta_r = theta_i`, lie on panel edges) and each side into `panels` panels, the side
-/// towards the horizon in the variable `s = sqrt(pi/2 - theta_r)`; `phi` over
+/// `theta_r = theta_i`, lie on panel edges) and each side into `panels` panels, the one at
+/// the horizon in the variable `s = sqrt(pi/2 - theta_r)`; `phi` over
 /// `[0, pi]` (the family depends on `cos phi` only) into `panels` panels; 8 nodes per panel
 /// and dimension. Cost: `128 * panels^2` model evaluations.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -114,13 +114,16 @@ pub fn albedo<T: Float, M: Brdf<T>>(model: &M, theta_i: T, rule: AlbedoRule) -> 
             gl8(t0, t0 + step, |theta_r, w| total = total + w * ring(theta_r));
         }
     }
-    // theta_r in [theta_i, pi/2] as theta_r = pi/2 - s^2: grazing factors such as
-    // cos(theta_r)^k (Minnaert, small c) become smooth in s.
-    let s_max = (half_pi - theta_i).max(T::ZERO).sqrt();
-    let step = s_max / n;
-    for ps in 0..panels {
-        let s0 = step * T::from_f64(f64::from(ps));
-        gl8(s0, s0 + step, |s, w| {
+    // theta_r in [theta_i, pi/2]: uniform panels, the last one (at the horizon) in the
+    // variable s = sqrt(pi/2 - theta_r), where grazing factors such as cos(theta_r)^k
+    // (Minnaert, small c) are smooth.
+    let step = (half_pi - theta_i) / n;
+    if step > T::ZERO {
+        for pt in 0..panels - 1 {
+            let t0 = theta_i + step * T::from_f64(f64::from(pt));
+            gl8(t0, t0 + step, |theta_r, w| total = total + w * ring(theta_r));
+        }
+        gl8(T::ZERO, step.sqrt(), |s, w| {
             total = total + w * T::TWO * s * ring(half_pi - s * s);
         });
     }
