@@ -4,14 +4,12 @@ use brdf_core::tolerance::{F32_FLOOR_OF_MAX, F32_MAX_REL};
 use brdf_core::{AnyModel, Brdf, ModelKind};
 use brdf_tests::{dense_grid_f32, random_six, SplitMix, TABLE1};
 
+/// One evaluation path: the f32 and the f64 value at one direction.
+type Path = fn(&AnyModel<f32>, &AnyModel<f64>, [f32; 3]) -> (f32, f64);
+
 /// Worst relative error of `path` over `grid` where the f64 value is above the floor.
 /// Returns (worst relative error, where, number of points compared).
-fn worst_error(
-    kind: ModelKind,
-    params: &[f64],
-    grid: &[[f32; 3]],
-    path: fn(&AnyModel<f32>, &AnyModel<f64>, [f32; 3]) -> (f32, f64),
-) -> (f64, [f32; 3], usize) {
+fn worst_error(kind: ModelKind, params: &[f64], grid: &[[f32; 3]], path: Path) -> (f64, [f32; 3], usize) {
     let p32: Vec<f32> = params.iter().map(|&v| v as f32).collect();
     let p64: Vec<f64> = p32.iter().map(|&v| f64::from(v)).collect();
     let m32 = AnyModel::<f32>::new(kind, &p32).unwrap();
@@ -21,7 +19,10 @@ fn worst_error(
     let floor = F32_FLOOR_OF_MAX * max;
     let mut worst = (0.0, [0.0; 3], 0);
     for (x, &(a, b)) in grid.iter().zip(&values) {
-        assert!(a.is_finite() && b.is_finite(), "{kind:?} {params:?} at {x:?}: {a} {b}");
+        assert!(
+            a.is_finite() && b.is_finite(),
+            "{kind:?} {params:?} at {x:?}: {a} {b}"
+        );
         if b >= floor && b > 0.0 {
             worst.2 += 1;
             let e = ((f64::from(a) - b) / b).abs();
@@ -64,7 +65,6 @@ fn vectors(m32: &AnyModel<f32>, m64: &AnyModel<f64>, x: [f32; 3]) -> (f32, f64) 
     )
 }
 
-type Path = fn(&AnyModel<f32>, &AnyModel<f64>, [f32; 3]) -> (f32, f64);
 const PATHS: [(&str, Path); 3] = [("angles", angles), ("cosines", cosines), ("vectors", vectors)];
 
 #[test]
@@ -74,12 +74,17 @@ fn f32_matches_f64_for_table1_materials() {
     for (name, p) in TABLE1 {
         for (path_name, path) in PATHS {
             let (e, at, n) = worst_error(ModelKind::Six, &p, &grid, path);
-            println!("six {name:6} from {path_name:7}: max rel error {e:.2e} over {n} points (worst at {at:?})");
+            println!(
+                "six {name:6} from {path_name:7}: max rel error {e:.2e} over {n} points (worst at {at:?})"
+            );
             overall = overall.max(e);
             assert!(e <= F32_MAX_REL, "{name} from {path_name}: {e:e} at {at:?}");
         }
     }
-    println!("f32 vs f64, Table 1, {} directions: max relative error {overall:.2e}", grid.len());
+    println!(
+        "f32 vs f64, Table 1, {} directions: max relative error {overall:.2e}",
+        grid.len()
+    );
 }
 
 #[test]
@@ -99,7 +104,10 @@ fn f32_matches_f64_for_random_parameters_of_every_model() {
             for (path_name, path) in PATHS {
                 let (e, at, _) = worst_error(kind, &params, &grid, path);
                 worst = worst.max(e);
-                assert!(e <= F32_MAX_REL, "{kind:?} {params:?} from {path_name}: {e:e} at {at:?}");
+                assert!(
+                    e <= F32_MAX_REL,
+                    "{kind:?} {params:?} from {path_name}: {e:e} at {at:?}"
+                );
             }
         }
         println!("{:9} random parameters: max rel error {worst:.2e}", kind.name());

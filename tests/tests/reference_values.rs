@@ -18,7 +18,11 @@ fn six_parameter_reproduces_every_reference_value() {
             let wi = [ti.sin(), 0.0, ti.cos()];
             let wr = [tr.sin() * phi.cos(), tr.sin() * phi.sin(), tr.cos()];
             let from_vectors = model.eval_vectors(wi, wr);
-            for (path, got) in [("angles", from_angles), ("cosines", from_cosines), ("vectors", from_vectors)] {
+            for (path, got) in [
+                ("angles", from_angles),
+                ("cosines", from_cosines),
+                ("vectors", from_vectors),
+            ] {
                 let e = rel_err(got, expect);
                 worst = worst.max(e);
                 assert!(
@@ -38,7 +42,14 @@ fn five_parameter_reproduces_reference_values() {
     for (k, &(ti, tr, phi, expect)) in FIVE_REFERENCE.iter().enumerate() {
         let got = model.eval_angles(rad(ti), rad(tr), rad(phi));
         // The first value is published with 7 significant digits only.
-        let tol = if k == 0 { SEVEN_DIGIT_REFERENCE_REL } else { F64_REFERENCE_REL };
-        assert!(rel_err(got, expect) <= tol, "({ti}, {tr}, {phi}): {got:e} vs {expect:e}");
+        let tol = if k == 0 {
+            SEVEN_DIGIT_REFERENCE_REL
+        } else {
+            F64_REFERENCE_REL
+        };
+        assert!(
+            rel_err(got, expect) <= tol,
+            "({ti}, {tr}, {phi}): {got:e} vs {expect:e}"
+        );
     }
 }

@@ -1,7 +1,7 @@
 //! The `cos^2(alpha)` variant of the six-parameter model (the paper's eq. 4 denominator).
 
-use super::Lobe;
 use super::six::SixParams;
+use super::Lobe;
 use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;

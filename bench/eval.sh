@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Evaluation speed: brdf-core (f64/f32, from angles/cosines) against numpy on the same
+# 10^6-point grid in the same run, plus the flash cost of an eval-only Cortex-M4F program.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+if ! python3 -c "import numpy" 2>/dev/null; then
+  python3 -m pip install --quiet numpy || echo "numpy could not be installed; the peer will be skipped"
+fi
+cargo run --quiet --release -p brdf-bench
+
+echo
+echo "Flash cost of brdf-core on thumbv7em-none-eabihf (release, LTO): eval-only programs"
+if rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 && rustup component add llvm-tools >/dev/null 2>&1; then
+  (cd firmware && cargo build --quiet --release -p size-probe)
+  size="$(rustc --print sysroot)/lib/rustlib/$(rustc -vV | sed -n 's/^host: //p')/bin/llvm-size"
+  for bin in eval_cosines eval_angles; do
+    text=$("$size" -A "firmware/target/thumbv7em-none-eabihf/release/$bin" | awk '$1 == ".text" {print $2}')
+    echo "  $bin: .text $text bytes"
+  done
+else
+  echo "  SKIPPED: thumbv7em-none-eabihf target or llvm-tools could not be installed"
+fi

@@ -1,0 +1,201 @@
+//! End-to-end tests of `brdf eval`: values, formats and every class of bad input.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+use brdf_core::tolerance::F64_REFERENCE_REL;
+use brdf_core::{AnyModel, Brdf, ModelKind};
+
+const KHAKI: &str = "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2";
+
+fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
+    let p = dir.path().join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn brdf(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_brdf"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn eval_ok(args: &[&str]) -> Vec<Vec<String>> {
+    let out = brdf(args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect()
+}
+
+fn eval_err(args: &[&str]) -> String {
+    let out = brdf(args);
+    assert!(!out.status.success(), "expected failure for {args:?}");
+    String::from_utf8(out.stderr).unwrap()
+}
+
+#[test]
+fn f64_output_reproduces_reference_values_with_17_digits_and_passes_columns_through() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = write(
+        &dir,
+        "a.csv",
+        "label,theta_i,theta_r,phi\nnormal,0,0,0\nmirror,10,10,180\nretro,10,10,0\ngrazing,0,89,180\n",
+    );
+    let rows = eval_ok(&["eval", "--model", "six", "--params", KHAKI, f.to_str().unwrap()]);
+    assert_eq!(rows[0], ["label", "theta_i", "theta_r", "phi", "brdf"]);
+    let expect = [
+        0.198020580194936,
+        0.127789612947914,
+        0.192021427058205,
+        0.000908779161217468,
+    ];
+    assert_eq!(rows.len(), 1 + expect.len(), "no row may be dropped");
+    for (row, want) in rows[1..].iter().zip(expect) {
+        let text = &row[4];
+        let mantissa = text.split('e').next().unwrap().replace(['.', '-'], "");
+        assert_eq!(
+            mantissa.len(),
+            17,
+            "{text} is not printed with 17 significant digits"
+        );
+        let got: f64 = text.parse().unwrap();
+        assert!(
+            ((got - want) / want).abs() <= F64_REFERENCE_REL,
+            "{got} vs {want}"
+        );
+    }
+    assert_eq!(rows[2][0], "mirror");
+}
+
+#[test]
+fn f32_output_is_the_core_f32_path_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = write(
+        &dir,
+        "a.csv",
+        "theta_i,theta_r,phi\n30,45,180\n60,75,90\n10,10.0001,0.0001\n",
+    );
+    let rows = eval_ok(&[
+        "eval",
+        "--model",
+        "six",
+        "--params",
+        KHAKI,
+        "--precision",
+        "f32",
+        f.to_str().unwrap(),
+    ]);
+    let p: Vec<f32> = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]
+        .iter()
+        .map(|&v: &f64| v as f32)
+        .collect();
+    let model = AnyModel::<f32>::new(ModelKind::Six, &p).unwrap();
+    for row in &rows[1..] {
+        let [ti, tr, phi] = [0, 1, 2].map(|k| (row[k].parse::<f64>().unwrap().to_radians()) as f32);
+        let got: f32 = row[3].parse().unwrap();
+        assert_eq!(got, model.eval_angles(ti, tr, phi), "row {row:?}");
+        assert_eq!(row[3].split('e').next().unwrap().replace(['.', '-'], "").len(), 9);
+    }
+}
+
+#[test]
+fn other_models_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = write(&dir, "a.csv", "theta_i,theta_r,phi\n0,0,0\n");
+    let rows = eval_ok(&[
+        "eval",
+        "--model",
+        "lambert",
+        "--params",
+        "rho0=0.5",
+        f.to_str().unwrap(),
+    ]);
+    let v: f64 = rows[1][3].parse().unwrap();
+    assert!((v - 0.5 / std::f64::consts::PI).abs() < 1e-16);
+    for (model, params) in [
+        ("minnaert", "rho0=0.5,k=0.7"),
+        ("five", "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676"),
+        ("six-cos2", KHAKI),
+    ] {
+        let rows = eval_ok(&["eval", "--model", model, "--params", params, f.to_str().unwrap()]);
+        assert!(rows[1][3].parse::<f64>().unwrap() > 0.0);
+    }
+}
+
+#[test]
+fn bad_input_names_file_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        ("missing.csv", "theta_i,phi\n0,0\n", "missing column `theta_r`"),
+        (
+            "dup.csv",
+            "theta_i,theta_r,phi,phi\n0,0,0,0\n",
+            "column `phi` appears twice",
+        ),
+        (
+            "nan.csv",
+            "theta_i,theta_r,phi\n0,0,0\n10,abc,0\n",
+            "line 3: column theta_r: `abc` is not a number",
+        ),
+        (
+            "inf.csv",
+            "theta_i,theta_r,phi\n0,0,inf\n",
+            "line 2: column phi: `inf` is not finite",
+        ),
+        (
+            "range.csv",
+            "theta_i,theta_r,phi\n0,0,0\n0,0,0\n95,0,0\n",
+            "line 4: column theta_i: zenith 95 deg is outside [0, 90]",
+        ),
+        (
+            "neg.csv",
+            "theta_i,theta_r,phi\n0,-1,0\n",
+            "line 2: column theta_r: zenith -1 deg",
+        ),
+        ("short.csv", "theta_i,theta_r,phi\n0,0\n", "malformed CSV"),
+        (
+            "clash.csv",
+            "theta_i,theta_r,phi,brdf\n0,0,0,1\n",
+            "already has a column `brdf`",
+        ),
+    ];
+    for (name, text, want) in cases {
+        let f = write(&dir, name, text);
+        let err = eval_err(&["eval", "--model", "six", "--params", KHAKI, f.to_str().unwrap()]);
+        assert!(
+            err.contains(name),
+            "{name}: message does not name the file: {err}"
+        );
+        assert!(err.contains(want), "{name}: expected `{want}` in: {err}");
+    }
+    let f = write(&dir, "ok.csv", "theta_i,theta_r,phi\n0,0,0\n");
+    let path = f.to_str().unwrap();
+    let param_cases = [
+        ("kb=0.2,kr=2,b=-3,a=0.5,kd=0.3", "missing parameter c"),
+        ("kb=0.2,kr=2,b=-3,a=0.5,kd=0.3,c=1,q=2", "unknown parameter `q`"),
+        (
+            "kb=0.2,kr=2,b=-3,a=0,kd=0.3,c=1",
+            "parameter a = 0 is out of range",
+        ),
+        ("kb=0.2,kr=two,b=-3,a=0.5,kd=0.3,c=1", "`two` is not a number"),
+    ];
+    for (params, want) in param_cases {
+        let err = eval_err(&["eval", "--model", "six", "--params", params, path]);
+        assert!(err.contains(want), "expected `{want}` in: {err}");
+    }
+    let err = eval_err(&["eval", "--model", "seven", "--params", "x=1", path]);
+    assert!(err.contains("unknown model `seven`"), "{err}");
+    let err = eval_err(&[
+        "eval",
+        "--model",
+        "six",
+        "--params",
+        KHAKI,
+        "/nonexistent/angles.csv",
+    ]);
+    assert!(err.contains("/nonexistent/angles.csv"), "{err}");
+}
