@@ -11,7 +11,7 @@ pub extern "C" fn _start() -> ! {
     let p = black_box([0.2545_f32, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]);
     let m = match SixParam::from_params(&p) {
         Ok(m) => m,
-        Err(_) => loop {},
+        Err(_) => halt(),
     };
     loop {
         black_box(m.eval_angles(black_box(0.4), black_box(0.6), black_box(2.5)));
@@ -20,5 +20,12 @@ pub extern "C" fn _start() -> ! {
 
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
-    loop {}
+    halt()
+}
+
+/// Parks the core; a real program would reset or report instead.
+fn halt() -> ! {
+    loop {
+        core::hint::spin_loop();
+    }
 }
