@@ -1,0 +1,554 @@
+//! Measurement files: the canonical CSV (`theta_i,theta_r,phi,brdf`) and the signed in-plane
+//! form (`theta_i,theta_s,brdf`), validated row by row.
+//!
+//! Angles are degrees in files and radians in memory. In the in-plane form `theta_s > 0` is
+//! the forward (specular) side, mapped to `phi = 180°, theta_r = theta_s`; `theta_s < 0` the
+//! back side, `phi = 0°, theta_r = -theta_s`. Optional columns: `sigma` (1-sigma uncertainty
+//! of `brdf`, 1/sr) or `weight` (multiplies the squared residual), and `sample` and/or
+//! `wavelength`, which split one file into independent datasets.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use thiserror::Error;
+
+/// One measured BRDF value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Point {
+    /// Incidence zenith, radians.
+    pub theta_i: f64,
+    /// Viewing zenith, radians.
+    pub theta_r: f64,
+    /// Relative azimuth `phi_r - phi_i`, radians (pi = forward/mirror side).
+    pub phi: f64,
+    /// Measured BRDF, 1/sr.
+    pub brdf: f64,
+    /// 1-sigma uncertainty of `brdf`, 1/sr, if the file gives one.
+    pub sigma: Option<f64>,
+    /// Weight of the squared residual, if the file gives one.
+    pub weight: Option<f64>,
+    /// 1-based line in the source file.
+    pub line: u64,
+}
+
+/// The points of one dataset (a file, or one `sample`/`wavelength` group of it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dataset {
+    /// `FILE` or `FILE[sample=..,wavelength=..]`.
+    pub name: String,
+    /// Points in file order.
+    pub points: Vec<Point>,
+}
+
+impl Dataset {
+    /// Distinct incidence angles (radians), ascending.
+    pub fn incidences(&self) -> Vec<f64> {
+        let mut v: Vec<f64> = self.points.iter().map(|p| p.theta_i).collect();
+        v.sort_by(f64::total_cmp);
+        v.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+        v
+    }
+}
+
+/// A line left out under `--skip-invalid`, with the reason.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Skipped {
+    /// 1-based line number.
+    pub line: u64,
+    /// What was wrong with it.
+    pub reason: String,
+}
+
+/// Everything read from one file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Loaded {
+    /// One dataset per group (one in all when the file has no `sample`/`wavelength` column).
+    pub datasets: Vec<Dataset>,
+    /// Lines skipped under `skip_invalid` (always empty otherwise).
+    pub skipped: Vec<Skipped>,
+}
+
+/// How to read a file.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Skip invalid rows (each reported in [`Loaded::skipped`]) instead of failing.
+    pub skip_invalid: bool,
+    /// Accept `brdf = 0` (only absolute residuals can use it); otherwise `brdf` must be > 0.
+    pub allow_zero_brdf: bool,
+}
+
+/// Why a file cannot be used. Every variant names the file; row errors name line and column.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum DataError {
+    /// The file cannot be opened or read.
+    #[error("{file}: {source}")]
+    Io {
+        /// File path.
+        file: String,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// Malformed CSV (e.g. a row with the wrong number of fields).
+    #[error("{file}: line {line}: {message}")]
+    Csv {
+        /// File path.
+        file: String,
+        /// 1-based line.
+        line: u64,
+        /// Parser message.
+        message: String,
+    },
+    /// The header lacks a required column.
+    #[error(
+        "{file}: line 1: missing column `{column}` (need theta_i,theta_r,phi,brdf or theta_i,theta_s,brdf)"
+    )]
+    MissingColumn {
+        /// File path.
+        file: String,
+        /// Column name.
+        column: &'static str,
+    },
+    /// The header names a column twice.
+    #[error("{file}: line 1: column `{column}` appears twice")]
+    DuplicateColumn {
+        /// File path.
+        file: String,
+        /// Column name.
+        column: String,
+    },
+    /// The header has both `sigma` and `weight`, or both `theta_r` and `theta_s`.
+    #[error("{file}: line 1: columns `{a}` and `{b}` cannot be used together")]
+    ConflictingColumns {
+        /// File path.
+        file: String,
+        /// First column.
+        a: &'static str,
+        /// Second column.
+        b: &'static str,
+    },
+    /// A field is not a number.
+    #[error("{file}: line {line}: column {column}: `{text}` is not a number")]
+    NotANumber {
+        /// File path.
+        file: String,
+        /// 1-based line.
+        line: u64,
+        /// Column name.
+        column: &'static str,
+        /// Field text.
+        text: String,
+    },
+    /// A field is NaN or infinite.
+    #[error("{file}: line {line}: column {column}: `{text}` is not finite")]
+    NotFinite {
+        /// File path.
+        file: String,
+        /// 1-based line.
+        line: u64,
+        /// Column name.
+        column: &'static str,
+        /// Field text.
+        text: String,
+    },
+    /// A value lies outside its domain.
+    #[error("{file}: line {line}: column {column}: {value} is outside {range}")]
+    OutOfRange {
+        /// File path.
+        file: String,
+        /// 1-based line.
+        line: u64,
+        /// Column name.
+        column: &'static str,
+        /// The value.
+        value: f64,
+        /// Accepted range.
+        range: &'static str,
+    },
+    /// The file has a header but no data rows (after skipping, if asked).
+    #[error("{file}: no data rows")]
+    Empty {
+        /// File path.
+        file: String,
+    },
+}
+
+/// A row-level problem, before the file name is attached.
+struct RowError {
+    column: &'static str,
+    kind: RowErrorKind,
+}
+
+enum RowErrorKind {
+    NotANumber(String),
+    NotFinite(String),
+    OutOfRange(f64, &'static str),
+}
+
+impl RowError {
+    fn into_data_error(self, file: &str, line: u64) -> DataError {
+        let file = file.to_owned();
+        let column = self.column;
+        match self.kind {
+            RowErrorKind::NotANumber(text) => DataError::NotANumber {
+                file,
+                line,
+                column,
+                text,
+            },
+            RowErrorKind::NotFinite(text) => DataError::NotFinite {
+                file,
+                line,
+                column,
+                text,
+            },
+            RowErrorKind::OutOfRange(value, range) => DataError::OutOfRange {
+                file,
+                line,
+                column,
+                value,
+                range,
+            },
+        }
+    }
+}
+
+/// Column positions of one file.
+struct Columns {
+    theta_i: usize,
+    /// `theta_r` and `phi` (full form) or `theta_s` (in-plane form).
+    view: View,
+    brdf: usize,
+    sigma: Option<usize>,
+    weight: Option<usize>,
+    sample: Option<usize>,
+    wavelength: Option<usize>,
+}
+
+enum View {
+    Full { theta_r: usize, phi: usize },
+    InPlane { theta_s: usize },
+}
+
+fn find_columns(file: &str, headers: &csv::StringRecord) -> Result<Columns, DataError> {
+    let mut seen: HashMap<&str, usize> = HashMap::new();
+    for (i, h) in headers.iter().enumerate() {
+        let h = h.trim();
+        if seen.insert(h, i).is_some() {
+            return Err(DataError::DuplicateColumn {
+                file: file.to_owned(),
+                column: h.to_owned(),
+            });
+        }
+    }
+    let get = |name: &str| seen.get(name).copied();
+    let need = |name: &'static str| {
+        get(name).ok_or(DataError::MissingColumn {
+            file: file.to_owned(),
+            column: name,
+        })
+    };
+    let conflict = |a: &'static str, b: &'static str| DataError::ConflictingColumns {
+        file: file.to_owned(),
+        a,
+        b,
+    };
+    let view = match (get("theta_r"), get("theta_s")) {
+        (Some(_), Some(_)) => return Err(conflict("theta_r", "theta_s")),
+        (None, Some(theta_s)) => View::InPlane { theta_s },
+        _ => View::Full {
+            theta_r: need("theta_r")?,
+            phi: need("phi")?,
+        },
+    };
+    if get("sigma").is_some() && get("weight").is_some() {
+        return Err(conflict("sigma", "weight"));
+    }
+    Ok(Columns {
+        theta_i: need("theta_i")?,
+        view,
+        brdf: need("brdf")?,
+        sigma: get("sigma"),
+        weight: get("weight"),
+        sample: get("sample"),
+        wavelength: get("wavelength"),
+    })
+}
+
+fn number(record: &csv::StringRecord, idx: usize, column: &'static str) -> Result<f64, RowError> {
+    let text = record.get(idx).unwrap_or("").trim();
+    let v: f64 = text.parse().map_err(|_| RowError {
+        column,
+        kind: RowErrorKind::NotANumber(text.to_owned()),
+    })?;
+    if !v.is_finite() {
+        return Err(RowError {
+            column,
+            kind: RowErrorKind::NotFinite(text.to_owned()),
+        });
+    }
+    Ok(v)
+}
+
+fn in_range(v: f64, ok: bool, column: &'static str, range: &'static str) -> Result<f64, RowError> {
+    if ok {
+        Ok(v)
+    } else {
+        Err(RowError {
+            column,
+            kind: RowErrorKind::OutOfRange(v, range),
+        })
+    }
+}
+
+fn parse_row(
+    record: &csv::StringRecord,
+    cols: &Columns,
+    opts: LoadOptions,
+    line: u64,
+) -> Result<Point, RowError> {
+    let zenith = |idx, column| {
+        let v = number(record, idx, column)?;
+        in_range(v, (0.0..90.0).contains(&v), column, "[0, 90) degrees")
+    };
+    let theta_i = zenith(cols.theta_i, "theta_i")?;
+    let (theta_r, phi) = match cols.view {
+        View::Full { theta_r, phi } => {
+            let tr = zenith(theta_r, "theta_r")?;
+            (tr, number(record, phi, "phi")?)
+        }
+        View::InPlane { theta_s } => {
+            let ts = number(record, theta_s, "theta_s")?;
+            let ts = in_range(ts, ts > -90.0 && ts < 90.0, "theta_s", "(-90, 90) degrees")?;
+            if ts > 0.0 {
+                (ts, 180.0)
+            } else {
+                (-ts, 0.0)
+            }
+        }
+    };
+    let brdf = number(record, cols.brdf, "brdf")?;
+    let brdf = if opts.allow_zero_brdf {
+        in_range(brdf, brdf >= 0.0, "brdf", ">= 0")?
+    } else {
+        in_range(
+            brdf,
+            brdf > 0.0,
+            "brdf",
+            "> 0 (relative and log residuals divide by it)",
+        )?
+    };
+    let sigma = match cols.sigma {
+        Some(i) => {
+            let s = number(record, i, "sigma")?;
+            Some(in_range(s, s > 0.0, "sigma", "> 0")?)
+        }
+        None => None,
+    };
+    let weight = match cols.weight {
+        Some(i) => {
+            let w = number(record, i, "weight")?;
+            Some(in_range(w, w > 0.0, "weight", "> 0")?)
+        }
+        None => None,
+    };
+    Ok(Point {
+        theta_i: theta_i.to_radians(),
+        theta_r: theta_r.to_radians(),
+        phi: phi.to_radians(),
+        brdf,
+        sigma,
+        weight,
+        line,
+    })
+}
+
+/// Reads and validates one file. Without `skip_invalid` the first bad row is an error; with
+/// it, bad rows are listed in [`Loaded::skipped`] and the rest is used.
+pub fn load_csv(path: &Path, opts: LoadOptions) -> Result<Loaded, DataError> {
+    let file = path.display().to_string();
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .from_path(path)
+        .map_err(|e| csv_error(&file, e))?;
+    let headers = reader.headers().map_err(|e| csv_error(&file, e))?.clone();
+    let cols = find_columns(&file, &headers)?;
+    let mut groups: Vec<(String, Vec<Point>)> = Vec::new();
+    let mut group_index: HashMap<String, usize> = HashMap::new();
+    let mut skipped = Vec::new();
+    let mut record = csv::StringRecord::new();
+    loop {
+        match reader.read_record(&mut record) {
+            Ok(false) => break,
+            Ok(true) => {}
+            Err(e) => {
+                let err = csv_error(&file, e);
+                match (&err, opts.skip_invalid) {
+                    (DataError::Csv { line, message, .. }, true) => {
+                        skipped.push(Skipped {
+                            line: *line,
+                            reason: message.clone(),
+                        });
+                        continue;
+                    }
+                    _ => return Err(err),
+                }
+            }
+        }
+        let line = record.position().map_or(0, |p| p.line());
+        let point = match parse_row(&record, &cols, opts, line) {
+            Ok(p) => p,
+            Err(e) => {
+                let err = e.into_data_error(&file, line);
+                if opts.skip_invalid {
+                    skipped.push(Skipped {
+                        line,
+                        reason: err.to_string(),
+                    });
+                    continue;
+                }
+                return Err(err);
+            }
+        };
+        let mut key = Vec::new();
+        for (idx, name) in [(cols.sample, "sample"), (cols.wavelength, "wavelength")] {
+            if let Some(i) = idx {
+                key.push(format!("{name}={}", record.get(i).unwrap_or("").trim()));
+            }
+        }
+        let key = key.join(",");
+        let slot = *group_index.entry(key.clone()).or_insert_with(|| {
+            groups.push((key, Vec::new()));
+            groups.len() - 1
+        });
+        groups[slot].1.push(point);
+    }
+    if groups.is_empty() {
+        return Err(DataError::Empty { file });
+    }
+    let datasets = groups
+        .into_iter()
+        .map(|(key, points)| Dataset {
+            name: if key.is_empty() {
+                file.clone()
+            } else {
+                format!("{file}[{key}]")
+            },
+            points,
+        })
+        .collect();
+    Ok(Loaded { datasets, skipped })
+}
+
+fn csv_error(file: &str, e: csv::Error) -> DataError {
+    let line = e.position().map_or(0, |p| p.line());
+    match e.into_kind() {
+        csv::ErrorKind::Io(source) => DataError::Io {
+            file: file.to_owned(),
+            source,
+        },
+        other => DataError::Csv {
+            file: file.to_owned(),
+            line,
+            message: match other {
+                csv::ErrorKind::UnequalLengths {
+                    expected_len, len, ..
+                } => {
+                    format!("found {len} fields, expected {expected_len}")
+                }
+                csv::ErrorKind::Utf8 { err, .. } => format!("invalid UTF-8: {err}"),
+                k => format!("{k:?}"),
+            },
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    fn load(text: &str, opts: LoadOptions) -> (tempfile::NamedTempFile, Result<Loaded, DataError>) {
+        let mut f = tempfile::Builder::new().suffix(".csv").tempfile().unwrap();
+        f.write_all(text.as_bytes()).unwrap();
+        let r = load_csv(f.path(), opts);
+        (f, r)
+    }
+
+    fn err(text: &str) -> String {
+        let (f, r) = load(text, LoadOptions::default());
+        let msg = r.unwrap_err().to_string();
+        assert!(msg.contains(&f.path().display().to_string()), "{msg}");
+        msg
+    }
+
+    #[test]
+    fn each_class_of_bad_file_has_its_message() {
+        assert!(
+            err("theta_i,theta_r,phi,brdf\n0,0,0,x\n").contains("line 2: column brdf: `x` is not a number")
+        );
+        assert!(err("theta_i,theta_r,phi,brdf\n0,0,0,0.1\n0,0,NaN,0.1\n")
+            .contains("line 3: column phi: `NaN` is not finite"));
+        assert!(err("theta_i,theta_r,phi,brdf\n0,0,0,inf\n").contains("column brdf: `inf` is not finite"));
+        assert!(err("theta_i,theta_r,phi,brdf\n0,0,0,-0.1\n")
+            .contains("line 2: column brdf: -0.1 is outside > 0"));
+        assert!(err("theta_i,theta_r,phi,brdf\n0,0,0,0\n").contains("column brdf: 0 is outside > 0"));
+        assert!(
+            err("theta_i,theta_r,phi,brdf\n90,0,0,0.1\n").contains("column theta_i: 90 is outside [0, 90)")
+        );
+        assert!(err("theta_i,theta_r,phi,brdf\n10,-5,0,0.1\n").contains("column theta_r: -5 is outside"));
+        assert!(err("theta_i,theta_s,brdf\n10,95,0.1\n").contains("column theta_s: 95 is outside"));
+        assert!(err("theta_i,theta_r,phi,brdf\n").contains("no data rows"));
+        assert!(err("theta_i,theta_r,brdf\n0,0,1\n").contains("missing column `phi`"));
+        assert!(err("theta_i,phi,theta_r\n0,0,1\n").contains("missing column `brdf`"));
+        assert!(err("theta_i,theta_r,phi,brdf,phi\n0,0,0,1,0\n").contains("column `phi` appears twice"));
+        assert!(err("theta_i,theta_r,phi,brdf,sigma,weight\n0,0,0,1,1,1\n").contains("`sigma` and `weight`"));
+        assert!(err("theta_i,theta_r,phi,brdf\n0,0,0\n").contains("line 2: found 3 fields, expected 4"));
+        assert!(err("theta_i,theta_r,phi,brdf,sigma\n0,0,0,1,0\n").contains("column sigma: 0 is outside > 0"));
+    }
+
+    #[test]
+    fn in_plane_sign_maps_to_forward_and_back() {
+        let (_f, r) = load(
+            "theta_i,theta_s,brdf\n30,40,0.5\n30,-20,0.2\n",
+            LoadOptions::default(),
+        );
+        let d = &r.unwrap().datasets[0];
+        assert_eq!(
+            (
+                d.points[0].theta_r.to_degrees().round(),
+                d.points[0].phi.to_degrees()
+            ),
+            (40.0, 180.0)
+        );
+        assert_eq!(
+            (
+                d.points[1].theta_r.to_degrees().round(),
+                d.points[1].phi.to_degrees()
+            ),
+            (20.0, 0.0)
+        );
+    }
+
+    #[test]
+    fn groups_split_and_skips_are_listed() {
+        let text = "sample,wavelength,theta_i,theta_r,phi,brdf\nA,633,0,0,0,1\nB,633,0,0,0,2\nA,633,10,10,0,bad\nA,532,0,5,0,3\n";
+        let (_f, r) = load(text, LoadOptions::default());
+        assert!(r.is_err());
+        let (_f, r) = load(
+            text,
+            LoadOptions {
+                skip_invalid: true,
+                ..Default::default()
+            },
+        );
+        let l = r.unwrap();
+        assert_eq!(l.datasets.len(), 3);
+        assert!(l.datasets[0].name.ends_with("[sample=A,wavelength=633]"));
+        assert_eq!(l.skipped.len(), 1);
+        assert_eq!(l.skipped[0].line, 4);
+        assert!(l.skipped[0].reason.contains("`bad` is not a number"));
+        let total: usize = l.datasets.iter().map(|d| d.points.len()).sum();
+        assert_eq!(total + l.skipped.len(), 4, "every row is used or listed");
+    }
+}

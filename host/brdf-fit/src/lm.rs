@@ -1,0 +1,224 @@
+//! Levenberg–Marquardt with box constraints (projected steps, active set), on the normal
+//! equations of at most six parameters: no allocation per iteration.
+//!
+//! Damping follows Nielsen (1999): `lambda *= max(1/3, 1 - (2 rho - 1)^3)` on success,
+//! `lambda *= nu, nu *= 2` on failure, scaled by `diag(J^T J)` (Marquardt). A parameter at a
+//! bound whose gradient points outward is held there.
+
+use brdf_core::MAX_PARAMS;
+
+use crate::problem::Problem;
+
+/// Outcome of one local minimisation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LmResult {
+    /// Internal parameters at the minimum.
+    pub q: [f64; MAX_PARAMS],
+    /// `0.5 * sum r^2` there.
+    pub cost: f64,
+    /// Iterations taken.
+    pub iterations: usize,
+    /// Cost evaluations (each a pass over the data).
+    pub evals: usize,
+    /// Stopped on a convergence test rather than the iteration limit.
+    pub converged: bool,
+}
+
+/// Stopping rules.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LmOptions {
+    /// Iteration limit.
+    pub max_iterations: usize,
+    /// Stop when an accepted step lowers the cost by less than this fraction.
+    pub cost_tolerance: f64,
+    /// Stop when the step is smaller than this, relative to the parameters.
+    pub step_tolerance: f64,
+}
+
+impl Default for LmOptions {
+    fn default() -> Self {
+        LmOptions {
+            max_iterations: 300,
+            cost_tolerance: 1e-12,
+            step_tolerance: 1e-10,
+        }
+    }
+}
+
+/// Solves `a x = b` for a symmetric positive definite `a` of size `n` (Cholesky).
+/// Returns `None` if `a` is not positive definite.
+pub fn cholesky_solve(
+    a: &[[f64; MAX_PARAMS]; MAX_PARAMS],
+    b: &[f64; MAX_PARAMS],
+    n: usize,
+) -> Option<[f64; MAX_PARAMS]> {
+    let mut l = [[0.0; MAX_PARAMS]; MAX_PARAMS];
+    for i in 0..n {
+        for j in 0..=i {
+            let mut s = a[i][j];
+            for k in 0..j {
+                s -= l[i][k] * l[j][k];
+            }
+            if i == j {
+                if s <= 0.0 || !s.is_finite() {
+                    return None;
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    let mut y = [0.0; MAX_PARAMS];
+    for i in 0..n {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= l[i][k] * y[k];
+        }
+        y[i] = s / l[i][i];
+    }
+    let mut x = [0.0; MAX_PARAMS];
+    for i in (0..n).rev() {
+        let mut s = y[i];
+        for k in i + 1..n {
+            s -= l[k][i] * x[k];
+        }
+        x[i] = s / l[i][i];
+    }
+    Some(x)
+}
+
+/// Minimises `problem`'s cost from `start` within `[lo, hi]`.
+pub fn minimise(
+    problem: &Problem,
+    start: &[f64; MAX_PARAMS],
+    lo: &[f64; MAX_PARAMS],
+    hi: &[f64; MAX_PARAMS],
+    opts: LmOptions,
+) -> LmResult {
+    let n = problem.dim();
+    let mut q = *start;
+    for j in 0..n {
+        q[j] = q[j].clamp(lo[j], hi[j]);
+    }
+    let mut jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
+    let mut jtr = [0.0; MAX_PARAMS];
+    let mut cost = problem.normal_equations(&q, &mut jtj, &mut jtr);
+    let mut evals = 1;
+    if !cost.is_finite() {
+        return LmResult {
+            q,
+            cost,
+            iterations: 0,
+            evals,
+            converged: false,
+        };
+    }
+    let max_diag = (0..n).map(|j| jtj[j][j]).fold(0.0, f64::max);
+    let mut lambda = 1e-3 * max_diag.max(1e-300);
+    let mut nu = 2.0;
+    let mut converged = false;
+    let mut iterations = 0;
+    while iterations < opts.max_iterations {
+        iterations += 1;
+        // Active set: at a bound with the descent direction pointing outside.
+        let mut free = [false; MAX_PARAMS];
+        for j in 0..n {
+            let at_lo = q[j] <= lo[j] && jtr[j] > 0.0;
+            let at_hi = q[j] >= hi[j] && jtr[j] < 0.0;
+            free[j] = !(at_lo || at_hi);
+        }
+        let mut a = [[0.0; MAX_PARAMS]; MAX_PARAMS];
+        let mut b = [0.0; MAX_PARAMS];
+        for i in 0..n {
+            for j in 0..n {
+                a[i][j] = if free[i] && free[j] { jtj[i][j] } else { 0.0 };
+            }
+            let d = jtj[i][i].max(1e-12 * max_diag).max(1e-300);
+            a[i][i] = if free[i] { jtj[i][i] + lambda * d } else { 1.0 };
+            b[i] = if free[i] { -jtr[i] } else { 0.0 };
+        }
+        let Some(step) = cholesky_solve(&a, &b, n) else {
+            lambda *= nu;
+            nu *= 2.0;
+            continue;
+        };
+        let mut trial = q;
+        let mut step_norm = 0.0_f64;
+        let mut q_norm = 0.0_f64;
+        for j in 0..n {
+            trial[j] = (q[j] + step[j]).clamp(lo[j], hi[j]);
+            step_norm = step_norm.max((trial[j] - q[j]).abs());
+            q_norm = q_norm.max(q[j].abs());
+        }
+        if step_norm <= opts.step_tolerance * (q_norm + opts.step_tolerance) {
+            converged = true;
+            break;
+        }
+        let trial_cost = problem.cost(&trial);
+        evals += 1;
+        // Predicted reduction of the quadratic model for the projected step.
+        let mut predicted = 0.0;
+        for i in 0..n {
+            let d = trial[i] - q[i];
+            let mut hd = 0.0;
+            for j in 0..n {
+                hd += jtj[i][j] * (trial[j] - q[j]);
+            }
+            predicted -= d * jtr[i] + 0.5 * d * hd;
+        }
+        if trial_cost.is_finite() && trial_cost < cost {
+            let rho = if predicted > 0.0 {
+                (cost - trial_cost) / predicted
+            } else {
+                1.0
+            };
+            let small = cost - trial_cost <= opts.cost_tolerance * cost;
+            q = trial;
+            cost = problem.normal_equations(&q, &mut jtj, &mut jtr);
+            evals += 1;
+            lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+            nu = 2.0;
+            if small {
+                converged = true;
+                break;
+            }
+        } else {
+            lambda *= nu;
+            nu *= 2.0;
+            if lambda > 1e30 * max_diag.max(1.0) {
+                converged = true;
+                break;
+            }
+        }
+    }
+    LmResult {
+        q,
+        cost,
+        iterations,
+        evals,
+        converged,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cholesky_solves_and_refuses_indefinite() {
+        let mut a = [[0.0; MAX_PARAMS]; MAX_PARAMS];
+        a[0][0] = 4.0;
+        a[0][1] = 2.0;
+        a[1][0] = 2.0;
+        a[1][1] = 3.0;
+        let mut b = [0.0; MAX_PARAMS];
+        b[0] = 2.0;
+        b[1] = 1.0;
+        let x = cholesky_solve(&a, &b, 2).unwrap();
+        assert!((4.0 * x[0] + 2.0 * x[1] - 2.0).abs() < 1e-15);
+        assert!((2.0 * x[0] + 3.0 * x[1] - 1.0).abs() < 1e-15);
+        a[1][1] = 1.0;
+        assert!(cholesky_solve(&a, &b, 2).is_none());
+    }
+}
