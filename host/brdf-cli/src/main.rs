@@ -1,7 +1,11 @@
 //! `brdf`: evaluate the six-parameter BRDF model family from the command line.
 
+mod common;
 mod eval;
+mod fit;
 mod params;
+mod select;
+mod synth;
 
 use clap::{Parser, Subcommand};
 
@@ -17,12 +21,21 @@ struct Cli {
 enum Command {
     /// Evaluate a model over a CSV of angles (theta_i, theta_r, phi in degrees).
     Eval(eval::EvalCmd),
+    /// Fit a model to measured data (one or many datasets).
+    Fit(fit::FitCmd),
+    /// Fit the model ladder and name the simplest model within an error budget.
+    Select(select::SelectCmd),
+    /// Write a synthetic dataset from known parameters.
+    Synth(synth::SynthCmd),
 }
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Eval(cmd) => cmd.run(),
+        Command::Fit(cmd) => cmd.run(),
+        Command::Select(cmd) => cmd.run(),
+        Command::Synth(cmd) => cmd.run(),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -482,29 +482,33 @@ mod tests {
         msg
     }
 
-    #[test]
-    fn each_class_of_bad_file_has_its_message() {
-        assert!(
-            err("theta_i,theta_r,phi,brdf\n0,0,0,x\n").contains("line 2: column brdf: `x` is not a number")
-        );
-        assert!(err("theta_i,theta_r,phi,brdf\n0,0,0,0.1\n0,0,NaN,0.1\n")
-            .contains("line 3: column phi: `NaN` is not finite"));
-        assert!(err("theta_i,theta_r,phi,brdf\n0,0,0,inf\n").contains("column brdf: `inf` is not finite"));
-        assert!(err("theta_i,theta_r,phi,brdf\n0,0,0,-0.1\n")
-            .contains("line 2: column brdf: -0.1 is outside > 0"));
-        assert!(err("theta_i,theta_r,phi,brdf\n0,0,0,0\n").contains("column brdf: 0 is outside > 0"));
-        assert!(
-            err("theta_i,theta_r,phi,brdf\n90,0,0,0.1\n").contains("column theta_i: 90 is outside [0, 90)")
-        );
-        assert!(err("theta_i,theta_r,phi,brdf\n10,-5,0,0.1\n").contains("column theta_r: -5 is outside"));
-        assert!(err("theta_i,theta_s,brdf\n10,95,0.1\n").contains("column theta_s: 95 is outside"));
-        assert!(err("theta_i,theta_r,phi,brdf\n").contains("no data rows"));
-        assert!(err("theta_i,theta_r,brdf\n0,0,1\n").contains("missing column `phi`"));
-        assert!(err("theta_i,phi,theta_r\n0,0,1\n").contains("missing column `brdf`"));
-        assert!(err("theta_i,theta_r,phi,brdf,phi\n0,0,0,1,0\n").contains("column `phi` appears twice"));
-        assert!(err("theta_i,theta_r,phi,brdf,sigma,weight\n0,0,0,1,1,1\n").contains("`sigma` and `weight`"));
-        assert!(err("theta_i,theta_r,phi,brdf\n0,0,0\n").contains("line 2: found 3 fields, expected 4"));
-        assert!(err("theta_i,theta_r,phi,brdf,sigma\n0,0,0,1,0\n").contains("column sigma: 0 is outside > 0"));
+    /// One test per class of bad file: each must name the file, line and column.
+    macro_rules! bad_file {
+        ($($name:ident: $text:expr => $want:expr;)*) => {$(
+            #[test]
+            fn $name() {
+                let msg = err($text);
+                assert!(msg.contains($want), "expected `{}` in: {msg}", $want);
+            }
+        )*};
+    }
+
+    bad_file! {
+        not_a_number: "theta_i,theta_r,phi,brdf\n0,0,0,x\n" => "line 2: column brdf: `x` is not a number";
+        nan: "theta_i,theta_r,phi,brdf\n0,0,0,0.1\n0,0,NaN,0.1\n" => "line 3: column phi: `NaN` is not finite";
+        infinite: "theta_i,theta_r,phi,brdf\n0,0,0,inf\n" => "column brdf: `inf` is not finite";
+        negative_brdf: "theta_i,theta_r,phi,brdf\n0,0,0,-0.1\n" => "line 2: column brdf: -0.1 is outside > 0";
+        zero_brdf: "theta_i,theta_r,phi,brdf\n0,0,0,0\n" => "column brdf: 0 is outside > 0";
+        zenith_at_90: "theta_i,theta_r,phi,brdf\n90,0,0,0.1\n" => "column theta_i: 90 is outside [0, 90)";
+        negative_zenith: "theta_i,theta_r,phi,brdf\n10,-5,0,0.1\n" => "column theta_r: -5 is outside";
+        theta_s_out_of_range: "theta_i,theta_s,brdf\n10,95,0.1\n" => "column theta_s: 95 is outside";
+        empty_file: "theta_i,theta_r,phi,brdf\n" => "no data rows";
+        missing_phi: "theta_i,theta_r,brdf\n0,0,1\n" => "missing column `phi`";
+        missing_brdf: "theta_i,phi,theta_r\n0,0,1\n" => "missing column `brdf`";
+        duplicate_column: "theta_i,theta_r,phi,brdf,phi\n0,0,0,1,0\n" => "column `phi` appears twice";
+        sigma_and_weight: "theta_i,theta_r,phi,brdf,sigma,weight\n0,0,0,1,1,1\n" => "`sigma` and `weight`";
+        short_row: "theta_i,theta_r,phi,brdf\n0,0,0\n" => "line 2: found 3 fields, expected 4";
+        zero_sigma: "theta_i,theta_r,phi,brdf,sigma\n0,0,0,1,0\n" => "column sigma: 0 is outside > 0";
     }
 
     #[test]

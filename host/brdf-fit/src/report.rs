@@ -62,6 +62,11 @@ pub fn metrics(f: &[f64], y: &[f64]) -> Metrics {
     }
 }
 
+/// Radians to degrees, rounded to 1e-9 so that 30 prints as 30.
+fn degrees(rad: f64) -> f64 {
+    (rad.to_degrees() * 1e9).round() / 1e9
+}
+
 /// Metrics of the points at one incidence angle.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct IncidenceMetrics {
@@ -257,7 +262,7 @@ pub fn energy(model: &AnyModel<f64>, incidences: &[f64]) -> Energy {
     let albedo: Vec<IncidenceAlbedo> = incidences
         .iter()
         .map(|&ti| IncidenceAlbedo {
-            theta_i: ti.to_degrees(),
+            theta_i: degrees(ti),
             albedo: albedo(model, ti, AlbedoRule::DEFAULT),
         })
         .collect();
@@ -325,7 +330,7 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, seed: 
                 .map(|(p, &f)| (f, p.brdf))
                 .unzip();
             IncidenceMetrics {
-                theta_i: ti.to_degrees(),
+                theta_i: degrees(ti),
                 n: f.len(),
                 metrics: metrics(&f, &yy),
             }

@@ -1,0 +1,132 @@
+//! Pieces shared by the fitting subcommands.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use brdf_fit::anneal::AnnealOptions;
+use brdf_fit::{load_csv, Dataset, FitOptions, LoadOptions, Residual};
+use clap::{Args, ValueEnum};
+
+/// Residual form on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ResidualArg {
+    /// (f - y) / y (default).
+    Relative,
+    /// f - y in 1/sr.
+    Absolute,
+    /// ln f - ln y.
+    Log,
+}
+
+impl From<ResidualArg> for Residual {
+    fn from(r: ResidualArg) -> Self {
+        match r {
+            ResidualArg::Relative => Residual::Relative,
+            ResidualArg::Absolute => Residual::Absolute,
+            ResidualArg::Log => Residual::Log,
+        }
+    }
+}
+
+/// Options of the fitting engine.
+#[derive(Clone, Debug, Args)]
+pub struct EngineArgs {
+    /// Seed of the run (annealing chains); the same seed gives the same result.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Residual form.
+    #[arg(long, value_enum, default_value_t = ResidualArg::Relative)]
+    pub residual: ResidualArg,
+    /// Independent annealing chains, each polished by Levenberg-Marquardt.
+    #[arg(long, default_value_t = 4)]
+    pub chains: usize,
+    /// Cost evaluations per annealing chain.
+    #[arg(long, default_value_t = 400)]
+    pub anneal_evals: usize,
+    /// Skip invalid rows (each is listed on standard error) instead of stopping.
+    #[arg(long)]
+    pub skip_invalid: bool,
+}
+
+impl EngineArgs {
+    pub fn fit_options(&self) -> FitOptions {
+        FitOptions {
+            seed: self.seed,
+            chains: self.chains,
+            anneal: AnnealOptions {
+                evals: self.anneal_evals,
+                ..AnnealOptions::default()
+            },
+            ..FitOptions::default()
+        }
+    }
+
+    /// Loads every file; lists skipped rows on standard error.
+    pub fn load(&self, files: &[PathBuf]) -> Result<Vec<Dataset>> {
+        let opts = LoadOptions {
+            skip_invalid: self.skip_invalid,
+            allow_zero_brdf: self.residual == ResidualArg::Absolute,
+        };
+        let mut out = Vec::new();
+        for f in files {
+            let loaded = load_csv(f, opts).with_context(|| format!("cannot use {}", f.display()))?;
+            for s in &loaded.skipped {
+                eprintln!("{}: skipped line {}: {}", f.display(), s.line, s.reason);
+            }
+            if !loaded.skipped.is_empty() {
+                eprintln!("{}: {} line(s) skipped", f.display(), loaded.skipped.len());
+            }
+            out.extend(loaded.datasets);
+        }
+        Ok(out)
+    }
+}
+
+/// Parses `2%` or `0.02` into a fraction.
+pub fn parse_fraction(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    let v = match t.strip_suffix('%') {
+        Some(p) => p.trim().parse::<f64>().map(|v| v / 100.0),
+        None => t.parse::<f64>(),
+    }
+    .map_err(|_| format!("`{text}` is not a fraction (e.g. 2% or 0.02)"))?;
+    if !(v.is_finite() && v >= 0.0) {
+        return Err(format!("`{text}` must be a non-negative fraction"));
+    }
+    Ok(v)
+}
+
+/// Parses `K/N` (0 <= K < N) for `--shard`.
+pub fn parse_shard(text: &str) -> Result<(usize, usize), String> {
+    let (k, n) = text
+        .split_once('/')
+        .ok_or_else(|| format!("`{text}` is not of the form K/N"))?;
+    let k: usize = k
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{k}` is not a shard index"))?;
+    let n: usize = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{n}` is not a shard count"))?;
+    if n == 0 || k >= n {
+        return Err(format!("shard {k}/{n}: need 0 <= K < N"));
+    }
+    Ok((k, n))
+}
+
+/// Parses a comma-separated list of numbers.
+pub fn parse_list(text: &str) -> Result<Vec<f64>> {
+    text.split(',')
+        .map(|s| {
+            let s = s.trim();
+            s.parse::<f64>().with_context(|| format!("`{s}` is not a number"))
+        })
+        .collect::<Result<Vec<_>>>()
+        .and_then(|v| {
+            if v.is_empty() {
+                bail!("empty list")
+            }
+            Ok(v)
+        })
+}

@@ -1,0 +1,253 @@
+//! `brdf fit`: fit a model to one or many datasets.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use brdf_core::ModelKind;
+use brdf_fit::report::{report, FitReport};
+use brdf_fit::{fit, Dataset, FitOptions, Problem, Residual};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayon::prelude::*;
+
+use crate::common::{parse_shard, EngineArgs};
+use crate::params::parse_kind;
+
+/// Fit a model to measured data: one joint fit across all incidence angles of each dataset.
+/// Files are CSV with `theta_i,theta_r,phi,brdf` (degrees, canonical convention) or
+/// `theta_i,theta_s,brdf` (signed in-plane, theta_s > 0 forward); optional `sigma` or
+/// `weight`; `sample`/`wavelength` columns split a file into datasets.
+#[derive(Debug, Args)]
+pub struct FitCmd {
+    /// Model: six, six-cos2, five, minnaert, lambert.
+    #[arg(long, value_parser = parse_kind, default_value = "six")]
+    model: ModelKind,
+    #[command(flatten)]
+    engine: EngineArgs,
+    /// Print JSON: one object for one dataset, an array for several.
+    #[arg(long)]
+    json: bool,
+    /// Also write one row per dataset to this CSV file.
+    #[arg(long, short = 'o')]
+    output: Option<PathBuf>,
+    /// Fit only datasets i with i % N == K (0-based K), for job arrays across machines.
+    #[arg(long, value_parser = parse_shard)]
+    shard: Option<(usize, usize)>,
+    /// Data files.
+    #[arg(required = true)]
+    data: Vec<PathBuf>,
+}
+
+/// Fits every dataset in parallel, in input order, with a progress bar on a terminal.
+pub fn fit_all(
+    kind: ModelKind,
+    residual: Residual,
+    opts: FitOptions,
+    datasets: &[Dataset],
+) -> Vec<FitReport> {
+    let bar = if datasets.len() > 1 {
+        ProgressBar::with_draw_target(Some(datasets.len() as u64), ProgressDrawTarget::stderr())
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} datasets, {elapsed} elapsed, eta {eta}")
+            .expect("static template"),
+    );
+    let out: Vec<FitReport> = datasets
+        .par_iter()
+        .map(|d| {
+            let problem = Problem::from_dataset(kind, residual, d);
+            let outcome = fit(&problem, &opts);
+            let r = report(d, &problem, &outcome, opts.seed);
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    out
+}
+
+impl FitCmd {
+    pub fn run(self) -> Result<()> {
+        let mut datasets = self.engine.load(&self.data)?;
+        if let Some((k, n)) = self.shard {
+            datasets = datasets
+                .into_iter()
+                .enumerate()
+                .filter(|(i, _)| i % n == k)
+                .map(|(_, d)| d)
+                .collect();
+            if datasets.is_empty() {
+                bail!("shard {k}/{n} selects no dataset");
+            }
+        }
+        for d in &datasets {
+            if d.points.len() < self.model.param_count() {
+                bail!(
+                    "{}: {} points cannot determine {} parameters",
+                    d.name,
+                    d.points.len(),
+                    self.model.param_count()
+                );
+            }
+        }
+        let reports = fit_all(
+            self.model,
+            self.engine.residual.into(),
+            self.engine.fit_options(),
+            &datasets,
+        );
+        if let Some(path) = &self.output {
+            write_csv(path, &reports).with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        let stdout = std::io::stdout();
+        let mut out = stdout.lock();
+        if self.json {
+            let text = if reports.len() == 1 {
+                serde_json::to_string_pretty(&reports[0])?
+            } else {
+                serde_json::to_string_pretty(&reports)?
+            };
+            writeln!(out, "{text}")?;
+        } else {
+            for r in &reports {
+                write_text(&mut out, r)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One row per dataset: parameters, metrics and the undetermined parameters.
+fn write_csv(path: &PathBuf, reports: &[FitReport]) -> Result<()> {
+    let mut w = csv::Writer::from_path(path)?;
+    let max_k = reports.iter().map(|r| r.k).max().unwrap_or(0);
+    let mut header = vec!["dataset".to_owned(), "model".to_owned(), "n".to_owned()];
+    for j in 0..max_k {
+        header.push(format!("p{j}_name"));
+        header.push(format!("p{j}"));
+    }
+    for m in [
+        "rmse",
+        "mse",
+        "rms_rel",
+        "max_rel",
+        "log_rmse",
+        "aic",
+        "bic",
+        "seconds",
+        "undetermined",
+    ] {
+        header.push(m.to_owned());
+    }
+    w.write_record(&header)?;
+    for r in reports {
+        let mut row = vec![r.dataset.clone(), r.model.to_owned(), r.n.to_string()];
+        for j in 0..max_k {
+            match r.params.0.get(j) {
+                Some((name, v)) => {
+                    row.push(name.clone());
+                    row.push(format!("{v:.10e}"));
+                }
+                None => row.extend([String::new(), String::new()]),
+            }
+        }
+        let m = r.metrics;
+        for v in [
+            m.rmse, m.mse, m.rms_rel, m.max_rel, m.log_rmse, r.aic, r.bic, r.seconds,
+        ] {
+            row.push(format!("{v:.10e}"));
+        }
+        let undetermined: Vec<&str> = r
+            .uncertainty
+            .params
+            .0
+            .iter()
+            .filter(|(_, u)| !u.determined)
+            .map(|(n, _)| n.as_str())
+            .collect();
+        row.push(undetermined.join(" "));
+        w.write_record(&row)?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// The readable form of a report.
+pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
+    writeln!(
+        out,
+        "{}: model {}, {} points, {} residuals, seed {}, {:.1} ms",
+        r.dataset,
+        r.model,
+        r.n,
+        r.residual,
+        r.seed,
+        r.seconds * 1e3
+    )?;
+    writeln!(
+        out,
+        "  {:<6} {:>14} {:>12}  determined by the data?",
+        "param", "value", "std. error"
+    )?;
+    for (name, u) in &r.uncertainty.params.0 {
+        let se = u.se.map_or("-".to_owned(), |s| format!("{s:.4e}"));
+        let verdict = if u.determined {
+            "yes".to_owned()
+        } else {
+            format!("NO: {}", u.note.as_deref().unwrap_or(""))
+        };
+        writeln!(out, "  {name:<6} {:>14.6} {se:>12}  {verdict}", u.value)?;
+    }
+    let m = r.metrics;
+    writeln!(
+        out,
+        "  rmse {:.4e} 1/sr, rms relative {:.3}%, max relative {:.3}%, rmse of ln f {:.4}",
+        m.rmse,
+        100.0 * m.rms_rel,
+        100.0 * m.max_rel,
+        m.log_rmse
+    )?;
+    for pi in &r.per_incidence {
+        writeln!(
+            out,
+            "    theta_i {:>5.1} deg: {:>4} points, rms relative {:.3}%, max relative {:.3}%",
+            pi.theta_i,
+            pi.n,
+            100.0 * pi.metrics.rms_rel,
+            100.0 * pi.metrics.max_rel
+        )?;
+    }
+    let e = &r.energy;
+    match e.bound {
+        Some(b) => writeln!(
+            out,
+            "  energy: analytic bound {b:.4} ({})",
+            if e.bound_conserves {
+                "<= 1, conserves at every incidence"
+            } else {
+                "> 1, proves nothing"
+            }
+        )?,
+        None => writeln!(out, "  energy: the model has no analytic bound")?,
+    }
+    let albedos: Vec<String> = e
+        .albedo
+        .iter()
+        .map(|a| format!("{:.1} deg {:.4}", a.theta_i, a.albedo))
+        .collect();
+    writeln!(
+        out,
+        "  albedo at measured incidences: {} ({})",
+        albedos.join(", "),
+        if e.albedo_conserves {
+            "all <= 1"
+        } else {
+            "VIOLATES energy conservation"
+        }
+    )?;
+    writeln!(out, "  AIC {:.2}, BIC {:.2}", r.aic, r.bic)?;
+    Ok(())
+}

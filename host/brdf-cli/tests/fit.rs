@@ -1,0 +1,234 @@
+//! End-to-end tests of `brdf synth`, `brdf fit` and `brdf select`.
+
+use std::process::{Command, Output};
+
+const KHAKI: &str = "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2";
+
+fn brdf(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_brdf"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = brdf(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+fn repo(path: &str) -> String {
+    format!("{}/../../{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn bundled_dataset_is_what_the_readme_says() {
+    let made = ok(&[
+        "synth",
+        "--model",
+        "six",
+        "--params",
+        KHAKI,
+        "--theta-i",
+        "0,10,30",
+        "--noise",
+        "0.5%",
+        "--seed",
+        "7",
+        "--step",
+        "2.5",
+    ]);
+    let bundled = std::fs::read_to_string(repo("data/khaki-synthetic-inplane.csv")).unwrap();
+    assert_eq!(made, bundled);
+}
+
+#[test]
+fn fit_json_contract_and_flags() {
+    let text = ok(&[
+        "fit",
+        &repo("data/khaki-synthetic-inplane.csv"),
+        "--model",
+        "six",
+        "--json",
+        "--seed",
+        "3",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for key in [
+        "model",
+        "params",
+        "metrics",
+        "n",
+        "seconds",
+        "uncertainty",
+        "energy",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    for key in ["rmse", "mse", "rms_rel", "max_rel", "log_rmse"] {
+        assert!(v["metrics"][key].as_f64().is_some(), "missing metrics.{key}");
+    }
+    assert_eq!(v["model"], "six");
+    assert_eq!(v["n"], 213);
+    let kb = v["params"]["kb"].as_f64().unwrap();
+    assert!((kb - 0.2545).abs() / 0.2545 < 0.05, "{kb}");
+    // kr is not determined by in-plane data of a kr >> 1 material: flagged, not printed as known.
+    assert_eq!(v["uncertainty"]["params"]["kr"]["determined"], false);
+    assert_eq!(v["uncertainty"]["params"]["kd"]["determined"], true);
+    assert_eq!(v["energy"]["bound_conserves"], true);
+    // Same seed, same answer.
+    let again: serde_json::Value = serde_json::from_str(&ok(&[
+        "fit",
+        &repo("data/khaki-synthetic-inplane.csv"),
+        "--json",
+        "--seed",
+        "3",
+    ]))
+    .unwrap();
+    assert_eq!(v["params"], again["params"]);
+}
+
+#[test]
+fn batch_groups_shards_and_csv_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = ok(&[
+        "synth",
+        "--model",
+        "lambert",
+        "--params",
+        "rho0=0.5",
+        "--theta-i",
+        "0,30",
+        "--noise",
+        "1%",
+    ]);
+    let mut grouped = String::from("sample,theta_i,theta_s,brdf\n");
+    for (k, s) in ["A", "B", "C"].iter().enumerate() {
+        for line in one.lines().skip(1) {
+            let mut f: Vec<String> = line.split(',').map(str::to_owned).collect();
+            let y: f64 = f[2].parse().unwrap();
+            f[2] = format!("{}", y * (1.0 + k as f64));
+            grouped.push_str(&format!("{s},{}\n", f.join(",")));
+        }
+    }
+    let path = dir.path().join("groups.csv");
+    std::fs::write(&path, grouped).unwrap();
+    let out_csv = dir.path().join("results.csv");
+    let text = ok(&[
+        "fit",
+        path.to_str().unwrap(),
+        "--model",
+        "lambert",
+        "--json",
+        "-o",
+        out_csv.to_str().unwrap(),
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let arr = v.as_array().unwrap();
+    assert_eq!(arr.len(), 3);
+    for (k, r) in arr.iter().enumerate() {
+        let rho = r["params"]["rho0"].as_f64().unwrap();
+        assert!(
+            (rho - 0.5 * (1.0 + k as f64)).abs() < 0.01 * (1.0 + k as f64),
+            "{rho}"
+        );
+    }
+    let table = std::fs::read_to_string(&out_csv).unwrap();
+    assert_eq!(table.lines().count(), 4);
+    assert!(table.lines().nth(2).unwrap().contains("[sample=B]"));
+    // Shard 1/2 takes the second dataset only.
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "fit",
+        path.to_str().unwrap(),
+        "--model",
+        "lambert",
+        "--json",
+        "--shard",
+        "1/2",
+    ]))
+    .unwrap();
+    assert!(v["dataset"].as_str().unwrap().ends_with("[sample=B]"));
+    let bad = brdf(&["fit", path.to_str().unwrap(), "--shard", "2/2"]);
+    assert!(!bad.status.success());
+}
+
+#[test]
+fn skip_invalid_lists_every_skipped_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = ok(&[
+        "synth",
+        "--model",
+        "lambert",
+        "--params",
+        "rho0=0.5",
+        "--theta-i",
+        "0",
+    ]);
+    text.push_str("10,20,abc\n10,95,0.1\n");
+    let path = dir.path().join("d.csv");
+    std::fs::write(&path, &text).unwrap();
+    let fail = brdf(&["fit", path.to_str().unwrap(), "--model", "lambert"]);
+    assert!(!fail.status.success());
+    let msg = String::from_utf8_lossy(&fail.stderr);
+    assert!(
+        msg.contains("d.csv") && msg.contains("column brdf: `abc` is not a number"),
+        "{msg}"
+    );
+    let out = brdf(&[
+        "fit",
+        path.to_str().unwrap(),
+        "--model",
+        "lambert",
+        "--skip-invalid",
+    ]);
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    let n = text.lines().count();
+    assert!(err.contains(&format!("skipped line {}", n - 1)), "{err}");
+    assert!(err.contains(&format!("skipped line {}", n)), "{err}");
+    assert!(err.contains("2 line(s) skipped"), "{err}");
+}
+
+#[test]
+fn select_picks_the_simplest_model_within_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    // Minnaert data: Lambert cannot meet 2%, Minnaert can.
+    let text = ok(&[
+        "synth",
+        "--model",
+        "minnaert",
+        "--params",
+        "rho0=0.6,k=0.7",
+        "--theta-i",
+        "0,20,40",
+        "--noise",
+        "0.5%",
+    ]);
+    let path = dir.path().join("m.csv");
+    std::fs::write(&path, text).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "select",
+        path.to_str().unwrap(),
+        "--budget",
+        "2%",
+        "--json",
+    ]))
+    .unwrap();
+    assert_eq!(v["chosen"], "minnaert");
+    let models: Vec<&str> = v["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["model"].as_str().unwrap())
+        .collect();
+    assert_eq!(models, ["lambert", "minnaert", "five", "six", "six-cos2"]);
+    let table = ok(&["select", path.to_str().unwrap(), "--max-theta", "40"]);
+    assert!(
+        table.contains("simplest model within budget: minnaert"),
+        "{table}"
+    );
+}
