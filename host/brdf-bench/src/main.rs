@@ -1,8 +1,15 @@
-//! `brdf-bench`: nanoseconds per six-parameter evaluation on a 10^6-point grid, f64 and
-//! f32, from angles and from cosines, with numpy's vectorised evaluation of the same grid
-//! measured in the same run as the peer. Run through `bench/eval.sh`, which installs numpy.
+//! `brdf-bench`: benchmarks that print figures against peers measured in the same run.
+//!
+//! - `brdf-bench eval`: nanoseconds per six-parameter evaluation on a 10^6-point grid, f64
+//!   and f32, from angles and from cosines, against numpy's vectorised evaluation of the same
+//!   grid (`bench/eval.sh` installs numpy).
+//! - `brdf-bench fit DATA.csv`: this fitting engine against scipy's `least_squares` from 32
+//!   random starts and `dual_annealing` on the same data and parameter box (`bench/fit.sh`
+//!   installs scipy).
 //!
 //! Nothing here asserts a time: it prints figures and ratios.
+
+mod fit;
 
 use std::hint::black_box;
 use std::process::Command;
@@ -109,6 +116,15 @@ fn numpy_peer() -> Option<(f64, f64)> {
 }
 
 fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("eval") | None => eval(),
+        Some("fit") => fit::run(args.get(1).context("usage: brdf-bench fit DATA.csv")?),
+        Some(other) => bail!("unknown benchmark `{other}` (eval, fit)"),
+    }
+}
+
+fn eval() -> Result<()> {
     println!(
         "six-parameter model (khaki), {} points ({N}^3 grid of theta_i, theta_r in (0, 90) deg, phi in (0, 360) deg), best of {REPS}, one core",
         N * N * N

@@ -37,11 +37,14 @@ pub struct EngineArgs {
     /// Residual form.
     #[arg(long, value_enum, default_value_t = ResidualArg::Relative)]
     pub residual: ResidualArg,
-    /// Independent annealing chains, each polished by Levenberg-Marquardt.
-    #[arg(long, default_value_t = 4)]
+    /// Most annealing chains, each polished by Levenberg-Marquardt.
+    #[arg(long, default_value_t = FitOptions::default().chains)]
     pub chains: usize,
+    /// Stop once this many chains agree on the best cost.
+    #[arg(long, default_value_t = FitOptions::default().agree)]
+    pub agree: usize,
     /// Cost evaluations per annealing chain.
-    #[arg(long, default_value_t = 400)]
+    #[arg(long, default_value_t = brdf_fit::anneal::AnnealOptions::default().evals)]
     pub anneal_evals: usize,
     /// Skip invalid rows (each is listed on standard error) instead of stopping.
     #[arg(long)]
@@ -53,6 +56,8 @@ impl EngineArgs {
         FitOptions {
             seed: self.seed,
             chains: self.chains,
+            agree: self.agree,
+            min_chains: self.agree,
             anneal: AnnealOptions {
                 evals: self.anneal_evals,
                 ..AnnealOptions::default()

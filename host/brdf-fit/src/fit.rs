@@ -1,4 +1,5 @@
-//! The fitting engine: annealing chains, each polished by Levenberg–Marquardt; best wins.
+//! The fitting engine: annealing chains, each polished by Levenberg–Marquardt, run one after
+//! another until two of them agree on the best cost (or the chain limit is reached).
 
 use std::time::Instant;
 
@@ -16,8 +17,13 @@ use crate::problem::{bounds, Problem};
 pub struct FitOptions {
     /// Seed of the run; the same seed gives the same result bit for bit.
     pub seed: u64,
-    /// Independent annealing chains (each polished by LM): the multi-start.
+    /// Most annealing chains (each polished by LM) to run: the multi-start.
     pub chains: usize,
+    /// Run at least this many chains before stopping on agreement.
+    pub min_chains: usize,
+    /// Stop early once this many polished chains agree on the best cost (within
+    /// [`AGREEMENT`]): the optimum has then been reached from independent starts.
+    pub agree: usize,
     /// Schedule of each chain.
     pub anneal: AnnealOptions,
     /// Local polish settings.
@@ -28,12 +34,17 @@ impl Default for FitOptions {
     fn default() -> Self {
         FitOptions {
             seed: 1,
-            chains: 4,
+            chains: 8,
+            min_chains: 2,
+            agree: 2,
             anneal: AnnealOptions::default(),
             lm: LmOptions::default(),
         }
     }
 }
+
+/// Relative cost difference under which two polished chains count as the same optimum.
+pub const AGREEMENT: f64 = 1e-9;
 
 /// The optimum found.
 #[derive(Clone, Debug, PartialEq)]
@@ -76,6 +87,14 @@ pub fn fit(problem: &Problem, opts: &FitOptions) -> FitOutcome {
         chain_costs.push(r.cost);
         if best.as_ref().is_none_or(|(b, _)| r.cost < b.cost) {
             best = Some((r, chain));
+        }
+        let best_cost = best.as_ref().map_or(f64::INFINITY, |(b, _)| b.cost);
+        let agreeing = chain_costs
+            .iter()
+            .filter(|&&c| (c - best_cost).abs() <= AGREEMENT * best_cost.abs().max(f64::MIN_POSITIVE))
+            .count();
+        if chain + 1 >= opts.min_chains && agreeing >= opts.agree.max(1) {
+            break;
         }
     }
     let (r, _) = best.expect("at least one chain");

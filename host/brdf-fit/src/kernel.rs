@@ -199,6 +199,53 @@ pub fn bases(kind: ModelKind, nl: &[f64], pt: &Prepared, out: &mut [f64; 2]) -> 
     }
 }
 
+/// Factors of the lobe models' bases, for annealing moves that change one parameter at a
+/// time: `basis0 = weight * facet(kr) * exp(-beta * power(a))`, `basis1 = second(c)`.
+pub mod factors {
+    use super::*;
+
+    /// `ln(1 + m)/(pi ln 2)` (six) or `G/m` (five): the parameter-free part of basis 0.
+    #[inline]
+    pub fn weight(kind: ModelKind, pt: &Prepared) -> f64 {
+        if kind == ModelKind::Five {
+            pt.g_over_m
+        } else {
+            pt.ln1p_m / (PI * LN_2)
+        }
+    }
+
+    /// Facet term for `kr^2 = k`.
+    #[inline]
+    pub fn facet(kind: ModelKind, k: f64, pt: &Prepared) -> f64 {
+        let (ca, o) = (pt.cos_alpha, pt.one_minus_cos_alpha);
+        if kind == ModelKind::SixCos2 {
+            k * ca / (k * ca * ca + o * (1.0 + ca))
+        } else {
+            k * ca / (k * ca + o)
+        }
+    }
+
+    /// `(1 - cos gamma)^a`, 0 at the retro direction.
+    #[inline]
+    pub fn power(a: f64, pt: &Prepared) -> f64 {
+        if pt.ln_x == f64::NEG_INFINITY {
+            0.0
+        } else {
+            (a * pt.ln_x).exp()
+        }
+    }
+
+    /// Basis 1: `(cos ti cos tr)^c / pi` (six) or `1 / cos ti` (five).
+    #[inline]
+    pub fn second(kind: ModelKind, c: f64, pt: &Prepared) -> f64 {
+        if kind == ModelKind::Five {
+            pt.inv_mi
+        } else {
+            (c * pt.ln_m).exp() / PI
+        }
+    }
+}
+
 /// Number of nonlinear parameters of `kind` in [`bases`].
 pub const fn nonlinear_count(kind: ModelKind) -> usize {
     match kind {

@@ -155,7 +155,11 @@ pub fn minimise(
             converged = true;
             break;
         }
-        let trial_cost = problem.cost(&trial);
+        // The trial's normal equations come with its cost: an accepted step (the common
+        // case) then needs no second pass over the data.
+        let mut trial_jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
+        let mut trial_jtr = [0.0; MAX_PARAMS];
+        let trial_cost = problem.normal_equations(&trial, &mut trial_jtj, &mut trial_jtr);
         evals += 1;
         // Predicted reduction of the quadratic model for the projected step.
         let mut predicted = 0.0;
@@ -175,8 +179,9 @@ pub fn minimise(
             };
             let small = cost - trial_cost <= opts.cost_tolerance * cost;
             q = trial;
-            cost = problem.normal_equations(&q, &mut jtj, &mut jtr);
-            evals += 1;
+            cost = trial_cost;
+            jtj = trial_jtj;
+            jtr = trial_jtr;
             lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
             nu = 2.0;
             if small {

@@ -218,28 +218,71 @@ impl Problem {
             .collect()
     }
 
+    /// Prepared points.
+    pub fn points(&self) -> &[Prepared] {
+        &self.pts
+    }
+
+    /// Scale `s_i` of point `i` in the projected (linear) least-squares problem
+    /// `min || s (B lin - y) ||^2`: relative scaling also for log residuals.
+    #[inline]
+    pub fn projection_scale(&self, i: usize) -> f64 {
+        match self.residual {
+            Residual::Absolute => self.w[i],
+            Residual::Relative | Residual::Log => self.w[i] / self.y[i],
+        }
+    }
+
+    /// Measurement `y_i`.
+    #[inline]
+    pub fn target(&self, i: usize) -> f64 {
+        self.y[i]
+    }
+
     /// Variable projection: for nonlinear parameters `nl`, the non-negative linear
     /// coefficients minimising the (relative-scaled, for log residuals) cost, and that cost.
     pub fn project(&self, nl: &[f64]) -> ([f64; 2], f64) {
         debug_assert_eq!(nl.len(), nonlinear_count(self.kind));
-        // Accumulate the 2x2 normal equations of min || s (B lin - y) ||^2.
-        let (mut a00, mut a01, mut a11, mut b0, mut b1, mut yy) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        let mut sums = ProjectionSums::default();
         let mut basis = [0.0; 2];
         let mut nb = 1;
         for (i, pt) in self.pts.iter().enumerate() {
             nb = bases(self.kind, nl, pt, &mut basis);
-            let s = match self.residual {
-                Residual::Absolute => self.w[i],
-                Residual::Relative | Residual::Log => self.w[i] / self.y[i],
-            };
-            let (u, v, t) = (s * basis[0], s * basis[1], s * self.y[i]);
-            a00 += u * u;
-            a01 += u * v;
-            a11 += v * v;
-            b0 += u * t;
-            b1 += v * t;
-            yy += t * t;
+            sums.add(self.projection_scale(i), basis, self.y[i]);
         }
+        sums.solve(nb)
+    }
+}
+
+/// Normal equations of the projected problem `min || s (B lin - y) ||^2` with at most two
+/// basis columns.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ProjectionSums {
+    a00: f64,
+    a01: f64,
+    a11: f64,
+    b0: f64,
+    b1: f64,
+    yy: f64,
+}
+
+impl ProjectionSums {
+    /// Adds one point with scale `s`, basis values and target `y`.
+    #[inline]
+    pub fn add(&mut self, s: f64, basis: [f64; 2], y: f64) {
+        let (u, v, t) = (s * basis[0], s * basis[1], s * y);
+        self.a00 += u * u;
+        self.a01 += u * v;
+        self.a11 += v * v;
+        self.b0 += u * t;
+        self.b1 += v * t;
+        self.yy += t * t;
+    }
+
+    /// Non-negative least squares over `nb` (1 or 2) columns: coefficients and
+    /// `0.5 * residual sum of squares`.
+    pub fn solve(&self, nb: usize) -> ([f64; 2], f64) {
+        let ProjectionSums { a00, a01, a11, b0, b1, yy } = *self;
         let cost_of = |x0: f64, x1: f64| {
             0.5 * (x0 * x0 * a00 + 2.0 * x0 * x1 * a01 + x1 * x1 * a11 - 2.0 * (x0 * b0 + x1 * b1) + yy)
         };
