@@ -49,7 +49,10 @@ pub fn run(path: &str) -> Result<()> {
         Ok(o) if o.status.success() => o,
         Ok(o) => {
             let err = String::from_utf8_lossy(&o.stderr);
-            println!("scipy peers: SKIPPED ({})", err.lines().last().unwrap_or("python3 failed"));
+            println!(
+                "scipy peers: SKIPPED ({})",
+                err.lines().last().unwrap_or("python3 failed")
+            );
             return Ok(());
         }
         Err(e) => {
@@ -66,7 +69,10 @@ pub fn run(path: &str) -> Result<()> {
         let secs = v[key]["seconds"].as_f64().context("seconds")?;
         let err = v[key]["rms_rel"].as_f64().context("rms_rel")?;
         scipy_best = scipy_best.min(err);
-        println!("{label:<34} {secs:>12.5} {err:>14.6e}   ({:.0}x this engine's time)", secs / median);
+        println!(
+            "{label:<34} {secs:>12.5} {err:>14.6e}   ({:.0}x this engine's time)",
+            secs / median
+        );
     }
     let ls = v["least_squares_32"]["seconds"].as_f64().context("seconds")?;
     let reached = worst_err <= scipy_best * 1.001;

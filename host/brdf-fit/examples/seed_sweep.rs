@@ -12,7 +12,10 @@ use rand_core::SeedableRng;
 
 fn main() {
     let mut opts = FitOptions::default();
-    let args: Vec<usize> = std::env::args().skip(1).map(|a| a.parse().expect("integer")).collect();
+    let args: Vec<usize> = std::env::args()
+        .skip(1)
+        .map(|a| a.parse().expect("integer"))
+        .collect();
     if let [chains, agree, evals, min_chains, screen] = args[..] {
         opts = FitOptions {
             chains,
@@ -27,9 +30,21 @@ fn main() {
         };
     }
     let mut sets: Vec<(&str, [f64; 6], Vec<f64>)> = vec![
-        ("khaki", [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2], vec![0.0, 10.0, 30.0]),
-        ("yellow", [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420], vec![0.0, 10.0]),
-        ("white", [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415], vec![30.0]),
+        (
+            "khaki",
+            [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2],
+            vec![0.0, 10.0, 30.0],
+        ),
+        (
+            "yellow",
+            [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420],
+            vec![0.0, 10.0],
+        ),
+        (
+            "white",
+            [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415],
+            vec![30.0],
+        ),
     ];
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(99);
     for k in 0..6 {
@@ -42,7 +57,11 @@ fn main() {
             0.05 + 0.6 * u(),
             1.5 * u(),
         ];
-        let inc = if k % 2 == 0 { vec![0.0, 20.0, 45.0] } else { vec![15.0, 60.0] };
+        let inc = if k % 2 == 0 {
+            vec![0.0, 20.0, 45.0]
+        } else {
+            vec![15.0, 60.0]
+        };
         sets.push(("random", p, inc));
     }
     println!("{opts:?}");
@@ -50,10 +69,16 @@ fn main() {
         for noise in [0.01, 0.1, 0.2] {
             let d = synth::in_plane(ModelKind::Six, p, inc, 2.5, noise, 7).expect("valid parameters");
             let problem = Problem::from_dataset(ModelKind::Six, Residual::Relative, &d);
-            let runs: Vec<_> = (0..100).map(|seed| fit(&problem, &FitOptions { seed, ..opts })).collect();
+            let runs: Vec<_> = (0..100)
+                .map(|seed| fit(&problem, &FitOptions { seed, ..opts }))
+                .collect();
             let best = runs.iter().map(|r| r.cost).fold(f64::INFINITY, f64::min);
             let hits = runs.iter().filter(|r| (r.cost - best) / best <= 1e-6).count();
-            let mut gaps: Vec<f64> = runs.iter().map(|r| (r.cost - best) / best).filter(|&g| g > 1e-6).collect();
+            let mut gaps: Vec<f64> = runs
+                .iter()
+                .map(|r| (r.cost - best) / best)
+                .filter(|&g| g > 1e-6)
+                .collect();
             gaps.sort_by(f64::total_cmp);
             let ms = runs.iter().map(|r| r.seconds).sum::<f64>() * 10.0;
             let chains = runs.iter().map(|r| r.chain_costs.len()).sum::<usize>() as f64 / 100.0;

@@ -204,7 +204,9 @@ impl Landscape for Lobe<'_> {
 /// Runs one annealing chain on `problem` with the generator it is handed.
 pub fn anneal<R: RngCore>(problem: &Problem, rng: &mut R, opts: AnnealOptions) -> AnnealResult {
     match problem.kind() {
-        ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five => run(problem, &mut Lobe::new(problem), rng, opts),
+        ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five => {
+            run(problem, &mut Lobe::new(problem), rng, opts)
+        }
         ModelKind::Minnaert | ModelKind::Lambert => run(problem, &mut Full(problem), rng, opts),
     }
 }
@@ -311,7 +313,10 @@ mod tests {
                 cached.commit();
                 nl[j] = v;
                 let b = full.reset(&nl);
-                assert!((a.1 - b.1).abs() <= 1e-12 * b.1, "{kind:?} coordinate {j}: {a:?} vs {b:?}");
+                assert!(
+                    (a.1 - b.1).abs() <= 1e-12 * b.1,
+                    "{kind:?} coordinate {j}: {a:?} vs {b:?}"
+                );
             }
         }
     }

@@ -282,7 +282,14 @@ impl ProjectionSums {
     /// Non-negative least squares over `nb` (1 or 2) columns: coefficients and
     /// `0.5 * residual sum of squares`.
     pub fn solve(&self, nb: usize) -> ([f64; 2], f64) {
-        let ProjectionSums { a00, a01, a11, b0, b1, yy } = *self;
+        let ProjectionSums {
+            a00,
+            a01,
+            a11,
+            b0,
+            b1,
+            yy,
+        } = *self;
         let cost_of = |x0: f64, x1: f64| {
             0.5 * (x0 * x0 * a00 + 2.0 * x0 * x1 * a01 + x1 * x1 * a11 - 2.0 * (x0 * b0 + x1 * b1) + yy)
         };
