@@ -16,6 +16,7 @@
 pub mod anneal;
 pub mod data;
 pub mod fit;
+pub mod import;
 pub mod kernel;
 pub mod lm;
 pub mod problem;
