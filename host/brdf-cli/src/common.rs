@@ -7,6 +7,8 @@ use brdf_fit::anneal::AnnealOptions;
 use brdf_fit::{load_csv, Dataset, FitOptions, LoadOptions, Residual};
 use clap::{Args, ValueEnum};
 
+use crate::import::{import_reporting, ChannelArg, FormatArg};
+
 /// Residual form on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ResidualArg {
@@ -49,9 +51,21 @@ pub struct EngineArgs {
     /// Skip invalid rows (each is listed on standard error) instead of stopping.
     #[arg(long)]
     pub skip_invalid: bool,
+    /// Read the files in this format (converted on the fly, rejects listed) instead of the
+    /// canonical CSV.
+    #[arg(long, value_enum)]
+    pub format: Option<FormatArg>,
+    /// Colour channel for `--format cornell`.
+    #[arg(long, value_enum, default_value_t = ChannelArg::R)]
+    pub channel: ChannelArg,
 }
 
 impl EngineArgs {
+    /// Name of the residual form.
+    pub fn residual_name(&self) -> &'static str {
+        Residual::from(self.residual).name()
+    }
+
     pub fn fit_options(&self) -> FitOptions {
         FitOptions {
             seed: self.seed,
@@ -73,6 +87,12 @@ impl EngineArgs {
             allow_zero_brdf: self.residual == ResidualArg::Absolute,
         };
         let mut out = Vec::new();
+        if let Some(format) = self.format {
+            for f in files {
+                out.extend(import_reporting(f, format.into(), self.channel.into())?.datasets);
+            }
+            return Ok(out);
+        }
         for f in files {
             let loaded = load_csv(f, opts).with_context(|| format!("cannot use {}", f.display()))?;
             for s in &loaded.skipped {

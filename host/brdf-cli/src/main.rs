@@ -3,7 +3,10 @@
 mod common;
 mod eval;
 mod fit;
+mod import;
 mod params;
+mod plot;
+mod report;
 mod select;
 mod synth;
 
@@ -21,8 +24,14 @@ struct Cli {
 enum Command {
     /// Evaluate a model over a CSV of angles (theta_i, theta_r, phi in degrees).
     Eval(eval::EvalCmd),
+    /// Convert a measurement file in another convention to the canonical CSV.
+    Import(import::ImportCmd),
     /// Fit a model to measured data (one or many datasets).
     Fit(fit::FitCmd),
+    /// Fit models to a dataset and plot them (in-plane curves, hemisphere map, residuals).
+    Plot(plot::PlotCmd),
+    /// Regenerate the model-comparison report over the shared measured datasets.
+    Report(report::ReportCmd),
     /// Fit the model ladder and name the simplest model within an error budget.
     Select(select::SelectCmd),
     /// Write a synthetic dataset from known parameters.
@@ -34,6 +43,9 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Eval(cmd) => cmd.run(),
         Command::Fit(cmd) => cmd.run(),
+        Command::Import(cmd) => cmd.run(),
+        Command::Plot(cmd) => cmd.run(),
+        Command::Report(cmd) => cmd.run(),
         Command::Select(cmd) => cmd.run(),
         Command::Synth(cmd) => cmd.run(),
     };

@@ -145,17 +145,18 @@ pub fn import(path: &Path, format: Format, channel: Channel) -> Result<Imported,
     let mut datasets: Vec<Dataset> = Vec::new();
     let mut rejects = Vec::new();
     for r in rows {
-        let reason = if !(r.theta_i.is_finite() && r.theta_r.is_finite() && r.phi.is_finite() && r.brdf.is_finite()) {
-            Some("a value is not finite".to_owned())
-        } else if !(0.0..90.0).contains(&r.theta_i) {
-            Some(format!("theta_i {} deg is outside [0, 90)", r.theta_i))
-        } else if !(0.0..90.0).contains(&r.theta_r) {
-            Some(format!("theta_r {} deg is outside [0, 90)", r.theta_r))
-        } else if r.brdf <= 0.0 {
-            Some(format!("brdf {} is not positive", r.brdf))
-        } else {
-            None
-        };
+        let reason =
+            if !(r.theta_i.is_finite() && r.theta_r.is_finite() && r.phi.is_finite() && r.brdf.is_finite()) {
+                Some("a value is not finite".to_owned())
+            } else if !(0.0..90.0).contains(&r.theta_i) {
+                Some(format!("theta_i {} deg is outside [0, 90)", r.theta_i))
+            } else if !(0.0..90.0).contains(&r.theta_r) {
+                Some(format!("theta_r {} deg is outside [0, 90)", r.theta_r))
+            } else if r.brdf <= 0.0 {
+                Some(format!("brdf {} is not positive", r.brdf))
+            } else {
+                None
+            };
         if let Some(reason) = reason {
             rejects.push(Skipped { line: r.line, reason });
             continue;
@@ -440,7 +441,10 @@ mod tests {
         assert_eq!(imp.datasets.len(), 2);
         assert!(imp.datasets[0].name.ends_with("[wavelength=0.532]"));
         let d = &imp.datasets[0].points;
-        assert!((d[0].phi.to_degrees() - 180.0).abs() < 1e-9, "specular phir = 0 -> phi 180");
+        assert!(
+            (d[0].phi.to_degrees() - 180.0).abs() < 1e-9,
+            "specular phir = 0 -> phi 180"
+        );
         assert!(d[1].phi.to_degrees().abs() < 1e-9, "phir = 180 -> retro side");
     }
 
@@ -460,7 +464,9 @@ mod tests {
     #[test]
     fn bad_numbers_are_errors_with_line_and_column() {
         let f = tmp("30 180 x 0 1\n");
-        let e = import(f.path(), Format::MerlInPlane, Channel::R).unwrap_err().to_string();
+        let e = import(f.path(), Format::MerlInPlane, Channel::R)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("line 1: column phi_out: `x`"), "{e}");
     }
 }

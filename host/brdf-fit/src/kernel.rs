@@ -72,7 +72,8 @@ pub fn to_natural(kind: ModelKind, q: &[f64]) -> [f64; MAX_PARAMS] {
     p[..q.len()].copy_from_slice(q);
     if matches!(kind, ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five) {
         p[1] = q[1].exp();
-        p[2] = -q[2];
+        // b = -|b| as in the paper; |b| = 0 is reported as +0.
+        p[2] = if q[2] == 0.0 { 0.0 } else { -q[2] };
     }
     p
 }

@@ -30,7 +30,8 @@ impl Residual {
     }
 }
 
-/// Search box of the internal parameters (see [`crate::kernel`]): `kb` in [0, 100], `ln kr`
+/// Search box of the internal parameters (see [`crate::kernel`]): `kb` in [0, 1e4] (a metal's
+/// mirror peak of ~2000 1/sr needs kb in the thousands), `ln kr`
 /// in [ln 0.01, ln 1000], `beta = |b|` in [0, 200], `a` in [0.05, 4], `kd` in [0, 10],
 /// `c` in [0, 5]; Minnaert `rho0` in [0, 100], `k` in [0.01, 1]; Lambert `rho0` in [0, 100].
 pub fn bounds(kind: ModelKind) -> ([f64; MAX_PARAMS], [f64; MAX_PARAMS]) {
@@ -38,11 +39,11 @@ pub fn bounds(kind: ModelKind) -> ([f64; MAX_PARAMS], [f64; MAX_PARAMS]) {
     match kind {
         ModelKind::Six | ModelKind::SixCos2 => (
             [0.0, lkr.0, 0.0, 0.05, 0.0, 0.0],
-            [100.0, lkr.1, 200.0, 4.0, 10.0, 5.0],
+            [1.0e4, lkr.1, 200.0, 4.0, 10.0, 5.0],
         ),
         ModelKind::Five => (
             [0.0, lkr.0, 0.0, 0.05, 0.0, 0.0],
-            [100.0, lkr.1, 200.0, 4.0, 10.0, 0.0],
+            [1.0e4, lkr.1, 200.0, 4.0, 10.0, 0.0],
         ),
         ModelKind::Minnaert => ([0.0, 0.01, 0.0, 0.0, 0.0, 0.0], [100.0, 1.0, 0.0, 0.0, 0.0, 0.0]),
         ModelKind::Lambert => ([0.0; MAX_PARAMS], [100.0, 0.0, 0.0, 0.0, 0.0, 0.0]),

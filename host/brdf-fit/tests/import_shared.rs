@@ -6,7 +6,9 @@ use std::path::PathBuf;
 use brdf_fit::import::{import, Channel, Format, Imported};
 
 fn shared(path: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data").join(path)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data")
+        .join(path)
 }
 
 /// The largest value at each incidence (from `min_theta_i` degrees up) must lie on the
@@ -35,10 +37,28 @@ fn peaks_forward(imp: &Imported, min_theta_i: f64, max_offset: f64) -> usize {
                 peak.theta_r.sin() * peak.phi.sin(),
                 peak.theta_r.cos(),
             ];
-            let off = (mirror[0] * v[0] + mirror[1] * v[1] + mirror[2] * v[2]).clamp(-1.0, 1.0).acos().to_degrees();
-            println!("{} theta_i {:5.2}: peak at theta_r {:5.2}, phi {phi:6.1}, {off:4.1} deg from mirror", d.name, ti.to_degrees(), peak.theta_r.to_degrees());
-            assert!((phi - 180.0).abs() <= 30.0, "{} at {:.2} deg: peak at phi {phi}", d.name, ti.to_degrees());
-            assert!(off <= max_offset, "{} at {:.2}: peak {off:.1} deg from the mirror direction", d.name, ti.to_degrees());
+            let off = (mirror[0] * v[0] + mirror[1] * v[1] + mirror[2] * v[2])
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees();
+            println!(
+                "{} theta_i {:5.2}: peak at theta_r {:5.2}, phi {phi:6.1}, {off:4.1} deg from mirror",
+                d.name,
+                ti.to_degrees(),
+                peak.theta_r.to_degrees()
+            );
+            assert!(
+                (phi - 180.0).abs() <= 30.0,
+                "{} at {:.2} deg: peak at phi {phi}",
+                d.name,
+                ti.to_degrees()
+            );
+            assert!(
+                off <= max_offset,
+                "{} at {:.2}: peak {off:.1} deg from the mirror direction",
+                d.name,
+                ti.to_degrees()
+            );
             checked += 1;
         }
     }
@@ -47,21 +67,39 @@ fn peaks_forward(imp: &Imported, min_theta_i: f64, max_offset: f64) -> usize {
 
 #[test]
 fn cornell_garnet_red_every_row_accounted_for() {
-    let imp = import(&shared("cornell-medium-gloss-paints/garnet_red_RGB.astm"), Format::Cornell, Channel::R).unwrap();
+    let imp = import(
+        &shared("cornell-medium-gloss-paints/garnet_red_RGB.astm"),
+        Format::Cornell,
+        Channel::R,
+    )
+    .unwrap();
     assert_eq!(imp.rows_in, 1439, "NUM_POINTS of the file");
     assert_eq!(imp.points() + imp.rejects.len(), imp.rows_in);
     assert!(imp.rejects.iter().all(|r| r.reason.contains("not positive")));
     println!("garnet R: {} points, {} rejects", imp.points(), imp.rejects.len());
     // Broad gloss lobe, off-specular towards grazing at large incidence.
     assert_eq!(peaks_forward(&imp, 0.0, 25.0), 8);
-    let b = import(&shared("cornell-medium-gloss-paints/garnet_red_RGB.astm"), Format::Cornell, Channel::G).unwrap();
+    let b = import(
+        &shared("cornell-medium-gloss-paints/garnet_red_RGB.astm"),
+        Format::Cornell,
+        Channel::G,
+    )
+    .unwrap();
     assert_eq!(b.points() + b.rejects.len(), 1439);
-    assert!(!b.rejects.is_empty(), "the G channel has negative values, each reported");
+    assert!(
+        !b.rejects.is_empty(),
+        "the G channel has negative values, each reported"
+    );
 }
 
 #[test]
 fn nist_ptfe_every_row_accounted_for() {
-    let imp = import(&shared("ptfe-germer-nist/PTFE.data.csv"), Format::Nist, Channel::R).unwrap();
+    let imp = import(
+        &shared("ptfe-germer-nist/PTFE.data.csv"),
+        Format::Nist,
+        Channel::R,
+    )
+    .unwrap();
     assert_eq!(imp.rows_in, 7296);
     assert_eq!(imp.points() + imp.rejects.len(), imp.rows_in);
     assert_eq!(imp.datasets.len(), 4, "one dataset per wavelength");
@@ -72,10 +110,19 @@ fn nist_ptfe_every_row_accounted_for() {
 
 #[test]
 fn merl_aluminium_every_row_accounted_for() {
-    let imp = import(&shared("merl-aluminium-inplane/aluminum_brdf.csv"), Format::MerlInPlane, Channel::R).unwrap();
+    let imp = import(
+        &shared("merl-aluminium-inplane/aluminum_brdf.csv"),
+        Format::MerlInPlane,
+        Channel::R,
+    )
+    .unwrap();
     assert_eq!(imp.rows_in, 1785);
     assert_eq!(imp.points() + imp.rejects.len(), imp.rows_in);
-    println!("MERL aluminium: {} points, {} rejects", imp.points(), imp.rejects.len());
+    println!(
+        "MERL aluminium: {} points, {} rejects",
+        imp.points(),
+        imp.rejects.len()
+    );
     // Sharp specular peak: forward, within one sample step of the mirror direction.
     assert_eq!(peaks_forward(&imp, 0.0, 1.0), 7);
 }

@@ -1,0 +1,114 @@
+//! `brdf plot`: fit models to a dataset and draw them.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use brdf_core::{AnyModel, ModelKind};
+use brdf_fit::report::FitReport;
+use brdf_fit::Dataset;
+use brdf_plot::Fitted;
+use clap::{Args, ValueEnum};
+
+use crate::common::EngineArgs;
+use crate::fit::fit_all;
+use crate::params::parse_kind;
+
+/// What to draw.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PlotKind {
+    /// Measured points and fitted models against the signed scattering angle, one panel per
+    /// incidence angle.
+    InPlane,
+    /// The first model over the viewing hemisphere at --theta-i, heat-mapped polar projection.
+    Map,
+    /// Relative residuals of the first model against angle.
+    Residuals,
+}
+
+/// Fit one or more models to a dataset and plot them (SVG or PNG, by the extension of -o).
+#[derive(Debug, Args)]
+pub struct PlotCmd {
+    /// Plot kind.
+    #[arg(value_enum)]
+    kind: PlotKind,
+    /// Data file (canonical CSV, or any format with --format).
+    data: PathBuf,
+    /// Models to fit and draw, comma-separated (first one for map and residuals).
+    #[arg(long, value_delimiter = ',', value_parser = parse_kind, default_value = "six")]
+    models: Vec<ModelKind>,
+    /// Incidence angle of the map, degrees.
+    #[arg(long, default_value_t = 30.0)]
+    theta_i: f64,
+    /// Title (default: the dataset name).
+    #[arg(long)]
+    title: Option<String>,
+    /// Output file, .svg or .png.
+    #[arg(short = 'o', long)]
+    output: PathBuf,
+    #[command(flatten)]
+    engine: EngineArgs,
+}
+
+/// Legend entry of a fit: model name and RMS relative error.
+pub fn fitted(r: &FitReport) -> Result<Fitted> {
+    let kind = ModelKind::from_name(r.model).context("model name")?;
+    let values: Vec<f64> = r.params.0.iter().map(|(_, v)| *v).collect();
+    Ok(Fitted {
+        label: format!("{} (RMS rel {:.1}%)", r.model, 100.0 * r.metrics.rms_rel),
+        model: AnyModel::new(kind, &values)?,
+    })
+}
+
+/// Fits `models` to `data` and returns the legend entries with the reports.
+pub fn fit_models(
+    data: &Dataset,
+    models: &[ModelKind],
+    engine: &EngineArgs,
+) -> Result<Vec<(FitReport, Fitted)>> {
+    let mut out = Vec::new();
+    for &m in models {
+        let r = fit_all(
+            m,
+            engine.residual.into(),
+            engine.fit_options(),
+            std::slice::from_ref(data),
+        )
+        .pop()
+        .context("one report")?;
+        let f = fitted(&r)?;
+        out.push((r, f));
+    }
+    Ok(out)
+}
+
+impl PlotCmd {
+    pub fn run(self) -> Result<()> {
+        let datasets = self.engine.load(std::slice::from_ref(&self.data))?;
+        if datasets.len() != 1 {
+            bail!(
+                "{}: holds {} datasets; plot works on one",
+                self.data.display(),
+                datasets.len()
+            );
+        }
+        let data = &datasets[0];
+        if self.models.is_empty() {
+            bail!("--models: name at least one model");
+        }
+        let fits = fit_models(data, &self.models, &self.engine)?;
+        let title = self.title.clone().unwrap_or_else(|| data.name.clone());
+        let curves: Vec<Fitted> = fits.iter().map(|(_, f)| f.clone()).collect();
+        match self.kind {
+            PlotKind::InPlane => brdf_plot::in_plane(&self.output, &title, data, &curves)?,
+            PlotKind::Map => brdf_plot::hemisphere_map(
+                &self.output,
+                &format!("{title}, {}", curves[0].label),
+                &curves[0].model,
+                self.theta_i.to_radians(),
+            )?,
+            PlotKind::Residuals => brdf_plot::residuals(&self.output, &title, data, &curves[0])?,
+        }
+        eprintln!("wrote {}", self.output.display());
+        Ok(())
+    }
+}

@@ -1,0 +1,490 @@
+//! Plots of measured and fitted BRDFs, as the paper shows them: in-plane curves per
+//! incidence angle (its Fig. 2a–c), a BRDF map over the viewing hemisphere (Fig. 2d–f), and
+//! relative residuals against angle. The output format follows the file extension (`.svg`
+//! or `.png`). Text uses the bundled DejaVu Sans, so a PNG is the same on every machine.
+//!
+//! ```no_run
+//! use brdf_core::{AnyModel, ModelKind};
+//! use brdf_fit::synth;
+//! use brdf_plot::{in_plane, Fitted};
+//!
+//! let p = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+//! let data = synth::in_plane(ModelKind::Six, &p, &[0.0, 10.0, 30.0], 5.0, 0.01, 7).unwrap();
+//! let model = AnyModel::new(ModelKind::Six, &p).unwrap();
+//! let fits = [Fitted { label: "six".into(), model }];
+//! in_plane("khaki.png".as_ref(), "Khaki, in-plane", &data, &fits).unwrap();
+//! ```
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+use brdf_core::{AnyModel, Brdf};
+use brdf_fit::Dataset;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::{register_font, FontStyle};
+
+/// Why a plot could not be written.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PlotError {
+    /// The backend failed (file not writable, ...).
+    #[error("{file}: {message}")]
+    Draw {
+        /// Output path.
+        file: String,
+        /// Backend message.
+        message: String,
+    },
+    /// The extension is neither `.svg` nor `.png`.
+    #[error("{0}: unknown plot format (use .svg or .png)")]
+    Format(String),
+    /// Nothing to draw (e.g. no in-plane points).
+    #[error("{file}: nothing to plot: {why}")]
+    Empty {
+        /// Output path.
+        file: String,
+        /// What was missing.
+        why: String,
+    },
+}
+
+/// A fitted model to draw, with its legend text (say the model and its error).
+#[derive(Clone, Debug)]
+pub struct Fitted {
+    /// Legend text, e.g. `six (RMS rel 4.9%)`.
+    pub label: String,
+    /// The model.
+    pub model: AnyModel<f64>,
+}
+
+const FONT: &str = "sans-serif";
+const PALETTE: [RGBColor; 5] = [
+    RGBColor(213, 94, 0),
+    RGBColor(0, 114, 178),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+];
+
+fn ensure_font() {
+    static DONE: OnceLock<()> = OnceLock::new();
+    DONE.get_or_init(|| {
+        // The bundled font is valid TrueType; a failure would only lose the text.
+        let _ = register_font(FONT, FontStyle::Normal, include_bytes!("../fonts/DejaVuSans.ttf"));
+    });
+}
+
+type Res = Result<(), String>;
+
+fn err<E: std::fmt::Debug>(e: E) -> String {
+    format!("{e:?}")
+}
+
+/// Renders with the backend the extension names.
+fn render(
+    path: &Path,
+    size: (u32, u32),
+    svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Res,
+    png: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Res,
+) -> Result<(), PlotError> {
+    ensure_font();
+    let file = path.display().to_string();
+    let wrap = |message: String| PlotError::Draw {
+        file: file.clone(),
+        message,
+    };
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("svg") => {
+            let root = SVGBackend::new(path, size).into_drawing_area();
+            root.fill(&WHITE).map_err(err).map_err(wrap)?;
+            svg(&root).map_err(wrap)?;
+            root.present().map_err(err).map_err(wrap)
+        }
+        Some("png") => {
+            let root = BitMapBackend::new(path, size).into_drawing_area();
+            root.fill(&WHITE).map_err(err).map_err(wrap)?;
+            png(&root).map_err(wrap)?;
+            root.present().map_err(err).map_err(wrap)
+        }
+        _ => Err(PlotError::Format(file)),
+    }
+}
+
+/// In-plane points of one incidence: (signed scattering angle in degrees, positive on the
+/// forward side; measured value).
+fn in_plane_points(data: &Dataset, theta_i: f64) -> Vec<(f64, f64)> {
+    let mut v: Vec<(f64, f64)> = data
+        .points
+        .iter()
+        .filter(|p| (p.theta_i - theta_i).abs() < 1e-9)
+        .filter(|p| p.phi.sin().abs() < 0.02 || p.theta_r < 1e-6)
+        .map(|p| {
+            let s = if p.phi.cos() < 0.0 { 1.0 } else { -1.0 };
+            (s * p.theta_r.to_degrees(), p.brdf)
+        })
+        .collect();
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    v
+}
+
+/// Model along the plane of incidence, signed scattering angle -89..89 degrees.
+fn model_curve(model: &AnyModel<f64>, theta_i: f64) -> Vec<(f64, f64)> {
+    (-890..=890)
+        .step_by(2)
+        .map(|k| {
+            let ts = f64::from(k) / 10.0;
+            let phi = if ts >= 0.0 { std::f64::consts::PI } else { 0.0 };
+            (ts, model.eval_angles(theta_i, ts.abs().to_radians(), phi))
+        })
+        .collect()
+}
+
+fn grid(n: usize) -> (usize, usize) {
+    let cols = if n <= 3 {
+        n.max(1)
+    } else if n <= 4 {
+        2
+    } else {
+        3
+    };
+    (n.div_ceil(cols), cols)
+}
+
+/// (a) In-plane curves: measured points and the fitted models against the signed
+/// scattering angle, one panel per incidence angle, log BRDF axis.
+pub fn in_plane(path: &Path, title: &str, data: &Dataset, fits: &[Fitted]) -> Result<(), PlotError> {
+    let incidences: Vec<f64> = data
+        .incidences()
+        .into_iter()
+        .filter(|&ti| !in_plane_points(data, ti).is_empty())
+        .collect();
+    if incidences.is_empty() {
+        return Err(PlotError::Empty {
+            file: path.display().to_string(),
+            why: "no points in the plane of incidence".into(),
+        });
+    }
+    let (rows, cols) = grid(incidences.len());
+    let size = (460 * cols as u32, 120 + 340 * rows as u32);
+    fn draw<DB: DrawingBackend>(
+        root: &DrawingArea<DB, Shift>,
+        title: &str,
+        data: &Dataset,
+        fits: &[Fitted],
+        incidences: &[f64],
+        (rows, cols): (usize, usize),
+    ) -> Res {
+        let (head, body) = root.split_vertically(110);
+        head.draw(&Text::new(title, (20, 10), (FONT, 26).into_font()))
+            .map_err(err)?;
+        // Legend row under the title: measured points, then each model.
+        let mut x = 20;
+        head.draw(&Circle::new((x + 6, 70), 4, BLACK.filled()))
+            .map_err(err)?;
+        head.draw(&Text::new("measured", (x + 18, 60), (FONT, 18).into_font()))
+            .map_err(err)?;
+        x += 140;
+        for (k, f) in fits.iter().enumerate() {
+            let c = PALETTE[k % PALETTE.len()];
+            head.draw(&PathElement::new(vec![(x, 70), (x + 28, 70)], c.stroke_width(3)))
+                .map_err(err)?;
+            head.draw(&Text::new(f.label.as_str(), (x + 36, 60), (FONT, 18).into_font()))
+                .map_err(err)?;
+            x += 46 + 10 * f.label.len() as i32;
+        }
+        let panels = body.split_evenly((rows, cols));
+        for (panel, &ti) in panels.iter().zip(incidences) {
+            let pts = in_plane_points(data, ti);
+            let curves: Vec<Vec<(f64, f64)>> = fits.iter().map(|f| model_curve(&f.model, ti)).collect();
+            let ys = pts.iter().map(|p| p.1);
+            let lo = ys.clone().fold(f64::INFINITY, f64::min);
+            let hi = ys.fold(0.0, f64::max);
+            // Curves may dive towards zero at grazing: keep the axis near the data.
+            let (lo, hi) = (lo / 3.0, hi * 3.0);
+            let mut chart = ChartBuilder::on(panel)
+                .caption(format!("theta_i = {:.1} deg", ti.to_degrees()), (FONT, 18))
+                .margin(8)
+                .x_label_area_size(42)
+                .y_label_area_size(64)
+                .build_cartesian_2d(-90f64..90f64, (lo..hi).log_scale())
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc("scattering angle theta_s (deg), + forward")
+                .y_desc("BRDF (1/sr)")
+                .x_labels(7)
+                .y_labels(6)
+                .label_style((FONT, 14))
+                .axis_desc_style((FONT, 15))
+                .light_line_style(WHITE)
+                .draw()
+                .map_err(err)?;
+            for (k, c) in curves.iter().enumerate() {
+                let color = PALETTE[k % PALETTE.len()];
+                let visible = c.iter().copied().filter(|&(_, y)| y >= lo && y <= hi);
+                chart
+                    .draw_series(LineSeries::new(visible, color.stroke_width(2)))
+                    .map_err(err)?;
+            }
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, BLACK.filled())))
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+    let g = (rows, cols);
+    render(
+        path,
+        size,
+        |r| draw(r, title, data, fits, &incidences, g),
+        |r| draw(r, title, data, fits, &incidences, g),
+    )
+}
+
+/// Five-stop viridis, `t` in [0, 1].
+fn viridis(t: f64) -> RGBColor {
+    const STOPS: [(f64, f64, f64); 5] = [
+        (68.0, 1.0, 84.0),
+        (59.0, 82.0, 139.0),
+        (33.0, 145.0, 140.0),
+        (94.0, 201.0, 98.0),
+        (253.0, 231.0, 37.0),
+    ];
+    let t = t.clamp(0.0, 1.0) * 4.0;
+    let k = (t.floor() as usize).min(3);
+    let f = t - k as f64;
+    let (a, b) = (STOPS[k], STOPS[k + 1]);
+    let mix = |x: f64, y: f64| (x + (y - x) * f).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// (b) The BRDF over the viewing hemisphere for incidence `theta_i` (radians), as a
+/// heat-mapped polar projection: `(sin theta_r cos phi, sin theta_r sin phi)`, mirror
+/// direction on the left (`phi = 180°`), colour = log10 BRDF.
+pub fn hemisphere_map(
+    path: &Path,
+    title: &str,
+    model: &AnyModel<f64>,
+    theta_i: f64,
+) -> Result<(), PlotError> {
+    const N: usize = 90;
+    let mut cells = Vec::with_capacity(N * N);
+    for i in 0..N {
+        for j in 0..N {
+            let x = -1.0 + (i as f64 + 0.5) * 2.0 / N as f64;
+            let y = -1.0 + (j as f64 + 0.5) * 2.0 / N as f64;
+            let r = (x * x + y * y).sqrt();
+            if r >= 0.999 {
+                continue;
+            }
+            let theta_r = r.asin();
+            let phi = y.atan2(x);
+            let f = model.eval_angles(theta_i, theta_r, phi);
+            if f > 0.0 {
+                cells.push((x, y, f.log10()));
+            }
+        }
+    }
+    if cells.is_empty() {
+        return Err(PlotError::Empty {
+            file: path.display().to_string(),
+            why: "the model is zero over the hemisphere".into(),
+        });
+    }
+    let lo = cells.iter().map(|c| c.2).fold(f64::INFINITY, f64::min);
+    let hi = cells.iter().map(|c| c.2).fold(f64::NEG_INFINITY, f64::max);
+    let span = (hi - lo).max(1e-9);
+    fn draw<DB: DrawingBackend>(
+        root: &DrawingArea<DB, Shift>,
+        title: &str,
+        theta_i: f64,
+        cells: &[(f64, f64, f64)],
+        (lo, span): (f64, f64),
+    ) -> Res {
+        let (map_area, bar_area) = root.split_horizontally(640);
+        let mut chart = ChartBuilder::on(&map_area)
+            .caption(
+                format!("{title}, theta_i = {:.1} deg", theta_i.to_degrees()),
+                (FONT, 20),
+            )
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(56)
+            .build_cartesian_2d(-1f64..1f64, -1f64..1f64)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("sin(theta_r) cos(phi)   (mirror side: left)")
+            .y_desc("sin(theta_r) sin(phi)")
+            .label_style((FONT, 14))
+            .axis_desc_style((FONT, 15))
+            .draw()
+            .map_err(err)?;
+        let h = 1.0 / N as f64;
+        chart
+            .draw_series(cells.iter().map(|&(x, y, v)| {
+                Rectangle::new(
+                    [(x - h, y - h), (x + h, y + h)],
+                    viridis((v - lo) / span).filled(),
+                )
+            }))
+            .map_err(err)?;
+        // Zenith rings at 30 and 60 degrees.
+        for deg in [30.0f64, 60.0] {
+            let r = deg.to_radians().sin();
+            let ring: Vec<(f64, f64)> = (0..=180)
+                .map(|k| {
+                    let a = f64::from(k) * std::f64::consts::TAU / 180.0;
+                    (r * a.cos(), r * a.sin())
+                })
+                .collect();
+            chart
+                .draw_series(LineSeries::new(ring, WHITE.mix(0.6).stroke_width(1)))
+                .map_err(err)?;
+        }
+        let mut bar = ChartBuilder::on(&bar_area)
+            .caption("log10 BRDF (1/sr)", (FONT, 15))
+            .margin_top(40)
+            .margin_bottom(56)
+            .margin_right(50)
+            .y_label_area_size(50)
+            .build_cartesian_2d(0f64..1f64, lo..lo + span)
+            .map_err(err)?;
+        bar.configure_mesh()
+            .disable_mesh()
+            .disable_x_axis()
+            .label_style((FONT, 14))
+            .draw()
+            .map_err(err)?;
+        let steps = 100;
+        bar.draw_series((0..steps).map(|k| {
+            let a = lo + span * k as f64 / steps as f64;
+            let b = lo + span * (k + 1) as f64 / steps as f64;
+            Rectangle::new([(0.0, a), (1.0, b)], viridis((a - lo) / span).filled())
+        }))
+        .map_err(err)?;
+        Ok(())
+    }
+    render(
+        path,
+        (820, 700),
+        |r| draw(r, title, theta_i, &cells, (lo, span)),
+        |r| draw(r, title, theta_i, &cells, (lo, span)),
+    )
+}
+
+/// (c) Relative residuals `(f - y) / y` in percent against the viewing angle: the signed
+/// scattering angle for in-plane points, `theta_r` (marked as such) otherwise; one colour per
+/// incidence angle.
+pub fn residuals(path: &Path, title: &str, data: &Dataset, fit: &Fitted) -> Result<(), PlotError> {
+    let incidences = data.incidences();
+    let mut series: Vec<(f64, Vec<(f64, f64)>)> = Vec::new();
+    for &ti in &incidences {
+        let pts: Vec<(f64, f64)> = data
+            .points
+            .iter()
+            .filter(|p| (p.theta_i - ti).abs() < 1e-9)
+            .map(|p| {
+                let f = fit.model.eval_angles(p.theta_i, p.theta_r, p.phi);
+                let in_plane = p.phi.sin().abs() < 0.02 || p.theta_r < 1e-6;
+                let s = if in_plane && p.phi.cos() > 0.0 { -1.0 } else { 1.0 };
+                (s * p.theta_r.to_degrees(), 100.0 * (f - p.brdf) / p.brdf)
+            })
+            .collect();
+        series.push((ti, pts));
+    }
+    let all = series.iter().flat_map(|s| s.1.iter().map(|p| p.1));
+    let bound = all.fold(1.0f64, |m, v| m.max(v.abs())).min(1000.0) * 1.1;
+    fn draw<DB: DrawingBackend>(
+        root: &DrawingArea<DB, Shift>,
+        title: &str,
+        label: &str,
+        series: &[(f64, Vec<(f64, f64)>)],
+        bound: f64,
+    ) -> Res {
+        let mut chart = ChartBuilder::on(root)
+            .caption(format!("{title}: residuals of {label}"), (FONT, 20))
+            .margin(12)
+            .x_label_area_size(46)
+            .y_label_area_size(70)
+            .build_cartesian_2d(-90f64..90f64, -bound..bound)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("viewing angle (deg): signed theta_s in plane (+ forward), theta_r off plane")
+            .y_desc("(model - measured) / measured (%)")
+            .label_style((FONT, 14))
+            .axis_desc_style((FONT, 15))
+            .light_line_style(WHITE)
+            .draw()
+            .map_err(err)?;
+        chart
+            .draw_series(LineSeries::new(
+                [(-90.0, 0.0), (90.0, 0.0)],
+                BLACK.stroke_width(1),
+            ))
+            .map_err(err)?;
+        for (k, (ti, pts)) in series.iter().enumerate() {
+            let c = Palette99::pick(k).to_rgba();
+            let clipped = pts.iter().map(|&(x, y)| (x, y.clamp(-bound, bound)));
+            chart
+                .draw_series(clipped.map(|p| Circle::new(p, 3, c.filled())))
+                .map_err(err)?
+                .label(format!("theta_i {:.1} deg", ti.to_degrees()))
+                .legend(move |(x, y)| Circle::new((x + 8, y), 4, c.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT, 14))
+            .draw()
+            .map_err(err)?;
+        Ok(())
+    }
+    render(
+        path,
+        (1000, 620),
+        |r| draw(r, title, &fit.label, &series, bound),
+        |r| draw(r, title, &fit.label, &series, bound),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use brdf_core::ModelKind;
+    use brdf_fit::synth;
+
+    #[test]
+    fn writes_svg_and_png_and_refuses_unknown_formats() {
+        let p = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+        let data = synth::in_plane(ModelKind::Six, &p, &[0.0, 30.0], 5.0, 0.01, 7).unwrap();
+        let model = AnyModel::new(ModelKind::Six, &p).unwrap();
+        let fit = Fitted {
+            label: "six".into(),
+            model,
+        };
+        let dir = tempfile::tempdir().unwrap();
+        for ext in ["svg", "png"] {
+            let a = dir.path().join(format!("a.{ext}"));
+            in_plane(&a, "t", &data, std::slice::from_ref(&fit)).unwrap();
+            let b = dir.path().join(format!("b.{ext}"));
+            hemisphere_map(&b, "t", &fit.model, 0.5).unwrap();
+            let c = dir.path().join(format!("c.{ext}"));
+            residuals(&c, "t", &data, &fit).unwrap();
+            for f in [a, b, c] {
+                assert!(std::fs::metadata(&f).unwrap().len() > 1000, "{}", f.display());
+            }
+        }
+        let svg = std::fs::read_to_string(dir.path().join("a.svg")).unwrap();
+        assert!(svg.contains("theta_i = 30.0 deg") && svg.contains("BRDF (1/sr)"));
+        assert!(matches!(
+            in_plane(&dir.path().join("x.gif"), "t", &data, &[fit]),
+            Err(PlotError::Format(_))
+        ));
+    }
+}
