@@ -108,6 +108,55 @@ pub struct Uncertainty {
 /// its value: the data are then consistent with values at least twice or half as large.
 pub const UNDETERMINED_REL_SE: f64 = 0.5;
 
+/// Profile test: a parameter is also called undetermined when holding it at twice or half
+/// its fitted value, or at either end of its search box, and refitting the others raises
+/// `chi^2 = RSS / s^2` by less than this: 3.84 is the 95% point of chi-square with one
+/// degree of freedom, so the factor-2 move lies inside the 95% profile interval. This
+/// catches flat directions the linearised standard error misses (kr >> 1 from in-plane
+/// data, where the cost is flat from the optimum up to the bound).
+pub const PROFILE_DELTA_CHI2: f64 = 3.84;
+
+/// Smallest rise of `chi^2` when parameter `j` is held at half or twice its value or at a
+/// bound and the others are refitted; `None` if the parameter is zero or no move is
+/// possible.
+fn profile_rise(problem: &Problem, outcome: &FitOutcome, j: usize, s2: f64) -> Option<f64> {
+    let kind = outcome.kind;
+    let (lo, hi) = bounds(kind);
+    let log_param = matches!(kind, ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five) && j == 1;
+    let q0 = outcome.q[j];
+    // Half, twice, and both ends of the search box: a profile still flat at a bound means
+    // the interval runs into the bound.
+    let moves: [f64; 4] = if log_param {
+        [
+            q0 - std::f64::consts::LN_2,
+            q0 + std::f64::consts::LN_2,
+            lo[j],
+            hi[j],
+        ]
+    } else {
+        [q0 * 0.5, q0 * 2.0, lo[j], hi[j]]
+    };
+    if !log_param && q0 == 0.0 {
+        return None;
+    }
+    let mut rise: Option<f64> = None;
+    for target in moves {
+        let v = target.clamp(lo[j], hi[j]);
+        if (v - q0).abs() <= 1e-12 * (1.0 + q0.abs()) {
+            continue;
+        }
+        let (mut flo, mut fhi) = (lo, hi);
+        flo[j] = v;
+        fhi[j] = v;
+        let mut start = outcome.q;
+        start[j] = v;
+        let r = crate::lm::minimise(problem, &start, &flo, &fhi, crate::lm::LmOptions::default());
+        let d = 2.0 * (r.cost - outcome.cost).max(0.0) / s2;
+        rise = Some(rise.map_or(d, |x: f64| x.min(d)));
+    }
+    rise
+}
+
 /// Standard errors and correlations from `J^T J` at the optimum, scaled by the residual
 /// variance `2 cost / (n - p)`. Parameters at a search bound are held fixed there.
 pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
@@ -196,10 +245,22 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
             } else {
                 f64::INFINITY
             };
+            let flat = if s2 > 0.0 {
+                profile_rise(problem, outcome, j, s2)
+            } else {
+                None
+            };
             if rel > UNDETERMINED_REL_SE {
                 let note = format!(
                     "standard error is {:.0}% of the value: the data do not determine {}",
                     100.0 * rel,
+                    names[j]
+                );
+                (Some(se), Some(rel), false, Some(note))
+            } else if let Some(rise) = flat.filter(|&r| r < PROFILE_DELTA_CHI2) {
+                let note = format!(
+                    "holding {} at half or twice its value or at a search bound and refitting \
+                     raises chi^2 by only {rise:.2} (< {PROFILE_DELTA_CHI2}): the data do not determine it",
                     names[j]
                 );
                 (Some(se), Some(rel), false, Some(note))

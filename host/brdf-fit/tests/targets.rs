@@ -102,3 +102,49 @@ fn hundred_seeds_reach_the_same_optimum() {
         assert_eq!(hits, 100, "{name}: only {hits}/100 seeds reached the optimum");
     }
 }
+
+/// The kr verdict must hold for every noise draw, not one: over 12 noise seeds and three
+/// viewing-angle steps, kr is within 10% of the truth or flagged as undetermined, and (on
+/// the denser grids) the other parameters meet their targets.
+#[test]
+fn kr_is_within_10_percent_or_flagged_for_every_noise_draw() {
+    let mut flagged = 0;
+    let mut total = 0;
+    for (name, truth, inc) in [
+        ("khaki", KHAKI, &[0.0, 10.0, 30.0][..]),
+        ("yellow", YELLOW, &[0.0, 10.0][..]),
+    ] {
+        for step in [1.0, 2.5, 5.0] {
+            for noise_seed in 1..=12 {
+                let data = synth::in_plane(ModelKind::Six, &truth, inc, step, 0.005, noise_seed).unwrap();
+                let problem = Problem::from_dataset(ModelKind::Six, Residual::Relative, &data);
+                let out = fit(&problem, &FitOptions::default());
+                let rep = report(&data, &problem, &out, 1);
+                let rel = |j: usize| ((out.params[j].abs() - truth[j].abs()) / truth[j]).abs();
+                let kr = &rep.uncertainty.params.0[1].1;
+                total += 1;
+                if !kr.determined {
+                    flagged += 1;
+                }
+                assert!(
+                    rel(1) <= 0.10 || !kr.determined,
+                    "{name} step {step} noise seed {noise_seed}: kr = {} reported as determined",
+                    out.params[1]
+                );
+                // The parameter targets need the denser grids (142+ points); at a 5 degree step
+                // yellow has 70 points and |b| scatters by up to ~12% between noise draws.
+                if step > 2.5 {
+                    continue;
+                }
+                for (j, tol) in [(0, 0.05), (3, 0.05), (4, 0.05), (5, 0.05), (2, 0.10)] {
+                    assert!(
+                        rel(j) <= tol,
+                        "{name} step {step} noise {noise_seed}: param {j} off by {:.1}%",
+                        100.0 * rel(j)
+                    );
+                }
+            }
+        }
+    }
+    println!("kr flagged as undetermined in {flagged}/{total} fits");
+}
