@@ -40,6 +40,8 @@ pub trait Float:
     const PI: Self;
     /// 1/pi
     const FRAC_1_PI: Self;
+    /// pi/2, rounded to this type.
+    const FRAC_PI_2: Self;
     /// ln 2
     const LN_2: Self;
     /// Machine epsilon.
@@ -102,6 +104,7 @@ macro_rules! impl_float {
             const HALF: Self = 0.5;
             const PI: Self = core::$t::consts::PI;
             const FRAC_1_PI: Self = core::$t::consts::FRAC_1_PI;
+            const FRAC_PI_2: Self = core::$t::consts::FRAC_PI_2;
             const LN_2: Self = core::$t::consts::LN_2;
             const EPSILON: Self = $t::EPSILON;
             const SPLITTER: Self = $splitter;

@@ -45,6 +45,18 @@ impl<T: Float> Geometry<T> {
     /// From the three sums of squares described in the module documentation.
     #[inline]
     fn from_parts(cos_theta_i: T, cos_theta_r: T, sin2_gamma: T, cos2_gamma: T, p: T) -> Self {
+        if cos2_gamma == T::ZERO {
+            // wi = -wr: both directions on the horizon (or so close that cos^2(gamma)
+            // underflows); the facet angles are undefined and every model gives 0 there.
+            return Geometry {
+                cos_theta_i: T::ZERO,
+                cos_theta_r: T::ZERO,
+                cos_gamma: T::ZERO,
+                one_minus_cos_gamma: T::ONE,
+                cos_alpha: T::ONE,
+                one_minus_cos_alpha: T::ZERO,
+            };
+        }
         let cos_gamma = cos2_gamma.sqrt();
         let one_minus_cos_gamma = sin2_gamma / (T::ONE + cos_gamma);
         let cos_alpha = (cos_theta_i + cos_theta_r) / (T::TWO * cos_gamma);
@@ -67,10 +79,15 @@ impl<T: Float> Geometry<T> {
     /// `S = sin^2((ti-tr)/2) + sin ti sin tr sin^2(phi/2)`,
     /// `C = cos^2((ti+tr)/2) + sin ti sin tr cos^2(phi/2)`,
     /// `P = 4 cos^2((ti+tr)/2) sin^2((ti-tr)/2) + 4 sin ti sin tr cos^2(phi/2)`.
+    ///
+    /// A zenith at or beyond the rounded `pi/2` of `T` is the horizon (`cos theta = 0`), so
+    /// 90° is treated alike in f32 (where `cos(fl(pi/2)) < 0`) and f64 (where it is 6e-17).
     #[inline]
     pub fn from_angles(theta_i: T, theta_r: T, phi: T) -> Self {
         let (sin_i, cos_i) = theta_i.sin_cos();
         let (sin_r, cos_r) = theta_r.sin_cos();
+        let cos_i = if theta_i >= T::FRAC_PI_2 { T::ZERO } else { cos_i };
+        let cos_r = if theta_r >= T::FRAC_PI_2 { T::ZERO } else { cos_r };
         let (sin_hp, cos_hp) = (phi * T::HALF).sin_cos();
         let sin_hd = ((theta_i - theta_r) * T::HALF).sin();
         // cos((ti+tr)/2) is ill-conditioned near pi/2 (both directions grazing): correct
@@ -327,6 +344,26 @@ mod tests {
         let g = Geometry::from_angles(0.3_f64, 0.3, 0.0);
         assert!(close(g.cos_alpha, libm::cos(0.3), 1e-15));
         assert!(close(g.cos_gamma, 1.0, 1e-15));
+    }
+
+    #[test]
+    fn ninety_degrees_is_the_horizon_in_both_precisions() {
+        assert_eq!(
+            Geometry::from_angles(core::f64::consts::FRAC_PI_2, 0.3, 1.0).cos_theta_i,
+            0.0
+        );
+        assert_eq!(
+            Geometry::from_angles(0.3_f32, core::f32::consts::FRAC_PI_2, 1.0).cos_theta_r,
+            0.0
+        );
+        // Opposite grazing directions: cos^2(gamma) underflows; no NaN escapes.
+        let g = Geometry::from_vectors([1.0_f64, 0.0, 1e-200], [-1.0, 0.0, 1e-200]);
+        assert!(!g.above_horizon() && g.outside() == Some(0.0));
+        let g = Geometry::from_cosines(1e-30_f32, 1e-30, -1.0);
+        assert!(
+            g.one_minus_cos_alpha.is_finite() && g.cos_alpha.is_finite(),
+            "{g:?}"
+        );
     }
 
     #[test]

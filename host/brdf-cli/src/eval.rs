@@ -68,6 +68,9 @@ impl EvalCmd {
             .headers()
             .with_context(|| format!("{file}: cannot read the header row"))?
             .clone();
+        if headers.iter().all(|h| h.trim().is_empty()) {
+            bail!("{file}: empty file (no header row)");
+        }
         let column = |name: &str| -> Result<usize> {
             let mut found = headers.iter().enumerate().filter(|(_, h)| h.trim() == name);
             match (found.next(), found.next()) {
@@ -83,7 +86,8 @@ impl EvalCmd {
                 self.output_column
             );
         }
-        let mut writer = csv::Writer::from_writer(out);
+        // Rows are written to memory first, so a bad row leaves no partial CSV behind.
+        let mut writer = csv::Writer::from_writer(Vec::new());
         let mut header_out = headers.clone();
         header_out.push_field(&self.output_column);
         writer.write_record(&header_out)?;
@@ -111,11 +115,21 @@ impl EvalCmd {
             }
             let [ti, tr, phi] = deg.map(|d| T::from_f64(d.to_radians()));
             let f = model.eval_angles(ti, tr, phi);
+            if !f.is_finite() {
+                bail!(
+                    "{file}: line {line}: the model is not finite here ({f}); {} diverges at this \
+                     geometry (five-parameter and Minnaert models grow without bound at grazing)",
+                    self.model.name()
+                );
+            }
             let mut row = record.clone();
             row.push_field(&fmt(f));
             writer.write_record(&row)?;
         }
-        writer.flush().context("cannot write to standard output")?;
+        let bytes = writer.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
+        let mut out = out;
+        out.write_all(&bytes).context("cannot write to standard output")?;
+        out.flush().context("cannot write to standard output")?;
         Ok(())
     }
 }

@@ -46,7 +46,10 @@ pub fn fit_all(
     opts: FitOptions,
     datasets: &[Dataset],
 ) -> Vec<FitReport> {
-    let bar = if datasets.len() > 1 {
+    use std::io::IsTerminal;
+    // Only for a person watching: not when results are piped or redirected.
+    let watched = std::io::stderr().is_terminal() && std::io::stdout().is_terminal();
+    let bar = if datasets.len() > 1 && watched {
         ProgressBar::with_draw_target(Some(datasets.len() as u64), ProgressDrawTarget::stderr())
     } else {
         ProgressBar::hidden()

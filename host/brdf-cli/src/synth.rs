@@ -57,9 +57,12 @@ impl SynthCmd {
         if let Some(t) = theta_i.iter().find(|t| !(0.0..90.0).contains(*t)) {
             return Err(anyhow!("--theta-i: {t} is outside [0, 90)"));
         }
-        let steps_ok = self.step > 0.0 && self.step < 90.0 && self.phi_step > 0.0 && self.phi_step <= 180.0;
+        let steps_ok =
+            self.step >= 0.01 && self.step < 90.0 && self.phi_step >= 0.01 && self.phi_step <= 180.0;
         if !steps_ok {
-            return Err(anyhow!("--step must be in (0, 90) and --phi-step in (0, 180]"));
+            return Err(anyhow!(
+                "--step must be in [0.01, 90) and --phi-step in [0.01, 180] degrees"
+            ));
         }
         let invalid = |e| anyhow!("invalid parameters for model {}: {e}", self.model.name());
         let stdout = std::io::stdout();

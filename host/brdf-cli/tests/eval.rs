@@ -34,6 +34,10 @@ fn eval_ok(args: &[&str]) -> Vec<Vec<String>> {
 fn eval_err(args: &[&str]) -> String {
     let out = brdf(args);
     assert!(!out.status.success(), "expected failure for {args:?}");
+    assert!(
+        out.stdout.is_empty(),
+        "a failed run must not leave partial output"
+    );
     String::from_utf8(out.stderr).unwrap()
 }
 
@@ -198,4 +202,31 @@ fn bad_input_names_file_line_and_column() {
         "/nonexistent/angles.csv",
     ]);
     assert!(err.contains("/nonexistent/angles.csv"), "{err}");
+}
+
+#[test]
+fn ninety_degrees_is_the_horizon_in_both_precisions() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = write(&dir, "h.csv", "theta_i,theta_r,phi\n90,0,0\n0,90,0\n");
+    for (model, params) in [
+        ("minnaert", "rho0=0.5,k=0.5"),
+        ("five", "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676"),
+        ("lambert", "rho0=0.5"),
+    ] {
+        for precision in ["f64", "f32"] {
+            let rows = eval_ok(&[
+                "eval",
+                "--model",
+                model,
+                "--params",
+                params,
+                "--precision",
+                precision,
+                f.to_str().unwrap(),
+            ]);
+            for row in &rows[1..] {
+                assert_eq!(row[3].parse::<f64>().unwrap(), 0.0, "{model} {precision} {row:?}");
+            }
+        }
+    }
 }

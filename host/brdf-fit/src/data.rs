@@ -165,8 +165,8 @@ pub enum DataError {
         /// Accepted range.
         range: &'static str,
     },
-    /// The file has a header but no data rows (after skipping, if asked).
-    #[error("{file}: no data rows")]
+    /// The file is empty, or has a header but no data rows (after skipping, if asked).
+    #[error("{file}: empty file: no data rows")]
     Empty {
         /// File path.
         file: String,
@@ -255,7 +255,13 @@ fn find_columns(file: &str, headers: &csv::StringRecord) -> Result<Columns, Data
     };
     let view = match (get("theta_r"), get("theta_s")) {
         (Some(_), Some(_)) => return Err(conflict("theta_r", "theta_s")),
-        (None, Some(theta_s)) => View::InPlane { theta_s },
+        (None, Some(theta_s)) => {
+            // The sign of theta_s decides the side; a phi column would be silently ignored.
+            if get("phi").is_some() {
+                return Err(conflict("theta_s", "phi"));
+            }
+            View::InPlane { theta_s }
+        }
         _ => View::Full {
             theta_r: need("theta_r")?,
             phi: need("phi")?,
@@ -372,6 +378,9 @@ pub fn load_csv(path: &Path, opts: LoadOptions) -> Result<Loaded, DataError> {
         .from_path(path)
         .map_err(|e| csv_error(&file, e))?;
     let headers = reader.headers().map_err(|e| csv_error(&file, e))?.clone();
+    if headers.iter().all(|h| h.trim().is_empty()) {
+        return Err(DataError::Empty { file });
+    }
     let cols = find_columns(&file, &headers)?;
     let mut groups: Vec<(String, Vec<Point>)> = Vec::new();
     let mut group_index: HashMap<String, usize> = HashMap::new();
@@ -509,6 +518,8 @@ mod tests {
         sigma_and_weight: "theta_i,theta_r,phi,brdf,sigma,weight\n0,0,0,1,1,1\n" => "`sigma` and `weight`";
         short_row: "theta_i,theta_r,phi,brdf\n0,0,0\n" => "line 2: found 3 fields, expected 4";
         zero_sigma: "theta_i,theta_r,phi,brdf,sigma\n0,0,0,1,0\n" => "column sigma: 0 is outside > 0";
+        zero_bytes: "" => "empty file";
+        theta_s_and_phi: "theta_i,theta_s,phi,brdf\n10,20,77,0.1\n" => "`theta_s` and `phi` cannot be used together";
     }
 
     #[test]

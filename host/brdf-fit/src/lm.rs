@@ -192,7 +192,7 @@ pub fn minimise(
             lambda *= nu;
             nu *= 2.0;
             if lambda > 1e30 * max_diag.max(1.0) {
-                converged = true;
+                // No downhill step at any damping: stalled, not a passed convergence test.
                 break;
             }
         }

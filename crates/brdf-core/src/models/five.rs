@@ -6,7 +6,8 @@ use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;
 use crate::model::{
-    check_count, finite, non_negative, params_array, positive, Brdf, Model, ModelKind, MAX_PARAMS,
+    check_count, finite, kr_in_range, non_negative, params_array, positive, Brdf, Model, ModelKind,
+    MAX_PARAMS,
 };
 
 /// Parameters of the five-parameter model, named as in the paper.
@@ -14,7 +15,7 @@ use crate::model::{
 pub struct FiveParams<T> {
     /// Overall weight, `>= 0`.
     pub kb: T,
-    /// Facet shape parameter, `> 0`.
+    /// Facet shape parameter, in `[1e-6, 1e6]`.
     pub kr: T,
     /// Lobe steepness, used as `|b|` (negative in the papers), finite.
     pub b: T,
@@ -47,7 +48,7 @@ impl<T: Float> FiveParam<T> {
     /// Validates `params` and precomputes constants.
     pub fn new(params: FiveParams<T>) -> Result<Self, ParamError> {
         non_negative("kb", params.kb)?;
-        positive("kr", params.kr)?;
+        kr_in_range(params.kr)?;
         finite("b", params.b)?;
         positive("a", params.a)?;
         non_negative("kd", params.kd)?;

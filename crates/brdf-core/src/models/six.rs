@@ -5,7 +5,8 @@ use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;
 use crate::model::{
-    check_count, finite, non_negative, params_array, positive, Brdf, Model, ModelKind, MAX_PARAMS,
+    check_count, finite, kr_in_range, non_negative, params_array, positive, Brdf, Model, ModelKind,
+    MAX_PARAMS,
 };
 
 /// Parameters of the six-parameter model, named as in the paper.
@@ -13,7 +14,8 @@ use crate::model::{
 pub struct SixParams<T> {
     /// Specular (facet) weight, `>= 0`.
     pub kb: T,
-    /// Facet refractive-index-like shape parameter, `> 0`.
+    /// Facet shape parameter, in `[1e-6, 1e6]` (beyond, `kr^2` leaves f32's normal range and
+    /// the facet term is a delta or a constant to working precision).
     pub kr: T,
     /// Lobe steepness; used as `|b|` (the paper prints it negative), finite.
     pub b: T,
@@ -29,7 +31,7 @@ impl<T: Float> SixParams<T> {
     /// Checks every range listed on the fields.
     pub fn validate(&self) -> Result<(), ParamError> {
         non_negative("kb", self.kb)?;
-        positive("kr", self.kr)?;
+        kr_in_range(self.kr)?;
         finite("b", self.b)?;
         positive("a", self.a)?;
         non_negative("kd", self.kd)?;
