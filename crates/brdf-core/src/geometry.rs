@@ -290,6 +290,7 @@ pub const UNIT_NORM_TOLERANCE: f64 = 1e-4;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tolerance::F64_REFORMULATION_REL;
     use core::f64::consts::PI;
 
     fn vectors(ti: f64, tr: f64, phi: f64) -> ([f64; 3], [f64; 3]) {
@@ -314,10 +315,21 @@ mod tests {
             let (wi, wr) = vectors(ti, tr, phi);
             let v = Geometry::from_vectors(wi, wr);
             for g in [c, v] {
-                assert!(close(a.cos_gamma, g.cos_gamma, 1e-14), "{a:?} {g:?}");
-                assert!(close(a.one_minus_cos_gamma, g.one_minus_cos_gamma, 1e-13));
-                assert!(close(a.cos_alpha, g.cos_alpha, 1e-14));
-                assert!(close(a.one_minus_cos_alpha, g.one_minus_cos_alpha, 1e-13));
+                assert!(
+                    close(a.cos_gamma, g.cos_gamma, F64_REFORMULATION_REL),
+                    "{a:?} {g:?}"
+                );
+                assert!(close(
+                    a.one_minus_cos_gamma,
+                    g.one_minus_cos_gamma,
+                    F64_REFORMULATION_REL
+                ));
+                assert!(close(a.cos_alpha, g.cos_alpha, F64_REFORMULATION_REL));
+                assert!(close(
+                    a.one_minus_cos_alpha,
+                    g.one_minus_cos_alpha,
+                    F64_REFORMULATION_REL
+                ));
             }
         }
     }
@@ -339,11 +351,11 @@ mod tests {
     fn angle_identities_hold() {
         // gamma is half the angle between wi and wr; at the mirror, gamma = theta_i.
         let g = Geometry::from_angles(0.3_f64, 0.3, PI);
-        assert!(close(g.cos_gamma, libm::cos(0.3), 1e-15));
+        assert!(close(g.cos_gamma, libm::cos(0.3), F64_REFORMULATION_REL));
         // At the retro direction alpha = theta_i.
         let g = Geometry::from_angles(0.3_f64, 0.3, 0.0);
-        assert!(close(g.cos_alpha, libm::cos(0.3), 1e-15));
-        assert!(close(g.cos_gamma, 1.0, 1e-15));
+        assert!(close(g.cos_alpha, libm::cos(0.3), F64_REFORMULATION_REL));
+        assert!(close(g.cos_gamma, 1.0, F64_REFORMULATION_REL));
     }
 
     #[test]

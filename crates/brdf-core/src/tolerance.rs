@@ -41,3 +41,23 @@ pub const RECIPROCITY_ULPS: u64 = 4;
 /// 48-panel rule, for Table 1 materials at incidences 0–80 degrees and random valid
 /// six-parameter sets with `|b| <= 60` (test `albedo_default_rule_accuracy`).
 pub const ALBEDO_DEFAULT_REL: f64 = 1e-6;
+
+/// Two f64 computations of the same quantity by different cancellation-free formulations
+/// (other operation order, a few dozen roundings of 1.1e-16, libm calls within 1 ulp) agree
+/// to this, relative: geometry from angles, cosines and vectors; the fitting kernels against
+/// the core; cached against full annealing energies. A formula slip shows up at 1e-6 or worse.
+pub const F64_REFORMULATION_REL: f64 = 1e-12;
+
+/// Albedo of a Minnaert model by the default quadrature rule against its closed form
+/// `2 rho0 cos(ti)^(k-1) / (k + 1)`, for `k >= 0.5`: the integrand's `cos(theta_r)^k` has an
+/// unbounded derivative at the horizon, which the graded horizon panel resolves to a few
+/// 1e-6 (measured); 1e-5 leaves a factor of a few.
+pub const MINNAERT_QUADRATURE_REL: f64 = 1e-5;
+
+/// MODEL.md gives khaki's albedo at normal incidence as "about 0.247": three significant
+/// digits, so half a unit in the third digit.
+pub const MODEL_MD_ALBEDO_ABS: f64 = 5e-4;
+
+/// Angles written with 8 or 9 significant digits in test fixtures (e.g. 3.14159265 for pi)
+/// come back within this many degrees.
+pub const PRINTED_ANGLE_DEG: f64 = 1e-5;

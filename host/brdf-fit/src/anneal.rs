@@ -290,6 +290,7 @@ fn run<R: RngCore, L: Landscape>(
 mod tests {
     use super::*;
     use crate::{synth, Residual};
+    use brdf_core::tolerance::F64_REFORMULATION_REL;
 
     #[test]
     fn cached_moves_equal_full_projection() {
@@ -304,7 +305,10 @@ mod tests {
             let mut full = Full(&pr);
             let mut nl = [1.0, 20.0, 0.7, 1.1];
             let (a, b) = (cached.reset(&nl), full.reset(&nl));
-            assert!((a.1 - b.1).abs() <= 1e-12 * b.1, "{kind:?}: {a:?} vs {b:?}");
+            assert!(
+                (a.1 - b.1).abs() <= F64_REFORMULATION_REL * b.1,
+                "{kind:?}: {a:?} vs {b:?}"
+            );
             for (j, v) in [(0, 2.0), (1, 35.0), (2, 0.5), (3, 0.9)] {
                 if j >= crate::kernel::nonlinear_count(kind) {
                     continue;
@@ -314,7 +318,7 @@ mod tests {
                 nl[j] = v;
                 let b = full.reset(&nl);
                 assert!(
-                    (a.1 - b.1).abs() <= 1e-12 * b.1,
+                    (a.1 - b.1).abs() <= F64_REFORMULATION_REL * b.1,
                     "{kind:?} coordinate {j}: {a:?} vs {b:?}"
                 );
             }

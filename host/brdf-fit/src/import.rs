@@ -412,6 +412,7 @@ fn fmt_deg(rad: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use brdf_core::tolerance::PRINTED_ANGLE_DEG;
     use std::io::Write;
 
     fn tmp(text: &str) -> tempfile::NamedTempFile {
@@ -429,9 +430,12 @@ mod tests {
         assert_eq!(imp.rejects[0].line, 6);
         assert!(imp.rejects[0].reason.contains("not positive"));
         let p = imp.datasets[0].points[0];
-        assert!((p.phi.to_degrees() - 180.0).abs() < 1e-5);
+        assert!((p.phi.to_degrees() - 180.0).abs() < PRINTED_ANGLE_DEG);
         // phi_s = -1 rad wraps into [0, 360).
-        assert!((imp.datasets[0].points[1].phi.to_degrees() - (360.0 - 1f64.to_degrees())).abs() < 1e-9);
+        assert!(
+            (imp.datasets[0].points[1].phi.to_degrees() - (360.0 - 1f64.to_degrees())).abs()
+                < PRINTED_ANGLE_DEG
+        );
     }
 
     #[test]
@@ -458,7 +462,7 @@ mod tests {
         let d = &imp.datasets[0].points;
         assert!((d[0].phi.to_degrees() - 180.0).abs() < 1e-9);
         assert!(d[1].phi.to_degrees().abs() < 1e-9);
-        assert!((d[0].theta_i.to_degrees() - 30.0).abs() < 1e-12);
+        assert!((d[0].theta_i.to_degrees() - 30.0).abs() < PRINTED_ANGLE_DEG);
     }
 
     #[test]

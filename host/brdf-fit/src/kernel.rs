@@ -277,6 +277,7 @@ pub fn assemble(kind: ModelKind, nl: &[f64], lin: [f64; 2]) -> [f64; MAX_PARAMS]
 #[cfg(test)]
 mod tests {
     use super::*;
+    use brdf_core::tolerance::F64_REFORMULATION_REL;
     use brdf_core::{AnyModel, Brdf};
 
     fn params(kind: ModelKind) -> Vec<f64> {
@@ -297,7 +298,10 @@ mod tests {
             for &(ti, tr, phi) in &[(0.1, 0.2, 0.3), (0.5, 0.5, 0.0), (1.2, 0.4, 3.0), (0.0, 1.5, 1.0)] {
                 let want = core.eval_angles(ti, tr, phi);
                 let got = eval(kind, &q[..kind.param_count()], &Prepared::new(ti, tr, phi), None);
-                assert!(((got - want) / want).abs() < 1e-13, "{kind:?}: {got} vs {want}");
+                assert!(
+                    ((got - want) / want).abs() < F64_REFORMULATION_REL,
+                    "{kind:?}: {got} vs {want}"
+                );
             }
         }
     }
@@ -343,9 +347,10 @@ mod tests {
             let nb = bases(kind, &nl, &pt, &mut b);
             let f: f64 = (0..nb).map(|j| lin[j] * b[j]).sum();
             let want = eval(kind, &q[..kind.param_count()], &pt, None);
-            assert!((f - want).abs() < 1e-14 * want, "{kind:?}");
+            assert!((f - want).abs() < F64_REFORMULATION_REL * want, "{kind:?}");
             let back = assemble(kind, &nl, lin);
-            assert!((0..kind.param_count()).all(|j| (back[j] - q[j]).abs() < 1e-14 * (1.0 + q[j].abs())));
+            assert!((0..kind.param_count())
+                .all(|j| (back[j] - q[j]).abs() < F64_REFORMULATION_REL * (1.0 + q[j].abs())));
         }
     }
 }

@@ -209,6 +209,7 @@ pub fn minimise(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use brdf_core::tolerance::F64_REFORMULATION_REL;
 
     #[test]
     fn cholesky_solves_and_refuses_indefinite() {
@@ -221,8 +222,8 @@ mod tests {
         b[0] = 2.0;
         b[1] = 1.0;
         let x = cholesky_solve(&a, &b, 2).unwrap();
-        assert!((4.0 * x[0] + 2.0 * x[1] - 2.0).abs() < 1e-15);
-        assert!((2.0 * x[0] + 3.0 * x[1] - 1.0).abs() < 1e-15);
+        assert!((4.0 * x[0] + 2.0 * x[1] - 2.0).abs() < F64_REFORMULATION_REL);
+        assert!((2.0 * x[0] + 3.0 * x[1] - 1.0).abs() < F64_REFORMULATION_REL);
         a[1][1] = 1.0;
         assert!(cholesky_solve(&a, &b, 2).is_none());
     }
