@@ -93,7 +93,7 @@ fn f32_matches_f64_for_random_parameters_of_every_model() {
     let mut rng = SplitMix(0x5eed_b4df);
     for kind in ModelKind::ALL {
         let mut worst = 0.0_f64;
-        for _ in 0..12 {
+        for _ in 0..24 {
             let six = random_six(&mut rng);
             let params: Vec<f64> = match kind {
                 ModelKind::Six | ModelKind::SixCos2 => six.to_vec(),
