@@ -86,10 +86,16 @@ fn energy_khaki_and_yellow_conserve_white_violates() {
 
 #[test]
 fn albedo_default_rule_accuracy() {
-    let fine = AlbedoRule { panels: 48 };
+    let fine = AlbedoRule { panels: 40 };
     let mut sets: Vec<[f64; 6]> = TABLE1.iter().map(|t| t.1).collect();
     let mut rng = SplitMix(42);
     sets.extend((0..8).map(|_| random_six(&mut rng)));
+    // Narrow mirror peaks: the facet term's width is about kr radians.
+    sets.extend([
+        [0.5, 0.01, 0.0, 0.7, 0.3, 1.0],
+        [0.5, 0.03, -5.0, 0.7, 0.3, 1.0],
+        [2.0, 0.1, -60.0, 2.0, 0.0, 1.2],
+    ]);
     let mut worst = 0.0_f64;
     for p in &sets {
         let m = SixParam::<f64>::from_params(p).unwrap();
@@ -104,5 +110,5 @@ fn albedo_default_rule_accuracy() {
             );
         }
     }
-    println!("albedo, default 8-panel rule against 48 panels: max relative error {worst:.2e}");
+    println!("albedo, default 8-panel rule against 40 panels: max relative error {worst:.2e}");
 }

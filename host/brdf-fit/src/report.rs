@@ -300,7 +300,8 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
 pub struct IncidenceAlbedo {
     /// Incidence zenith, degrees.
     pub theta_i: f64,
-    /// Directional-hemispherical reflectance (8-panel rule, 1e-6 relative).
+    /// Directional-hemispherical reflectance (default rule, accurate to
+    /// `brdf_core::tolerance::ALBEDO_DEFAULT_REL`).
     pub albedo: f64,
 }
 
