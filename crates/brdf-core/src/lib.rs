@@ -30,6 +30,7 @@
 #![no_std]
 #![deny(missing_docs)]
 
+pub mod anneal;
 pub mod checks;
 mod error;
 mod float;

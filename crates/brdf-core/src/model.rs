@@ -57,6 +57,10 @@ pub trait Model<T: Float>: Brdf<T> + Sized {
     /// Which member of the family this is.
     const KIND: ModelKind;
 
+    /// Indices of parameters the model is linear in (a weight times a parameter-free
+    /// shape), e.g. `kb` and `kd` of the six-parameter model. Fitters solve these exactly.
+    const LINEAR: &'static [usize] = &[];
+
     /// Builds the model from `KIND.param_names().len()` values in that order, validating
     /// each (see each model's constructor for the ranges).
     fn from_params(values: &[T]) -> Result<Self, ParamError>;

@@ -86,6 +86,7 @@ impl<T: Float> Brdf<T> for FiveParam<T> {
 
 impl<T: Float> Model<T> for FiveParam<T> {
     const KIND: ModelKind = ModelKind::Five;
+    const LINEAR: &'static [usize] = &[0];
 
     fn from_params(values: &[T]) -> Result<Self, ParamError> {
         check_count(values.len(), 5)?;

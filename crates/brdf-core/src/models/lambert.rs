@@ -47,6 +47,7 @@ impl<T: Float> Brdf<T> for Lambert<T> {
 
 impl<T: Float> Model<T> for Lambert<T> {
     const KIND: ModelKind = ModelKind::Lambert;
+    const LINEAR: &'static [usize] = &[0];
 
     fn from_params(values: &[T]) -> Result<Self, ParamError> {
         check_count(values.len(), 1)?;

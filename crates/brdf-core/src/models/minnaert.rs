@@ -71,6 +71,7 @@ impl<T: Float> Brdf<T> for Minnaert<T> {
 
 impl<T: Float> Model<T> for Minnaert<T> {
     const KIND: ModelKind = ModelKind::Minnaert;
+    const LINEAR: &'static [usize] = &[0];
 
     fn from_params(values: &[T]) -> Result<Self, ParamError> {
         check_count(values.len(), 2)?;

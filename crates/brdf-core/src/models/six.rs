@@ -130,6 +130,7 @@ impl<T: Float> Brdf<T> for SixParam<T> {
 
 impl<T: Float> Model<T> for SixParam<T> {
     const KIND: ModelKind = ModelKind::Six;
+    const LINEAR: &'static [usize] = &[0, 4];
 
     fn from_params(values: &[T]) -> Result<Self, ParamError> {
         Self::new(SixParams::from_slice(values)?)

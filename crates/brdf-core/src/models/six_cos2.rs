@@ -63,6 +63,7 @@ impl<T: Float> Brdf<T> for SixParamCos2<T> {
 
 impl<T: Float> Model<T> for SixParamCos2<T> {
     const KIND: ModelKind = ModelKind::SixCos2;
+    const LINEAR: &'static [usize] = &[0, 4];
 
     fn from_params(values: &[T]) -> Result<Self, ParamError> {
         Self::new(SixParams::from_slice(values)?)
