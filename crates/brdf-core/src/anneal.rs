@@ -72,7 +72,9 @@ impl<T: Float, const N: usize> Default for Samples<T, N> {
 impl<T: Float, const N: usize> Samples<T, N> {
     /// An empty buffer.
     pub const fn new() -> Self {
-        Samples { v: heapless::Vec::new() }
+        Samples {
+            v: heapless::Vec::new(),
+        }
     }
 
     /// Adds a sample from angles (radians, canonical convention) and a BRDF value.
@@ -139,7 +141,10 @@ impl<T: Float> SearchBox<T> {
             log: [false; MAX_PARAMS],
         };
         let (lo, hi): (&[f64], &[f64]) = match kind {
-            ModelKind::Six | ModelKind::SixCos2 => (&[0.0, 0.01, -200.0, 0.05, 0.0, 0.0], &[1e4, 1e3, 0.0, 4.0, 10.0, 5.0]),
+            ModelKind::Six | ModelKind::SixCos2 => (
+                &[0.0, 0.01, -200.0, 0.05, 0.0, 0.0],
+                &[1e4, 1e3, 0.0, 4.0, 10.0, 5.0],
+            ),
             ModelKind::Five => (&[0.0, 0.01, -200.0, 0.05, 0.0], &[1e4, 1e3, 0.0, 4.0, 10.0]),
             ModelKind::Minnaert => (&[0.0, 0.01], &[100.0, 1.0]),
             ModelKind::Lambert => (&[0.0], &[100.0]),
@@ -251,12 +256,22 @@ pub fn relative_cost<T: Float, M: Brdf<T>>(model: &M, samples: &[Sample<T>]) -> 
 /// weights are >= 0) and each single-weight solution.
 fn nnls2<T: Float>(a00: T, a01: T, a11: T, b0: T, b1: T, nb: usize) -> [T; 2] {
     // 0.5 * cost up to a constant: 0.5 w^T A w - b^T w.
-    let q = |w0: T, w1: T| T::HALF * (w0 * w0 * a00 + T::TWO * w0 * w1 * a01 + w1 * w1 * a11) - (w0 * b0 + w1 * b1);
-    let s0 = if a00 > T::ZERO { (b0 / a00).max(T::ZERO) } else { T::ZERO };
+    let q = |w0: T, w1: T| {
+        T::HALF * (w0 * w0 * a00 + T::TWO * w0 * w1 * a01 + w1 * w1 * a11) - (w0 * b0 + w1 * b1)
+    };
+    let s0 = if a00 > T::ZERO {
+        (b0 / a00).max(T::ZERO)
+    } else {
+        T::ZERO
+    };
     if nb < 2 {
         return [s0, T::ZERO];
     }
-    let s1 = if a11 > T::ZERO { (b1 / a11).max(T::ZERO) } else { T::ZERO };
+    let s1 = if a11 > T::ZERO {
+        (b1 / a11).max(T::ZERO)
+    } else {
+        T::ZERO
+    };
     let mut best = ([s0, T::ZERO], q(s0, T::ZERO));
     let c1 = q(T::ZERO, s1);
     if c1 < best.1 {
@@ -448,22 +463,40 @@ mod tests {
         let mut rng = rand_pcg::Pcg32::seed_from_u64(1);
         let empty: Samples<f32, 4> = Samples::new();
         let cfg = AnnealConfig::default();
-        let r = anneal::<f32, Lambert<f32>, _, 4>(&empty, &SearchBox::for_kind(ModelKind::Lambert), &cfg, &mut rng);
+        let r = anneal::<f32, Lambert<f32>, _, 4>(
+            &empty,
+            &SearchBox::for_kind(ModelKind::Lambert),
+            &cfg,
+            &mut rng,
+        );
         assert_eq!(r.unwrap_err(), AnnealError::NoSamples);
         let mut s: Samples<f32, 2> = Samples::new();
-        assert_eq!(s.push_angles(f32::NAN, 0.1, 0.0, 1.0), Err(SampleError::NotFinite));
-        assert_eq!(s.push_angles(1.6, 0.1, 0.0, 1.0), Err(SampleError::ZenithOutOfRange));
-        assert_eq!(s.push_angles(0.1, 0.1, 0.0, 0.0), Err(SampleError::NonPositiveBrdf));
+        assert_eq!(
+            s.push_angles(f32::NAN, 0.1, 0.0, 1.0),
+            Err(SampleError::NotFinite)
+        );
+        assert_eq!(
+            s.push_angles(1.6, 0.1, 0.0, 1.0),
+            Err(SampleError::ZenithOutOfRange)
+        );
+        assert_eq!(
+            s.push_angles(0.1, 0.1, 0.0, 0.0),
+            Err(SampleError::NonPositiveBrdf)
+        );
         s.push_angles(0.1, 0.2, 0.0, 0.1).unwrap();
         s.push_angles(0.1, 0.3, 0.0, 0.1).unwrap();
-        assert!(matches!(s.push_angles(0.1, 0.4, 0.0, 0.1), Err(SampleError::Full(_))));
+        assert!(matches!(
+            s.push_angles(0.1, 0.4, 0.0, 0.1),
+            Err(SampleError::Full(_))
+        ));
         let mut bad = SearchBox::<f32>::for_kind(ModelKind::Lambert);
         bad.lo[0] = 2.0;
         bad.hi[0] = 1.0;
         let r = anneal::<f32, Lambert<f32>, _, 2>(&s, &bad, &cfg, &mut rng);
         assert_eq!(r.unwrap_err(), AnnealError::InvalidBounds { index: 0 });
         let tiny = AnnealConfig { budget: 10, ..cfg };
-        let r = anneal::<f32, Lambert<f32>, _, 2>(&s, &SearchBox::for_kind(ModelKind::Lambert), &tiny, &mut rng);
+        let r =
+            anneal::<f32, Lambert<f32>, _, 2>(&s, &SearchBox::for_kind(ModelKind::Lambert), &tiny, &mut rng);
         assert_eq!(r.unwrap_err(), AnnealError::BudgetTooSmall);
     }
 
@@ -475,15 +508,23 @@ mod tests {
         for ti in [0.0f32, 10.0, 30.0] {
             for k in 0..12 {
                 let ts = -80.0 + 160.0 * k as f32 / 11.0;
-                let (tr, phi) = if ts > 0.0 { (ts, core::f32::consts::PI) } else { (-ts, 0.0) };
+                let (tr, phi) = if ts > 0.0 {
+                    (ts, core::f32::consts::PI)
+                } else {
+                    (-ts, 0.0)
+                };
                 let (ti, tr) = (ti.to_radians(), tr.to_radians());
                 s.push_angles(ti, tr, phi, m.eval_angles(ti, tr, phi)).unwrap();
             }
         }
-        let cfg = AnnealConfig { budget: 4000, ..AnnealConfig::default() };
+        let cfg = AnnealConfig {
+            budget: 4000,
+            ..AnnealConfig::default()
+        };
         let run = || {
             let mut rng = rand_pcg::Pcg32::seed_from_u64(7);
-            anneal::<f32, SixParam<f32>, _, 64>(&s, &SearchBox::for_kind(ModelKind::Six), &cfg, &mut rng).unwrap()
+            anneal::<f32, SixParam<f32>, _, 64>(&s, &SearchBox::for_kind(ModelKind::Six), &cfg, &mut rng)
+                .unwrap()
         };
         let a = run();
         let b = run();
@@ -491,7 +532,10 @@ mod tests {
         assert_eq!(a.evals, 4000);
         // Pinned output of seed 7 (truth: 0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2; kr is
         // not determined by in-plane data).
-        assert_eq!(a.params, [0.25558797, 52.46363, -27.072037, 0.66586035, 0.36749667, 1.1998591]);
+        assert_eq!(
+            a.params,
+            [0.25558797, 52.46363, -27.072037, 0.66586035, 0.36749667, 1.1998591]
+        );
         assert_eq!(a.rms_rel, 0.00020561971);
     }
 }

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use brdf_core::ModelKind;
+use brdf_fit::embedded::fit_embedded;
 use brdf_fit::report::{report, FitReport};
 use brdf_fit::{fit, Dataset, FitOptions, Problem, Residual};
 use clap::Args;
@@ -31,12 +32,28 @@ pub struct FitCmd {
     /// Also write one row per dataset to this CSV file.
     #[arg(long, short = 'o')]
     output: Option<PathBuf>,
+    /// Engine: `full` (annealing + Levenberg-Marquardt in f64) or `embedded` (the on-sensor
+    /// f32 annealer of brdf-core, fixed memory and budget, run on the host).
+    #[arg(long = "engine", value_enum, default_value_t = EngineKind::Full)]
+    engine_kind: EngineKind,
+    /// Evaluation budget of the embedded engine.
+    #[arg(long, default_value_t = brdf_fit::embedded::DEFAULT_BUDGET)]
+    budget_evals: u32,
     /// Fit only datasets i with i % N == K (0-based K), for job arrays across machines.
     #[arg(long, value_parser = parse_shard)]
     shard: Option<(usize, usize)>,
     /// Data files.
     #[arg(required = true)]
     data: Vec<PathBuf>,
+}
+
+/// Which fitting engine.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum EngineKind {
+    /// Host engine: annealing chains polished by Levenberg-Marquardt, f64.
+    Full,
+    /// The on-sensor f32 annealer of brdf-core (relative residuals only).
+    Embedded,
 }
 
 /// Fits every dataset in parallel, in input order, with a progress bar on a terminal.
@@ -46,6 +63,17 @@ pub fn fit_all(
     opts: FitOptions,
     datasets: &[Dataset],
 ) -> Vec<FitReport> {
+    fit_all_with(kind, residual, opts, datasets, None).expect("the full engine does not fail")
+}
+
+/// [`fit_all`], with the embedded engine when `embedded_budget` is given.
+pub fn fit_all_with(
+    kind: ModelKind,
+    residual: Residual,
+    opts: FitOptions,
+    datasets: &[Dataset],
+    embedded_budget: Option<u32>,
+) -> Result<Vec<FitReport>> {
     use std::io::IsTerminal;
     // Only for a person watching: not when results are piped or redirected.
     let watched = std::io::stderr().is_terminal() && std::io::stdout().is_terminal();
@@ -58,14 +86,17 @@ pub fn fit_all(
         ProgressStyle::with_template("{bar:40} {pos}/{len} datasets, {elapsed} elapsed, eta {eta}")
             .expect("static template"),
     );
-    let out: Vec<FitReport> = datasets
+    let out: Result<Vec<FitReport>> = datasets
         .par_iter()
         .map(|d| {
             let problem = Problem::from_dataset(kind, residual, d);
-            let outcome = fit(&problem, &opts);
+            let outcome = match embedded_budget {
+                None => fit(&problem, &opts),
+                Some(budget) => fit_embedded(kind, d, &problem, budget, opts.seed)?,
+            };
             let r = report(d, &problem, &outcome, opts.seed);
             bar.inc(1);
-            r
+            Ok(r)
         })
         .collect();
     bar.finish_and_clear();
@@ -96,12 +127,22 @@ impl FitCmd {
                 );
             }
         }
-        let reports = fit_all(
+        let embedded = match self.engine_kind {
+            EngineKind::Full => None,
+            EngineKind::Embedded => {
+                if self.engine.residual != crate::common::ResidualArg::Relative {
+                    bail!("the embedded engine fits relative residuals only");
+                }
+                Some(self.budget_evals)
+            }
+        };
+        let reports = fit_all_with(
             self.model,
             self.engine.residual.into(),
             self.engine.fit_options(),
             &datasets,
-        );
+            embedded,
+        )?;
         if let Some(path) = &self.output {
             write_csv(path, &reports).with_context(|| format!("cannot write {}", path.display()))?;
         }

@@ -15,6 +15,7 @@
 
 pub mod anneal;
 pub mod data;
+pub mod embedded;
 pub mod fit;
 pub mod import;
 pub mod kernel;
