@@ -56,7 +56,7 @@ pub struct EngineArgs {
     #[arg(long, value_enum)]
     pub format: Option<FormatArg>,
     /// Colour channel for `--format cornell`.
-    #[arg(long, value_enum, default_value_t = ChannelArg::R)]
+    #[arg(long, value_enum, ignore_case = true, default_value_t = ChannelArg::R)]
     pub channel: ChannelArg,
 }
 

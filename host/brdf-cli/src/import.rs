@@ -62,7 +62,7 @@ pub struct ImportCmd {
     #[arg(short = 'o', long)]
     output: Option<PathBuf>,
     /// Colour channel (cornell only).
-    #[arg(long, value_enum, default_value_t = ChannelArg::R)]
+    #[arg(long, value_enum, ignore_case = true, default_value_t = ChannelArg::R)]
     channel: ChannelArg,
 }
 

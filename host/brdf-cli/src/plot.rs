@@ -42,6 +42,9 @@ pub struct PlotCmd {
     /// Title (default: the dataset name).
     #[arg(long)]
     title: Option<String>,
+    /// Which dataset of a file with `sample`/`wavelength` groups, e.g. `wavelength=0.532`.
+    #[arg(long)]
+    group: Option<String>,
     /// Output file, .svg or .png.
     #[arg(short = 'o', long)]
     output: PathBuf,
@@ -83,12 +86,21 @@ pub fn fit_models(
 
 impl PlotCmd {
     pub fn run(self) -> Result<()> {
-        let datasets = self.engine.load(std::slice::from_ref(&self.data))?;
+        let mut datasets = self.engine.load(std::slice::from_ref(&self.data))?;
+        if let Some(g) = &self.group {
+            let tag = format!("[{g}]");
+            datasets.retain(|d| d.name.ends_with(&tag));
+            if datasets.is_empty() {
+                bail!("{}: no dataset {tag}", self.data.display());
+            }
+        }
         if datasets.len() != 1 {
+            let names: Vec<&str> = datasets.iter().map(|d| d.name.as_str()).collect();
             bail!(
-                "{}: holds {} datasets; plot works on one",
+                "{}: holds {} datasets; choose one with --group (the part in brackets of {})",
                 self.data.display(),
-                datasets.len()
+                datasets.len(),
+                names.join(", ")
             );
         }
         let data = &datasets[0];

@@ -265,58 +265,59 @@ fn cornell_rows(file: &str, text: &str, channel: Channel) -> Result<Vec<Row>, Da
     Ok(rows)
 }
 
-/// Germer's NIST CSV: header `lambda,thetai,phi,thetar,phir,f_r11,...`.
+/// Germer's NIST CSV: header `lambda,thetai,phi,thetar,phir,f_r11,...`; plain numeric
+/// fields, read line by line so that every reported line number is the file's own.
 fn nist_rows(file: &str, text: &str) -> Result<Vec<Row>, DataError> {
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .comment(Some(b'#'))
-        .from_reader(text.as_bytes());
-    let headers = reader
-        .headers()
-        .map_err(|e| DataError::Csv {
-            file: file.to_owned(),
-            line: 1,
-            message: e.to_string(),
-        })?
-        .clone();
-    let idx = |name: &'static str| {
-        headers
-            .iter()
-            .position(|h| h.trim() == name)
-            .ok_or(DataError::MissingColumn {
-                file: file.to_owned(),
-                column: name,
-            })
-    };
-    let (lambda, thetai, phi, thetar, phir, f) = (
-        idx("lambda")?,
-        idx("thetai")?,
-        idx("phi")?,
-        idx("thetar")?,
-        idx("phir")?,
-        idx("f_r11")?,
-    );
+    let mut header: Option<Vec<String>> = None;
+    let mut cols = [0usize; 6];
     let mut rows = Vec::new();
-    for rec in reader.records() {
-        let rec = rec.map_err(|e| DataError::Csv {
-            file: file.to_owned(),
-            line: e.position().map_or(0, |p| p.line()),
-            message: e.to_string(),
-        })?;
-        let line = rec.position().map_or(0, |p| p.line());
-        let num = |i: usize, column: &'static str| -> Result<f64, DataError> {
-            let t = rec.get(i).unwrap_or("").trim();
-            t.parse::<f64>().map_err(|_| parse_error(file, line, column, t))
+    for (k, raw) in text.split('\n').enumerate() {
+        let line = k as u64 + 1;
+        let t = raw.trim_end_matches('\r').trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = t.split(',').map(str::trim).collect();
+        let Some(h) = &header else {
+            let h: Vec<String> = fields.iter().map(|f| (*f).to_owned()).collect();
+            for (slot, name) in cols
+                .iter_mut()
+                .zip(["lambda", "thetai", "phi", "thetar", "phir", "f_r11"])
+            {
+                *slot = h.iter().position(|c| c == name).ok_or(DataError::MissingColumn {
+                    file: file.to_owned(),
+                    column: name,
+                })?;
+            }
+            header = Some(h);
+            continue;
         };
-        let (theta_i, phi_i) = unsign(num(thetai, "thetai")?, num(phi, "phi")?);
-        let (theta_r, phi_r) = unsign(num(thetar, "thetar")?, num(phir, "phir")?);
+        if fields.len() != h.len() {
+            return Err(DataError::Csv {
+                file: file.to_owned(),
+                line,
+                message: format!("found {} fields, expected {}", fields.len(), h.len()),
+            });
+        }
+        let num = |i: usize, column: &'static str| -> Result<f64, DataError> {
+            fields[i]
+                .parse::<f64>()
+                .map_err(|_| parse_error(file, line, column, fields[i]))
+        };
+        let (theta_i, phi_i) = unsign(num(cols[1], "thetai")?, num(cols[2], "phi")?);
+        let (theta_r, phi_r) = unsign(num(cols[3], "thetar")?, num(cols[4], "phir")?);
         rows.push(Row {
             line,
             theta_i,
             theta_r,
             phi: phi_r - phi_i,
-            brdf: num(f, "f_r11")?,
-            group: Some(format!("wavelength={}", rec.get(lambda).unwrap_or("").trim())),
+            brdf: num(cols[5], "f_r11")?,
+            group: Some(format!("wavelength={}", fields[cols[0]])),
+        });
+    }
+    if header.is_none() {
+        return Err(DataError::Empty {
+            file: file.to_owned(),
         });
     }
     Ok(rows)
@@ -450,6 +451,15 @@ mod tests {
             "specular phir = 0 -> phi 180"
         );
         assert!(d[1].phi.to_degrees().abs() < 1e-9, "phir = 180 -> retro side");
+    }
+
+    #[test]
+    fn nist_reject_lines_are_the_files_own_after_comments_and_blanks() {
+        let f = tmp("lambda,thetai,phi,thetar,phir,f_r11\n# c\n0.532,-30,0,30,0,-0.5\n0.532,-30,0,30,0,-0.5\n\n\n0.532,-30,0,30,180,-0.3\n0.532,-30,0,30,180,0.3\n");
+        let imp = import(f.path(), Format::Nist, Channel::R).unwrap();
+        let lines: Vec<u64> = imp.rejects.iter().map(|r| r.line).collect();
+        assert_eq!(lines, [3, 4, 7]);
+        assert_eq!(imp.datasets[0].points[0].line, 8);
     }
 
     #[test]

@@ -76,6 +76,8 @@ fn cornell_garnet_red_every_row_accounted_for() {
     assert_eq!(imp.rows_in, 1439, "NUM_POINTS of the file");
     assert_eq!(imp.points() + imp.rejects.len(), imp.rows_in);
     assert!(imp.rejects.iter().all(|r| r.reason.contains("not positive")));
+    // The one R = 0 row of the file is line 1459 (22 header lines, 1439 rows).
+    assert_eq!(imp.rejects.iter().map(|r| r.line).collect::<Vec<_>>(), [1459]);
     println!("garnet R: {} points, {} rejects", imp.points(), imp.rejects.len());
     // Broad gloss lobe, off-specular towards grazing at large incidence.
     assert_eq!(peaks_forward(&imp, 0.0, 25.0), 8);

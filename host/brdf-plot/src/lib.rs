@@ -140,6 +140,41 @@ fn model_curve(model: &AnyModel<f64>, theta_i: f64) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// Degrees with up to two decimals, trailing zeros dropped (11.25, 30, 78.75).
+fn deg(rad: f64) -> String {
+    let s = format!("{:.2}", rad.to_degrees());
+    s.trim_end_matches('0').trim_end_matches('.').to_owned()
+}
+
+/// Splits a curve into runs of points inside `[lo, hi]`, so that a curve leaving the axis
+/// range is cut there instead of being joined across the gap.
+fn runs_in_range(c: &[(f64, f64)], lo: f64, hi: f64) -> Vec<Vec<(f64, f64)>> {
+    let mut out: Vec<Vec<(f64, f64)>> = Vec::new();
+    let mut cur = Vec::new();
+    for &(x, y) in c {
+        if y >= lo && y <= hi {
+            cur.push((x, y));
+        } else if !cur.is_empty() {
+            out.push(std::mem::take(&mut cur));
+        }
+    }
+    if !cur.is_empty() {
+        out.push(cur);
+    }
+    out
+}
+
+/// Log-axis range around the data spanning at least two decades, so that the axis always
+/// carries labelled ticks.
+fn log_range(lo: f64, hi: f64) -> (f64, f64) {
+    let (lo, hi) = (lo / 3.0, hi * 3.0);
+    if hi / lo >= 100.0 {
+        return (lo, hi);
+    }
+    let mid = (lo * hi).sqrt();
+    (mid / 10.0, mid * 10.0)
+}
+
 fn grid(n: usize) -> (usize, usize) {
     let cols = if n <= 3 {
         n.max(1)
@@ -167,12 +202,51 @@ pub fn in_plane(path: &Path, title: &str, data: &Dataset, fits: &[Fitted]) -> Re
     }
     let (rows, cols) = grid(incidences.len());
     let size = (460 * cols as u32, 120 + 340 * rows as u32);
+    // Per panel: measured points, axis range, and the model curves.
+    let panels: Vec<Panel> = incidences
+        .iter()
+        .map(|&ti| {
+            let pts = in_plane_points(data, ti);
+            let lo = pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+            let hi = pts.iter().map(|p| p.1).fold(0.0, f64::max);
+            let (lo, hi) = log_range(lo, hi);
+            let curves = fits
+                .iter()
+                .map(|f| runs_in_range(&model_curve(&f.model, ti), lo, hi))
+                .collect();
+            Panel {
+                ti,
+                pts,
+                lo,
+                hi,
+                curves,
+            }
+        })
+        .collect();
+    // A model that never enters any panel's range says so in the legend.
+    let labels: Vec<String> = fits
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            if panels.iter().all(|p| p.curves[k].is_empty()) {
+                format!("{} (off scale)", f.label)
+            } else {
+                f.label.clone()
+            }
+        })
+        .collect();
+    struct Panel {
+        ti: f64,
+        pts: Vec<(f64, f64)>,
+        lo: f64,
+        hi: f64,
+        curves: Vec<Vec<Vec<(f64, f64)>>>,
+    }
     fn draw<DB: DrawingBackend>(
         root: &DrawingArea<DB, Shift>,
         title: &str,
-        data: &Dataset,
-        fits: &[Fitted],
-        incidences: &[f64],
+        labels: &[String],
+        panels: &[Panel],
         (rows, cols): (usize, usize),
     ) -> Res {
         let (head, body) = root.split_vertically(110);
@@ -185,29 +259,22 @@ pub fn in_plane(path: &Path, title: &str, data: &Dataset, fits: &[Fitted]) -> Re
         head.draw(&Text::new("measured", (x + 18, 60), (FONT, 18).into_font()))
             .map_err(err)?;
         x += 140;
-        for (k, f) in fits.iter().enumerate() {
+        for (k, label) in labels.iter().enumerate() {
             let c = PALETTE[k % PALETTE.len()];
             head.draw(&PathElement::new(vec![(x, 70), (x + 28, 70)], c.stroke_width(3)))
                 .map_err(err)?;
-            head.draw(&Text::new(f.label.as_str(), (x + 36, 60), (FONT, 18).into_font()))
+            head.draw(&Text::new(label.as_str(), (x + 36, 60), (FONT, 18).into_font()))
                 .map_err(err)?;
-            x += 46 + 10 * f.label.len() as i32;
+            x += 46 + 10 * label.len() as i32;
         }
-        let panels = body.split_evenly((rows, cols));
-        for (panel, &ti) in panels.iter().zip(incidences) {
-            let pts = in_plane_points(data, ti);
-            let curves: Vec<Vec<(f64, f64)>> = fits.iter().map(|f| model_curve(&f.model, ti)).collect();
-            let ys = pts.iter().map(|p| p.1);
-            let lo = ys.clone().fold(f64::INFINITY, f64::min);
-            let hi = ys.fold(0.0, f64::max);
-            // Curves may dive towards zero at grazing: keep the axis near the data.
-            let (lo, hi) = (lo / 3.0, hi * 3.0);
-            let mut chart = ChartBuilder::on(panel)
-                .caption(format!("theta_i = {:.1} deg", ti.to_degrees()), (FONT, 18))
+        let areas = body.split_evenly((rows, cols));
+        for (area, p) in areas.iter().zip(panels) {
+            let mut chart = ChartBuilder::on(area)
+                .caption(format!("theta_i = {} deg", deg(p.ti)), (FONT, 18))
                 .margin(8)
                 .x_label_area_size(42)
                 .y_label_area_size(64)
-                .build_cartesian_2d(-90f64..90f64, (lo..hi).log_scale())
+                .build_cartesian_2d(-90f64..90f64, (p.lo..p.hi).log_scale())
                 .map_err(err)?;
             chart
                 .configure_mesh()
@@ -220,15 +287,16 @@ pub fn in_plane(path: &Path, title: &str, data: &Dataset, fits: &[Fitted]) -> Re
                 .light_line_style(WHITE)
                 .draw()
                 .map_err(err)?;
-            for (k, c) in curves.iter().enumerate() {
+            for (k, runs) in p.curves.iter().enumerate() {
                 let color = PALETTE[k % PALETTE.len()];
-                let visible = c.iter().copied().filter(|&(_, y)| y >= lo && y <= hi);
-                chart
-                    .draw_series(LineSeries::new(visible, color.stroke_width(2)))
-                    .map_err(err)?;
+                for run in runs {
+                    chart
+                        .draw_series(LineSeries::new(run.iter().copied(), color.stroke_width(2)))
+                        .map_err(err)?;
+                }
             }
             chart
-                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, BLACK.filled())))
+                .draw_series(p.pts.iter().map(|&q| Circle::new(q, 3, BLACK.filled())))
                 .map_err(err)?;
         }
         Ok(())
@@ -237,8 +305,8 @@ pub fn in_plane(path: &Path, title: &str, data: &Dataset, fits: &[Fitted]) -> Re
     render(
         path,
         size,
-        |r| draw(r, title, data, fits, &incidences, g),
-        |r| draw(r, title, data, fits, &incidences, g),
+        |r| draw(r, title, &labels, &panels, g),
+        |r| draw(r, title, &labels, &panels, g),
     )
 }
 
@@ -302,12 +370,17 @@ pub fn hemisphere_map(
         cells: &[(f64, f64, f64)],
         (lo, span): (f64, f64),
     ) -> Res {
-        let (map_area, bar_area) = root.split_horizontally(640);
+        let (head, body) = root.split_vertically(70);
+        head.draw(&Text::new(title, (16, 8), (FONT, 18).into_font()))
+            .map_err(err)?;
+        head.draw(&Text::new(
+            format!("theta_i = {} deg; colour: log10 BRDF (1/sr)", deg(theta_i)),
+            (16, 38),
+            (FONT, 16).into_font(),
+        ))
+        .map_err(err)?;
+        let (map_area, bar_area) = body.split_horizontally(640);
         let mut chart = ChartBuilder::on(&map_area)
-            .caption(
-                format!("{title}, theta_i = {:.1} deg", theta_i.to_degrees()),
-                (FONT, 20),
-            )
             .margin(12)
             .x_label_area_size(44)
             .y_label_area_size(56)
@@ -369,7 +442,7 @@ pub fn hemisphere_map(
     }
     render(
         path,
-        (820, 700),
+        (820, 770),
         |r| draw(r, title, theta_i, &cells, (lo, span)),
         |r| draw(r, title, theta_i, &cells, (lo, span)),
     )
@@ -404,8 +477,30 @@ pub fn residuals(path: &Path, title: &str, data: &Dataset, fit: &Fitted) -> Resu
         series: &[(f64, Vec<(f64, f64)>)],
         bound: f64,
     ) -> Res {
-        let mut chart = ChartBuilder::on(root)
-            .caption(format!("{title}: residuals of {label}"), (FONT, 20))
+        // Title and legend above the chart, so that no data point hides behind them.
+        let (head, body) = root.split_vertically(100);
+        head.draw(&Text::new(
+            format!("{title}: residuals of {label}"),
+            (16, 8),
+            (FONT, 20).into_font(),
+        ))
+        .map_err(err)?;
+        // Legend entries in rows that wrap before the right edge.
+        let (mut x, mut y) = (16, 48);
+        for (k, (ti, _)) in series.iter().enumerate() {
+            let c = Palette99::pick(k).to_rgba();
+            let text = format!("theta_i {} deg", deg(*ti));
+            let width = 30 + 8 * text.len() as i32;
+            if x + width > 990 {
+                x = 16;
+                y += 26;
+            }
+            head.draw(&Circle::new((x + 6, y), 5, c.filled())).map_err(err)?;
+            head.draw(&Text::new(text, (x + 16, y - 9), (FONT, 15).into_font()))
+                .map_err(err)?;
+            x += width;
+        }
+        let mut chart = ChartBuilder::on(&body)
             .margin(12)
             .x_label_area_size(46)
             .y_label_area_size(70)
@@ -426,28 +521,18 @@ pub fn residuals(path: &Path, title: &str, data: &Dataset, fit: &Fitted) -> Resu
                 BLACK.stroke_width(1),
             ))
             .map_err(err)?;
-        for (k, (ti, pts)) in series.iter().enumerate() {
+        for (k, (_, pts)) in series.iter().enumerate() {
             let c = Palette99::pick(k).to_rgba();
             let clipped = pts.iter().map(|&(x, y)| (x, y.clamp(-bound, bound)));
             chart
                 .draw_series(clipped.map(|p| Circle::new(p, 3, c.filled())))
-                .map_err(err)?
-                .label(format!("theta_i {:.1} deg", ti.to_degrees()))
-                .legend(move |(x, y)| Circle::new((x + 8, y), 4, c.filled()));
+                .map_err(err)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font((FONT, 14))
-            .draw()
-            .map_err(err)?;
         Ok(())
     }
     render(
         path,
-        (1000, 620),
+        (1000, 700),
         |r| draw(r, title, &fit.label, &series, bound),
         |r| draw(r, title, &fit.label, &series, bound),
     )
@@ -481,7 +566,7 @@ mod tests {
             }
         }
         let svg = std::fs::read_to_string(dir.path().join("a.svg")).unwrap();
-        assert!(svg.contains("theta_i = 30.0 deg") && svg.contains("BRDF (1/sr)"));
+        assert!(svg.contains("theta_i = 30 deg") && svg.contains("BRDF (1/sr)"));
         assert!(matches!(
             in_plane(&dir.path().join("x.gif"), "t", &data, &[fit]),
             Err(PlotError::Format(_))
