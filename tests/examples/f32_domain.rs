@@ -2,54 +2,15 @@
 //! ranges the accuracy claim covers and for the fitter's whole search box.
 //!
 //!     cargo run --release -p brdf-tests --example f32_domain [-- SETS]
-use brdf_core::tolerance::F32_FLOOR_OF_MAX;
-use brdf_core::{AnyModel, Brdf, ModelKind};
+use brdf_core::ModelKind;
+use brdf_tests::f32_paths::{worst_error, PATHS};
 use brdf_tests::{dense_grid_f32, SplitMix};
 
 fn worst(p: &[f64; 6], grid: &[[f32; 3]]) -> f64 {
-    let p32: Vec<f32> = p.iter().map(|&v| v as f32).collect();
-    let p64: Vec<f64> = p32.iter().map(|&v| f64::from(v)).collect();
-    let m32 = AnyModel::<f32>::new(ModelKind::Six, &p32).unwrap();
-    let m64 = AnyModel::<f64>::new(ModelKind::Six, &p64).unwrap();
-    let mut out = 0.0_f64;
-    for path in 0..3 {
-        let vals: Vec<(f32, f64)> = grid
-            .iter()
-            .map(|&[ti, tr, phi]| match path {
-                0 => (
-                    m32.eval_angles(ti, tr, phi),
-                    m64.eval_angles(ti.into(), tr.into(), phi.into()),
-                ),
-                1 => {
-                    let c = [ti, tr, phi].map(|a| f64::from(a).cos() as f32);
-                    (
-                        m32.eval_cosines(c[0], c[1], c[2]),
-                        m64.eval_cosines(c[0].into(), c[1].into(), c[2].into()),
-                    )
-                }
-                _ => {
-                    let (ti, tr, phi) = (f64::from(ti), f64::from(tr), f64::from(phi));
-                    let wi = [ti.sin() as f32, 0.0, ti.cos() as f32];
-                    let wr = [
-                        (tr.sin() * phi.cos()) as f32,
-                        (tr.sin() * phi.sin()) as f32,
-                        tr.cos() as f32,
-                    ];
-                    (
-                        m32.eval_vectors(wi, wr),
-                        m64.eval_vectors(wi.map(f64::from), wr.map(f64::from)),
-                    )
-                }
-            })
-            .collect();
-        let max = vals.iter().map(|v| v.1).fold(0.0, f64::max);
-        for &(a, b) in &vals {
-            if b >= F32_FLOOR_OF_MAX * max && b > 0.0 {
-                out = out.max(((f64::from(a) - b) / b).abs());
-            }
-        }
-    }
-    out
+    PATHS
+        .iter()
+        .map(|(_, path)| worst_error(ModelKind::Six, p, grid, *path).0)
+        .fold(0.0, f64::max)
 }
 
 fn main() {

@@ -1,71 +1,9 @@
 //! The f32 paths (the firmware's arithmetic) against f64 at exactly the same f32 inputs.
 
-use brdf_core::tolerance::{F32_FLOOR_OF_MAX, F32_MAX_REL};
-use brdf_core::{AnyModel, Brdf, ModelKind};
+use brdf_core::tolerance::F32_MAX_REL;
+use brdf_core::ModelKind;
+use brdf_tests::f32_paths::{worst_error, PATHS};
 use brdf_tests::{dense_grid_f32, random_six, SplitMix, TABLE1};
-
-/// One evaluation path: the f32 and the f64 value at one direction.
-type Path = fn(&AnyModel<f32>, &AnyModel<f64>, [f32; 3]) -> (f32, f64);
-
-/// Worst relative error of `path` over `grid` where the f64 value is above the floor.
-/// Returns (worst relative error, where, number of points compared).
-fn worst_error(kind: ModelKind, params: &[f64], grid: &[[f32; 3]], path: Path) -> (f64, [f32; 3], usize) {
-    let p32: Vec<f32> = params.iter().map(|&v| v as f32).collect();
-    let p64: Vec<f64> = p32.iter().map(|&v| f64::from(v)).collect();
-    let m32 = AnyModel::<f32>::new(kind, &p32).unwrap();
-    let m64 = AnyModel::<f64>::new(kind, &p64).unwrap();
-    let values: Vec<(f32, f64)> = grid.iter().map(|&x| path(&m32, &m64, x)).collect();
-    let max = values.iter().map(|v| v.1).fold(0.0, f64::max);
-    let floor = F32_FLOOR_OF_MAX * max;
-    let mut worst = (0.0, [0.0; 3], 0);
-    for (x, &(a, b)) in grid.iter().zip(&values) {
-        assert!(
-            a.is_finite() && b.is_finite(),
-            "{kind:?} {params:?} at {x:?}: {a} {b}"
-        );
-        if b >= floor && b > 0.0 {
-            worst.2 += 1;
-            let e = ((f64::from(a) - b) / b).abs();
-            if e > worst.0 {
-                worst = (e, *x, worst.2);
-            }
-        }
-    }
-    worst
-}
-
-fn angles(m32: &AnyModel<f32>, m64: &AnyModel<f64>, x: [f32; 3]) -> (f32, f64) {
-    let [ti, tr, phi] = x;
-    (
-        m32.eval_angles(ti, tr, phi),
-        m64.eval_angles(ti.into(), tr.into(), phi.into()),
-    )
-}
-
-fn cosines(m32: &AnyModel<f32>, m64: &AnyModel<f64>, x: [f32; 3]) -> (f32, f64) {
-    // The device receives f32 cosines; the f64 reference evaluates at the same cosines.
-    let c = x.map(|a| f64::from(a).cos() as f32);
-    (
-        m32.eval_cosines(c[0], c[1], c[2]),
-        m64.eval_cosines(c[0].into(), c[1].into(), c[2].into()),
-    )
-}
-
-fn vectors(m32: &AnyModel<f32>, m64: &AnyModel<f64>, x: [f32; 3]) -> (f32, f64) {
-    let [ti, tr, phi] = x.map(f64::from);
-    let wi = [ti.sin() as f32, 0.0, ti.cos() as f32];
-    let wr = [
-        (tr.sin() * phi.cos()) as f32,
-        (tr.sin() * phi.sin()) as f32,
-        tr.cos() as f32,
-    ];
-    (
-        m32.eval_vectors(wi, wr),
-        m64.eval_vectors(wi.map(f64::from), wr.map(f64::from)),
-    )
-}
-
-const PATHS: [(&str, Path); 3] = [("angles", angles), ("cosines", cosines), ("vectors", vectors)];
 
 #[test]
 fn f32_matches_f64_for_table1_materials() {

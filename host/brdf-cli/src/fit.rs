@@ -204,14 +204,7 @@ fn write_csv(path: &PathBuf, reports: &[FitReport]) -> Result<()> {
         ] {
             row.push(format!("{v:.10e}"));
         }
-        let undetermined: Vec<&str> = r
-            .uncertainty
-            .params
-            .0
-            .iter()
-            .filter(|(_, u)| !u.determined)
-            .map(|(n, _)| n.as_str())
-            .collect();
+        let undetermined = r.undetermined();
         row.push(undetermined.join(" "));
         w.write_record(&row)?;
     }

@@ -196,14 +196,7 @@ impl ReportCmd {
             )?;
             writeln!(md, "|---|---|---|---|---|---|---|---|---|")?;
             for r in &fits {
-                let und: Vec<&str> = r
-                    .uncertainty
-                    .params
-                    .0
-                    .iter()
-                    .filter(|(_, u)| !u.determined)
-                    .map(|(n, _)| n.as_str())
-                    .collect();
+                let und = r.undetermined();
                 writeln!(
                     md,
                     "| {} | {} | {} | {} | {:.4e} | {:.4} | {:.1} | {:.1} | {} |",

@@ -119,14 +119,7 @@ impl SelectCmd {
             "model", "k", "rms rel %", "max rel %", "rmse 1/sr", "log rmse", "AIC", "BIC"
         )?;
         for r in &reports {
-            let und: Vec<&str> = r
-                .uncertainty
-                .params
-                .0
-                .iter()
-                .filter(|(_, u)| !u.determined)
-                .map(|(n, _)| n.as_str())
-                .collect();
+            let und = r.undetermined();
             writeln!(
                 out,
                 "{:<9} {:>2} {:>10.3} {:>10.3} {:>11.4e} {:>9.4} {:>11.2} {:>11.2}  {}",

@@ -375,6 +375,19 @@ pub struct FitReport {
     pub energy: Energy,
 }
 
+impl FitReport {
+    /// Names of the parameters flagged as not determined by the data, in paper order.
+    pub fn undetermined(&self) -> Vec<&str> {
+        self.uncertainty
+            .params
+            .0
+            .iter()
+            .filter(|(_, u)| !u.determined)
+            .map(|(n, _)| n.as_str())
+            .collect()
+    }
+}
+
 /// Builds the report of a finished fit.
 pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, seed: u64) -> FitReport {
     let kind: ModelKind = outcome.kind;

@@ -18,12 +18,29 @@ pub fn theta_s_grid(step: f64) -> Vec<f64> {
     (-n..=n).map(|k| k as f64 * step).collect()
 }
 
-fn noisy(model: &AnyModel<f64>, ti: f64, tr: f64, phi: f64, noise: f64, rng: &mut Pcg64Mcg) -> f64 {
-    let f = model.eval_angles(ti.to_radians(), tr.to_radians(), phi.to_radians());
-    if noise > 0.0 {
+/// The point at (degrees) `ti`, `tr`, `phi` with the model value times the noise factor.
+fn noisy_point(
+    model: &AnyModel<f64>,
+    (ti, tr, phi): (f64, f64, f64),
+    noise: f64,
+    rng: &mut Pcg64Mcg,
+    line: u64,
+) -> Point {
+    let (ti, tr, phi) = (ti.to_radians(), tr.to_radians(), phi.to_radians());
+    let f = model.eval_angles(ti, tr, phi);
+    let brdf = if noise > 0.0 {
         f * (noise * normal(rng)).exp()
     } else {
         f
+    };
+    Point {
+        theta_i: ti,
+        theta_r: tr,
+        phi,
+        brdf,
+        sigma: None,
+        weight: None,
+        line,
     }
 }
 
@@ -43,16 +60,8 @@ pub fn in_plane(
     for &ti in theta_i {
         for ts in theta_s_grid(step) {
             let (tr, phi) = if ts > 0.0 { (ts, 180.0) } else { (-ts, 0.0) };
-            let y = noisy(&model, ti, tr, phi, noise, &mut rng);
-            points.push(Point {
-                theta_i: ti.to_radians(),
-                theta_r: tr.to_radians(),
-                phi: phi.to_radians(),
-                brdf: y,
-                sigma: None,
-                weight: None,
-                line: points.len() as u64 + 2,
-            });
+            let line = points.len() as u64 + 2;
+            points.push(noisy_point(&model, (ti, tr, phi), noise, &mut rng, line));
         }
     }
     Ok(Dataset {
@@ -85,16 +94,8 @@ pub fn hemisphere(
             }
             for p in 0..=n_p {
                 let phi = p as f64 * phi_step;
-                let y = noisy(&model, ti, tr, phi, noise, &mut rng);
-                points.push(Point {
-                    theta_i: ti.to_radians(),
-                    theta_r: tr.to_radians(),
-                    phi: phi.to_radians(),
-                    brdf: y,
-                    sigma: None,
-                    weight: None,
-                    line: points.len() as u64 + 2,
-                });
+                let line = points.len() as u64 + 2;
+                points.push(noisy_point(&model, (ti, tr, phi), noise, &mut rng, line));
             }
         }
     }
