@@ -8,13 +8,14 @@
 //! let req = Request::Eval { material: 0, input: Input::Cosines, x: [1.0, 1.0, 1.0] };
 //! let n = encode_request(&req, 7, &mut wire).unwrap();
 //! let mut reader: FrameReader<256> = FrameReader::new();
-//! let mut got = None;
+//! let mut frames = 0;
 //! for &b in &wire[..n] {
 //!     if let Some(Ok(())) = reader.push(b) {
-//!         got = Some(parse_request(reader.payload()).unwrap().1);
+//!         assert_eq!(parse_request(reader.payload()).unwrap(), (7, req));
+//!         frames += 1;
 //!     }
 //! }
-//! assert_eq!(got, Some(req));
+//! assert_eq!(frames, 1);
 //! ```
 #![no_std]
 #![deny(missing_docs)]
