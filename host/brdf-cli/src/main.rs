@@ -4,6 +4,7 @@ mod common;
 mod eval;
 mod fit;
 mod import;
+mod pack;
 mod params;
 mod plot;
 mod report;
@@ -28,6 +29,8 @@ enum Command {
     Import(import::ImportCmd),
     /// Fit a model to measured data (one or many datasets).
     Fit(fit::FitCmd),
+    /// Build a parameter blob for the firmware from fit results.
+    Pack(pack::PackCmd),
     /// Fit models to a dataset and plot them (in-plane curves, hemisphere map, residuals).
     Plot(plot::PlotCmd),
     /// Regenerate the model-comparison report over the shared measured datasets.
@@ -44,6 +47,7 @@ fn main() -> std::process::ExitCode {
         Command::Eval(cmd) => cmd.run(),
         Command::Fit(cmd) => cmd.run(),
         Command::Import(cmd) => cmd.run(),
+        Command::Pack(cmd) => cmd.run(),
         Command::Plot(cmd) => cmd.run(),
         Command::Report(cmd) => cmd.run(),
         Command::Select(cmd) => cmd.run(),

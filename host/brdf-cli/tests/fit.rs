@@ -232,3 +232,46 @@ fn select_picks_the_simplest_model_within_budget() {
         "{table}"
     );
 }
+
+#[test]
+fn pack_builds_a_blob_the_firmware_format_reads_and_refuses_bad_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let six = ok(&["fit", &repo("data/khaki-synthetic-inplane.csv"), "--json"]);
+    let lam = ok(&[
+        "fit",
+        &repo("data/khaki-synthetic-inplane.csv"),
+        "--model",
+        "lambert",
+        "--json",
+    ]);
+    let (a, b) = (dir.path().join("six.json"), dir.path().join("lambert.json"));
+    std::fs::write(&a, &six).unwrap();
+    std::fs::write(&b, &lam).unwrap();
+    let out = dir.path().join("p.bin");
+    ok(&[
+        "pack",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--sequence",
+        "9",
+    ]);
+    let blob = brdf_wire::blob::Blob::decode(&std::fs::read(&out).unwrap()).unwrap();
+    assert_eq!(blob.sequence, 9);
+    assert_eq!(blob.materials.len(), 2);
+    let v: serde_json::Value = serde_json::from_str(&six).unwrap();
+    assert_eq!(blob.materials[0].kind, brdf_core::ModelKind::Six);
+    assert_eq!(
+        blob.materials[0].params[0],
+        v["params"]["kb"].as_f64().unwrap() as f32
+    );
+    assert_eq!(blob.materials[1].kind, brdf_core::ModelKind::Lambert);
+    // Invalid parameters are refused, naming the file.
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, six.replacen("\"kb\": ", "\"kb\": -", 1)).unwrap();
+    let r = brdf(&["pack", bad.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert!(!r.status.success());
+    let msg = String::from_utf8_lossy(&r.stderr);
+    assert!(msg.contains("bad.json") && msg.contains("kb"), "{msg}");
+}
