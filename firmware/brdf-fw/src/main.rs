@@ -1,0 +1,223 @@
+//! BRDF query firmware: serves the frames of `brdf-wire` on a UART.
+//!
+//! Boots with the built-in default materials (the paper's Table 1: khaki, yellow, white),
+//! then answers INFO, EVAL, EVAL_BATCH, LOAD (a blob into RAM) and FIT (the on-sensor
+//! annealer); every bad frame gets an ERROR reply and reading resumes at the next frame.
+//! COMMIT (flash slots) is not implemented yet and is answered with `UnknownKind`.
+//! Nothing on the query path panics; a panic would end a QEMU run with exit code 1.
+#![no_std]
+#![no_main]
+
+mod uart;
+
+use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox};
+use brdf_core::{
+    AnyModel, Brdf, FiveParam, Geometry, Lambert, Minnaert, Model, ModelKind, SixParam, SixParamCos2,
+};
+use brdf_wire::blob::{Blob, Material, BLOB_VERSION, MAX_BLOB_LEN};
+use brdf_wire::frame::{
+    encode_response, parse_request, samples, ErrorCode, FrameReader, Input, Request, Response, MAX_BATCH,
+    MAX_FIT_SAMPLES, MAX_FRAME,
+};
+use cortex_m_rt::entry;
+use rand_core::SeedableRng;
+
+use crate::uart::Uart;
+
+/// Build id reported by INFO.
+const BUILD_ID: u32 = 0x0001_0000;
+
+/// The paper's Table 1 (khaki, yellow, white), the materials before any LOAD.
+fn default_blob() -> Blob {
+    const TABLE1: [[f32; 6]; 3] = [
+        [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2],
+        [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420],
+        [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415],
+    ];
+    let mut materials = heapless::Vec::new();
+    for p in TABLE1 {
+        // Capacity 8 > 3.
+        let _ = materials.push(Material {
+            kind: ModelKind::Six,
+            params: p,
+        });
+    }
+    Blob {
+        sequence: 0,
+        materials,
+    }
+}
+
+/// The active materials, their models and the CRC of their blob.
+struct Active {
+    blob: Blob,
+    models: heapless::Vec<AnyModel<f32>, 8>,
+    crc: u32,
+}
+
+impl Active {
+    fn new(blob: Blob) -> Option<Active> {
+        let mut models = heapless::Vec::new();
+        for m in &blob.materials {
+            models.push(m.model().ok()?).ok()?;
+        }
+        let mut buf = [0u8; MAX_BLOB_LEN];
+        let n = blob.encode(&mut buf).ok()?;
+        let crc = brdf_wire::crc32(&buf[..n - 4]);
+        Some(Active { blob, models, crc })
+    }
+}
+
+/// Evaluates one input; out-of-domain inputs are refused, never clamped.
+fn eval(model: &AnyModel<f32>, input: Input, x: [f32; 3]) -> Result<f32, ErrorCode> {
+    let g = match input {
+        Input::Angles => Geometry::try_from_angles(x[0], x[1], x[2]),
+        Input::Cosines => Geometry::try_from_cosines(x[0], x[1], x[2]),
+    }
+    .map_err(|_| ErrorCode::OutOfDomain)?;
+    let f = model.eval(&g);
+    if f.is_finite() {
+        Ok(f)
+    } else {
+        Err(ErrorCode::OutOfDomain)
+    }
+}
+
+fn fit<M: Model<f32>>(
+    s: &Samples<f32, MAX_FIT_SAMPLES>,
+    budget: u32,
+) -> Result<([f32; 6], f32, u32), ErrorCode> {
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(1);
+    let cfg = AnnealConfig {
+        budget,
+        ..AnnealConfig::default()
+    };
+    anneal::<f32, M, _, MAX_FIT_SAMPLES>(s, &SearchBox::for_kind(M::KIND), &cfg, &mut rng)
+        .map(|o| (o.params, o.rms_rel, o.evals))
+        .map_err(|_| ErrorCode::FitFailed)
+}
+
+/// Handles one request; the reply's variable part goes into `values`.
+fn handle<'v>(req: Request<'_>, active: &mut Active, values: &'v mut [u8; 4 * MAX_BATCH]) -> Response<'v> {
+    let material = |id: u8, active: &Active| active.models.get(usize::from(id)).copied();
+    match req {
+        Request::Info => Response::Info {
+            build_id: BUILD_ID,
+            format_version: BLOB_VERSION,
+            active_crc: active.crc,
+            materials: active.blob.materials.len() as u8,
+        },
+        Request::Eval {
+            material: id,
+            input,
+            x,
+        } => match material(id, active) {
+            None => Response::Error(ErrorCode::UnknownMaterial),
+            Some(m) => match eval(&m, input, x) {
+                Ok(f) => Response::Value(f),
+                Err(e) => Response::Error(e),
+            },
+        },
+        Request::EvalBatch {
+            material: id,
+            input,
+            points,
+        } => {
+            let Some(m) = material(id, active) else {
+                return Response::Error(ErrorCode::UnknownMaterial);
+            };
+            let mut n = 0;
+            for x in brdf_wire::frame::points(points) {
+                match eval(&m, input, x) {
+                    Ok(f) => values[4 * n..4 * n + 4].copy_from_slice(&f.to_le_bytes()),
+                    Err(e) => return Response::Error(e),
+                }
+                n += 1;
+            }
+            Response::Values(&values[..4 * n])
+        }
+        Request::Load(bytes) => match Blob::decode(bytes).ok().and_then(Active::new) {
+            Some(a) => {
+                *active = a;
+                Response::Done(active.crc)
+            }
+            None => Response::Error(ErrorCode::InvalidBlob),
+        },
+        Request::Commit(_) => Response::Error(ErrorCode::UnknownKind),
+        Request::Fit {
+            model,
+            budget,
+            samples: bytes,
+        } => {
+            let mut s: Samples<f32, MAX_FIT_SAMPLES> = Samples::new();
+            for [ti, tr, phi, y] in samples(bytes) {
+                if s.push_angles(ti, tr, phi, y).is_err() {
+                    return Response::Error(ErrorCode::FitFailed);
+                }
+            }
+            let r = match model {
+                ModelKind::Six => fit::<SixParam<f32>>(&s, budget),
+                ModelKind::SixCos2 => fit::<SixParamCos2<f32>>(&s, budget),
+                ModelKind::Five => fit::<FiveParam<f32>>(&s, budget),
+                ModelKind::Minnaert => fit::<Minnaert<f32>>(&s, budget),
+                ModelKind::Lambert => fit::<Lambert<f32>>(&s, budget),
+            };
+            match r {
+                Ok((params, rms_rel, evals)) => Response::Fitted {
+                    model,
+                    params,
+                    rms_rel,
+                    evals,
+                },
+                Err(e) => Response::Error(e),
+            }
+        }
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    let uart = Uart::uart0();
+    uart.init();
+    let mut active = match Active::new(default_blob()) {
+        Some(a) => a,
+        None => halt(2),
+    };
+    let mut reader: FrameReader<MAX_FRAME> = FrameReader::new();
+    let mut out = [0u8; 512];
+    let mut values = [0u8; 4 * MAX_BATCH];
+    loop {
+        let byte = uart.read();
+        let reply = match reader.push(byte) {
+            None => continue,
+            Some(Err(code)) => encode_response(&Response::Error(code), 0, &mut out),
+            Some(Ok(())) => match parse_request(reader.payload()) {
+                Ok((tag, req)) => {
+                    let resp = handle(req, &mut active, &mut values);
+                    encode_response(&resp, tag, &mut out)
+                }
+                Err(code) => encode_response(&Response::Error(code), 0, &mut out),
+            },
+        };
+        if let Ok(n) = reply {
+            uart.write_all(&out[..n]);
+        }
+    }
+}
+
+/// Ends a QEMU run with `code` (semihosting); parks the core on hardware.
+fn halt(code: i32) -> ! {
+    cortex_m_semihosting::debug::exit(if code == 0 {
+        cortex_m_semihosting::debug::EXIT_SUCCESS
+    } else {
+        cortex_m_semihosting::debug::EXIT_FAILURE
+    });
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    halt(1)
+}
