@@ -27,6 +27,9 @@ use crate::uart::Uart;
 /// Build id reported by INFO.
 const BUILD_ID: u32 = 0x0001_0000;
 
+/// Largest FIT budget accepted: a larger one would keep the device from serving for minutes.
+const MAX_FIT_BUDGET: u32 = 100_000;
+
 /// The paper's Table 1 (khaki, yellow, white), the materials before any LOAD.
 fn default_blob() -> Blob {
     const TABLE1: [[f32; 6]; 3] = [
@@ -149,6 +152,9 @@ fn handle<'v>(req: Request<'_>, active: &mut Active, values: &'v mut [u8; 4 * MA
             budget,
             samples: bytes,
         } => {
+            if budget > MAX_FIT_BUDGET {
+                return Response::Error(ErrorCode::FitFailed);
+            }
             let mut s: Samples<f32, MAX_FIT_SAMPLES> = Samples::new();
             for [ti, tr, phi, y] in samples(bytes) {
                 if s.push_angles(ti, tr, phi, y).is_err() {
