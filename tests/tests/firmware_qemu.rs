@@ -11,12 +11,14 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox};
 use brdf_core::tolerance::{F32_FLOOR_OF_MAX, F32_MAX_REL};
-use brdf_core::{AnyModel, Brdf, ModelKind};
+use brdf_core::{AnyModel, Brdf, ModelKind, SixParam};
 use brdf_tests::{SplitMix, TABLE1};
 use brdf_wire::frame::{
     encode_request, parse_response, values, FrameReader, Input, Request, Response, MAX_BATCH, MAX_FRAME,
 };
+use rand_core::SeedableRng;
 
 fn firmware_elf() -> Option<PathBuf> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware");
@@ -257,5 +259,59 @@ fn firmware_answers_like_the_host_and_survives_bad_frames() {
     }
     let info = dev.request(&Request::Info);
     assert!(matches!(parse_response(&info).unwrap().1, Response::Info { .. }));
+
+    // FIT on the device equals the same annealer run on the host, bit for bit (same f32
+    // arithmetic through libm, same generator and seed).
+    let mut sample_bytes = Vec::new();
+    let mut host_samples: Samples<f32, 256> = Samples::new();
+    let khaki32 = AnyModel::<f32>::new(ModelKind::Six, &TABLE1[0].1.map(|v| v as f32)).unwrap();
+    for ti in [0.0f32, 10.0, 30.0] {
+        for k in 0..20 {
+            let ts = -80.0 + 160.0 * k as f32 / 19.0;
+            let (tr, phi) = if ts > 0.0 {
+                (ts, std::f32::consts::PI)
+            } else {
+                (-ts, 0.0)
+            };
+            let (ti, tr) = (ti.to_radians(), tr.to_radians());
+            let y = khaki32.eval_angles(ti, tr, phi);
+            host_samples.push_angles(ti, tr, phi, y).unwrap();
+            for v in [ti, tr, phi, y] {
+                sample_bytes.extend(v.to_le_bytes());
+            }
+        }
+    }
+    let reply = dev.request(&Request::Fit {
+        model: ModelKind::Six,
+        budget: 3000,
+        samples: &sample_bytes,
+    });
+    let (
+        _,
+        Response::Fitted {
+            params,
+            rms_rel,
+            evals,
+            ..
+        },
+    ) = parse_response(&reply).unwrap()
+    else {
+        panic!("not FITTED")
+    };
+    let cfg = AnnealConfig {
+        budget: 3000,
+        ..AnnealConfig::default()
+    };
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(1);
+    let host = anneal::<f32, SixParam<f32>, _, 256>(
+        &host_samples,
+        &SearchBox::for_kind(ModelKind::Six),
+        &cfg,
+        &mut rng,
+    )
+    .unwrap();
+    println!("device FIT: rms_rel {rms_rel:.3e} after {evals} evaluations, params {params:?}");
+    assert_eq!((params, rms_rel, evals), (host.params, host.rms_rel, host.evals));
+    assert!(rms_rel < 0.01);
     println!("{sent} bytes with {bad_frames} bad frames: each answered with an ERROR, every valid EVAL with its value");
 }
