@@ -5,19 +5,15 @@
 //! fails, unless `BRDF_SKIP_QEMU=1` is set (`.ci/run` sets it after printing a `SKIPPED:` line
 //! when it cannot install them).
 
-use std::io::{Read, Write};
-use std::net::{TcpListener, TcpStream};
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Command;
 
 use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox};
 use brdf_core::tolerance::{F32_FLOOR_OF_MAX, F32_MAX_REL};
 use brdf_core::{AnyModel, Brdf, ModelKind, SixParam};
+use brdf_link::{Link, Qemu};
 use brdf_tests::{SplitMix, TABLE1};
-use brdf_wire::frame::{
-    encode_request, parse_response, values, FrameReader, Input, Request, Response, MAX_BATCH, MAX_FRAME,
-};
+use brdf_wire::frame::{encode_request, parse_response, Input, Request, Response, MAX_BATCH, MAX_FRAME};
 use rand_core::SeedableRng;
 
 fn firmware_elf() -> Option<PathBuf> {
@@ -30,95 +26,6 @@ fn firmware_elf() -> Option<PathBuf> {
     status
         .success()
         .then(|| dir.join("target/thumbv7em-none-eabihf/release/brdf-fw"))
-}
-
-struct Device {
-    qemu: Child,
-    link: TcpStream,
-    reader: FrameReader<{ MAX_FRAME }>,
-    tag: u8,
-}
-
-impl Drop for Device {
-    fn drop(&mut self) {
-        let _ = self.qemu.kill();
-        let _ = self.qemu.wait();
-    }
-}
-
-impl Device {
-    fn start(elf: &PathBuf) -> Device {
-        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-        let port = listener.local_addr().unwrap().port();
-        let qemu = Command::new("qemu-system-arm")
-            .args([
-                "-machine",
-                "mps2-an386",
-                "-cpu",
-                "cortex-m4",
-                "-nographic",
-                "-monitor",
-                "none",
-            ])
-            .args(["-semihosting-config", "enable=on,target=native"])
-            .arg("-serial")
-            .arg(format!("tcp:127.0.0.1:{port},nodelay=on"))
-            .arg("-kernel")
-            .arg(elf)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .spawn()
-            .expect("qemu-system-arm");
-        listener.set_nonblocking(false).unwrap();
-        let (link, _) = listener.accept().unwrap();
-        link.set_nodelay(true).unwrap();
-        link.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
-        Device {
-            qemu,
-            link,
-            reader: FrameReader::new(),
-            tag: 0,
-        }
-    }
-
-    fn send_raw(&mut self, bytes: &[u8]) {
-        self.link.write_all(bytes).unwrap();
-    }
-
-    /// Reads replies until one with `tag` (others are collected and returned too).
-    fn replies_until(&mut self, tag: Option<u8>, count: usize) -> Vec<(u8, Vec<u8>)> {
-        let mut got = Vec::new();
-        let mut byte = [0u8; 1];
-        let deadline = Instant::now() + Duration::from_secs(60);
-        while Instant::now() < deadline {
-            if got.len() >= count && tag.is_none() {
-                break;
-            }
-            self.link
-                .read_exact(&mut byte)
-                .expect("the firmware stopped answering");
-            if let Some(r) = self.reader.push(byte[0]) {
-                r.expect("the firmware sent a corrupted frame");
-                let payload = self.reader.payload().to_vec();
-                let (t, _) = parse_response(&payload).expect("unparsable reply");
-                got.push((t, payload));
-                if Some(t) == tag {
-                    break;
-                }
-            }
-        }
-        got
-    }
-
-    fn request(&mut self, req: &Request<'_>) -> Vec<u8> {
-        self.tag = self.tag.wrapping_add(1).max(1);
-        let mut out = vec![0u8; MAX_FRAME];
-        let n = encode_request(req, self.tag, &mut out).unwrap();
-        self.send_raw(&out[..n]);
-        let tag = self.tag;
-        let replies = self.replies_until(Some(tag), 1);
-        replies.into_iter().find(|(t, _)| *t == tag).expect("reply").1
-    }
 }
 
 fn available() -> Option<PathBuf> {
@@ -137,20 +44,8 @@ fn available() -> Option<PathBuf> {
 #[test]
 fn firmware_answers_like_the_host_and_survives_bad_frames() {
     let Some(elf) = available() else { return };
-    let mut dev = Device::start(&elf);
-
-    let info = dev.request(&Request::Info);
-    let (
-        _,
-        Response::Info {
-            materials,
-            format_version,
-            ..
-        },
-    ) = parse_response(&info).unwrap()
-    else {
-        panic!("not an INFO reply")
-    };
+    let mut dev = Link::new(Qemu::spawn(&elf).unwrap());
+    let (_, format_version, _, materials) = dev.info().unwrap();
     assert_eq!((materials, format_version), (3, 1));
 
     // 10,240 directions per Table 1 material, f32 angles, against f64 at the same inputs.
@@ -167,22 +62,7 @@ fn firmware_answers_like_the_host_and_survives_bad_frames() {
     for (m, (name, p)) in TABLE1.iter().enumerate() {
         let p64: Vec<f64> = p.iter().map(|&v| f64::from(v as f32)).collect();
         let host = AnyModel::<f64>::new(ModelKind::Six, &p64).unwrap();
-        let mut device = Vec::with_capacity(dirs.len());
-        for chunk in dirs.chunks(MAX_BATCH) {
-            let bytes: Vec<u8> = chunk
-                .iter()
-                .flat_map(|x| x.iter().flat_map(|v| v.to_le_bytes()))
-                .collect();
-            let reply = dev.request(&Request::EvalBatch {
-                material: m as u8,
-                input: Input::Angles,
-                points: &bytes,
-            });
-            let (_, Response::Values(v)) = parse_response(&reply).unwrap() else {
-                panic!("not VALUES")
-            };
-            device.extend(values(v));
-        }
+        let device = dev.eval(m as u8, Input::Angles, &dirs).unwrap();
         let exact: Vec<f64> = dirs
             .iter()
             .map(|x| host.eval_angles(x[0].into(), x[1].into(), x[2].into()))
@@ -210,15 +90,15 @@ fn firmware_answers_like_the_host_and_survives_bad_frames() {
     while sent < 100_000 {
         k += 1;
         let x = [0.3f32 + (k % 50) as f32 * 0.01, 0.5, 2.0];
+        // A copy of the valid frame to damage (it never decodes, so its tag does not matter).
         let mut frame = vec![0u8; MAX_FRAME];
-        dev.tag = (k % 200 + 1) as u8;
         let n = encode_request(
             &Request::Eval {
                 material: 0,
                 input: Input::Angles,
                 x,
             },
-            dev.tag,
+            0,
             &mut frame,
         )
         .unwrap();
@@ -238,31 +118,32 @@ fn firmware_answers_like_the_host_and_survives_bad_frames() {
         // Each non-empty run of bytes ended by a 0 is one bad frame (an empty run is no frame).
         let expected_errors = noise.split(|&b| b == 0).filter(|run| !run.is_empty()).count();
         bad_frames += expected_errors;
-        dev.send_raw(&noise);
-        dev.send_raw(&frame);
+        dev.send_raw(&noise).unwrap();
+        dev.stray_errors.clear();
+        let reply = dev
+            .request(&Request::Eval {
+                material: 0,
+                input: Input::Angles,
+                x,
+            })
+            .unwrap();
         sent += noise.len() + frame.len();
-        let replies = dev.replies_until(Some(dev.tag), 1);
-        let (_, payload) = replies.last().unwrap();
-        let (_, Response::Value(v)) = parse_response(payload).unwrap() else {
+        let (_, Response::Value(v)) = parse_response(&reply).unwrap() else {
             panic!("no VALUE for a valid EVAL")
         };
         let e = host.eval_angles(x[0].into(), x[1].into(), x[2].into());
         assert!(((f64::from(v) - e) / e).abs() <= F32_MAX_REL);
-        let errors = &replies[..replies.len() - 1];
-        assert_eq!(errors.len(), expected_errors, "one ERROR reply per bad frame");
-        for (_, p) in errors {
-            assert!(
-                matches!(parse_response(p).unwrap().1, Response::Error(_)),
-                "non-error reply to a bad frame"
-            );
-        }
+        assert_eq!(
+            dev.stray_errors.len(),
+            expected_errors,
+            "one ERROR reply per bad frame"
+        );
     }
-    let info = dev.request(&Request::Info);
-    assert!(matches!(parse_response(&info).unwrap().1, Response::Info { .. }));
+    dev.info().expect("still serving");
 
     // FIT on the device equals the same annealer run on the host, bit for bit (same f32
     // arithmetic through libm, same generator and seed).
-    let mut sample_bytes = Vec::new();
+    let mut samples4 = Vec::new();
     let mut host_samples: Samples<f32, 256> = Samples::new();
     let khaki32 = AnyModel::<f32>::new(ModelKind::Six, &TABLE1[0].1.map(|v| v as f32)).unwrap();
     for ti in [0.0f32, 10.0, 30.0] {
@@ -276,28 +157,10 @@ fn firmware_answers_like_the_host_and_survives_bad_frames() {
             let (ti, tr) = (ti.to_radians(), tr.to_radians());
             let y = khaki32.eval_angles(ti, tr, phi);
             host_samples.push_angles(ti, tr, phi, y).unwrap();
-            for v in [ti, tr, phi, y] {
-                sample_bytes.extend(v.to_le_bytes());
-            }
+            samples4.push([ti, tr, phi, y]);
         }
     }
-    let reply = dev.request(&Request::Fit {
-        model: ModelKind::Six,
-        budget: 3000,
-        samples: &sample_bytes,
-    });
-    let (
-        _,
-        Response::Fitted {
-            params,
-            rms_rel,
-            evals,
-            ..
-        },
-    ) = parse_response(&reply).unwrap()
-    else {
-        panic!("not FITTED")
-    };
+    let (params, rms_rel, evals) = dev.fit(ModelKind::Six, 3000, &samples4).unwrap();
     let cfg = AnnealConfig {
         budget: 3000,
         ..AnnealConfig::default()

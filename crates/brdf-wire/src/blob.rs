@@ -55,6 +55,28 @@ pub const fn kind_from_id(id: u8) -> Option<ModelKind> {
     }
 }
 
+/// The paper's Table 1 (khaki, yellow, white painted plates) as a blob with sequence 0: the
+/// firmware's built-in default materials, known to the host too.
+pub fn table1_blob() -> Blob {
+    const TABLE1: [[f32; 6]; 3] = [
+        [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2],
+        [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420],
+        [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415],
+    ];
+    let mut materials = heapless::Vec::new();
+    for params in TABLE1 {
+        // Capacity MAX_MATERIALS = 8 > 3.
+        let _ = materials.push(Material {
+            kind: ModelKind::Six,
+            params,
+        });
+    }
+    Blob {
+        sequence: 0,
+        materials,
+    }
+}
+
 /// One material: a model and its parameters (paper order, f32).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {

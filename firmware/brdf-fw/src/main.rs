@@ -14,7 +14,7 @@ use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox};
 use brdf_core::{
     AnyModel, Brdf, FiveParam, Geometry, Lambert, Minnaert, Model, ModelKind, SixParam, SixParamCos2,
 };
-use brdf_wire::blob::{Blob, Material, BLOB_VERSION, MAX_BLOB_LEN};
+use brdf_wire::blob::{table1_blob, Blob, BLOB_VERSION, MAX_BLOB_LEN};
 use brdf_wire::frame::{
     encode_response, parse_request, samples, ErrorCode, FrameReader, Input, Request, Response, MAX_BATCH,
     MAX_FIT_SAMPLES, MAX_FRAME,
@@ -29,27 +29,6 @@ const BUILD_ID: u32 = 0x0001_0000;
 
 /// Largest FIT budget accepted: a larger one would keep the device from serving for minutes.
 const MAX_FIT_BUDGET: u32 = 100_000;
-
-/// The paper's Table 1 (khaki, yellow, white), the materials before any LOAD.
-fn default_blob() -> Blob {
-    const TABLE1: [[f32; 6]; 3] = [
-        [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2],
-        [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420],
-        [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415],
-    ];
-    let mut materials = heapless::Vec::new();
-    for p in TABLE1 {
-        // Capacity 8 > 3.
-        let _ = materials.push(Material {
-            kind: ModelKind::Six,
-            params: p,
-        });
-    }
-    Blob {
-        sequence: 0,
-        materials,
-    }
-}
 
 /// The active materials, their models and the CRC of their blob.
 struct Active {
@@ -185,7 +164,7 @@ fn handle<'v>(req: Request<'_>, active: &mut Active, values: &'v mut [u8; 4 * MA
 fn main() -> ! {
     let uart = Uart::uart0();
     uart.init();
-    let mut active = match Active::new(default_blob()) {
+    let mut active = match Active::new(table1_blob()) {
         Some(a) => a,
         None => halt(2),
     };

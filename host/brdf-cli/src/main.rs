@@ -1,5 +1,6 @@
 //! `brdf`: evaluate the six-parameter BRDF model family from the command line.
 
+mod check;
 mod common;
 mod eval;
 mod fit;
@@ -23,6 +24,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Cross-check a device (firmware under QEMU) against the host's f64 model.
+    Check(check::CheckCmd),
     /// Evaluate a model over a CSV of angles (theta_i, theta_r, phi in degrees).
     Eval(eval::EvalCmd),
     /// Convert a measurement file in another convention to the canonical CSV.
@@ -44,6 +47,7 @@ enum Command {
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Check(cmd) => cmd.run(),
         Command::Eval(cmd) => cmd.run(),
         Command::Fit(cmd) => cmd.run(),
         Command::Import(cmd) => cmd.run(),

@@ -1,0 +1,88 @@
+//! `brdf check --qemu`: the firmware under QEMU agrees with the host f64 model for every
+//! Table 1 material and for a material freshly fitted from ../shared/data.
+//!
+//! Needs `qemu-system-arm` and the cross target; fails without them unless `BRDF_SKIP_QEMU=1`
+//! (set by `.ci/run` after printing a `SKIPPED:` line).
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn brdf(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_brdf"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn firmware_built() -> bool {
+    let qemu = Command::new("qemu-system-arm").arg("--version").output().is_ok();
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../firmware");
+    let built = qemu
+        && Command::new(env!("CARGO"))
+            .args(["build", "--release", "-p", "brdf-fw"])
+            .current_dir(dir)
+            .status()
+            .is_ok_and(|s| s.success());
+    if !built {
+        assert_eq!(
+            std::env::var("BRDF_SKIP_QEMU").as_deref(),
+            Ok("1"),
+            "qemu-system-arm or the firmware build is missing (set BRDF_SKIP_QEMU=1 to skip)"
+        );
+        eprintln!("SKIPPED: brdf check --qemu (BRDF_SKIP_QEMU=1)");
+    }
+    built
+}
+
+#[test]
+fn check_qemu_passes_for_table1_and_a_fresh_fit() {
+    if !firmware_built() {
+        return;
+    }
+    let out = brdf(&["check", "--qemu"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    println!("{text}");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        text.lines().filter(|l| l.ends_with("ok")).count(),
+        15,
+        "3 materials x 5 regions"
+    );
+
+    let dir = tempfile::tempdir().unwrap();
+    let shared = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
+    let fit = brdf(&[
+        "fit",
+        "--format",
+        "cornell",
+        shared
+            .join("cornell-medium-gloss-paints/garnet_red_RGB.astm")
+            .to_str()
+            .unwrap(),
+        "--json",
+    ]);
+    assert!(fit.status.success());
+    let json = dir.path().join("garnet.json");
+    std::fs::write(&json, &fit.stdout).unwrap();
+    let blob = dir.path().join("garnet.bin");
+    let pack = brdf(&[
+        "pack",
+        json.to_str().unwrap(),
+        "-o",
+        blob.to_str().unwrap(),
+        "--sequence",
+        "2",
+    ]);
+    assert!(pack.status.success(), "{}", String::from_utf8_lossy(&pack.stderr));
+    let out = brdf(&["check", "--qemu", "--blob", blob.to_str().unwrap(), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = v.as_array().unwrap();
+    assert_eq!(rows.len(), 5);
+    assert!(rows.iter().all(|r| r["within_tolerance"] == true));
+    let worst = rows
+        .iter()
+        .map(|r| r["max_rel"].as_f64().unwrap())
+        .fold(0.0, f64::max);
+    println!("freshly fitted Garnet Red: worst relative error {worst:.2e}");
+}
