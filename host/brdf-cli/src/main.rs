@@ -8,6 +8,7 @@ mod import;
 mod pack;
 mod params;
 mod plot;
+mod query;
 mod report;
 mod select;
 mod synth;
@@ -36,6 +37,8 @@ enum Command {
     Pack(pack::PackCmd),
     /// Fit models to a dataset and plot them (in-plane curves, hemisphere map, residuals).
     Plot(plot::PlotCmd),
+    /// Ask a device for BRDF values.
+    Query(query::QueryCmd),
     /// Regenerate the model-comparison report over the shared measured datasets.
     Report(report::ReportCmd),
     /// Fit the model ladder and name the simplest model within an error budget.
@@ -53,6 +56,7 @@ fn main() -> std::process::ExitCode {
         Command::Import(cmd) => cmd.run(),
         Command::Pack(cmd) => cmd.run(),
         Command::Plot(cmd) => cmd.run(),
+        Command::Query(cmd) => cmd.run(),
         Command::Report(cmd) => cmd.run(),
         Command::Select(cmd) => cmd.run(),
         Command::Synth(cmd) => cmd.run(),

@@ -49,7 +49,41 @@ fn check_qemu_passes_for_table1_and_a_fresh_fit() {
         "3 materials x 5 regions"
     );
 
+    // `brdf query` answers exactly what `brdf eval --precision f32` computes on the host.
     let dir = tempfile::tempdir().unwrap();
+    let angles = dir.path().join("a.csv");
+    std::fs::write(&angles, "theta_i,theta_r,phi\n10,10,0\n30,45,180\n60,75,90\n").unwrap();
+    let device = brdf(&["query", "--qemu", angles.to_str().unwrap()]);
+    assert!(
+        device.status.success(),
+        "{}",
+        String::from_utf8_lossy(&device.stderr)
+    );
+    let host = brdf(&[
+        "eval",
+        "--model",
+        "six",
+        "--params",
+        "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2",
+        "--precision",
+        "f32",
+        angles.to_str().unwrap(),
+    ]);
+    assert!(host.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&device.stdout),
+        String::from_utf8_lossy(&host.stdout)
+    );
+    let one = brdf(&["query", "--qemu", "--material", "1", "--angles", "10,10,180"]);
+    assert!(one.status.success());
+    assert!(
+        String::from_utf8_lossy(&one.stdout)
+            .trim()
+            .parse::<f32>()
+            .unwrap()
+            > 0.0
+    );
+
     let shared = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
     let fit = brdf(&[
         "fit",
