@@ -18,15 +18,8 @@ use serde::Serialize;
 /// a relative error exceeds the f32 tolerance (2e-6, where f >= 1e-6 of its maximum).
 #[derive(Debug, Args)]
 pub struct CheckCmd {
-    /// Run the firmware under QEMU (the only transport so far).
-    #[arg(long, required = true)]
-    qemu: bool,
-    /// Firmware ELF (default: the release build in firmware/).
-    #[arg(long)]
-    elf: Option<PathBuf>,
-    /// LOAD this blob first and check its materials (default: the built-in Table 1).
-    #[arg(long)]
-    blob: Option<PathBuf>,
+    #[command(flatten)]
+    device: DeviceArgs,
     /// Random directions over the hemisphere per material.
     #[arg(long, default_value_t = 20_000)]
     directions: usize,
@@ -39,6 +32,40 @@ pub struct CheckCmd {
     /// Print JSON.
     #[arg(long)]
     json: bool,
+}
+
+/// Which device to talk to, and what to load into it first.
+#[derive(Debug, Args)]
+pub struct DeviceArgs {
+    /// Run the firmware under QEMU (the only transport so far).
+    #[arg(long, required = true)]
+    qemu: bool,
+    /// Firmware ELF (default: the release build in firmware/).
+    #[arg(long)]
+    elf: Option<PathBuf>,
+    /// LOAD this parameter blob first (default: the firmware's built-in Table 1).
+    #[arg(long)]
+    blob: Option<PathBuf>,
+}
+
+impl DeviceArgs {
+    /// Starts the device, LOADs `--blob` if given, and returns the link with the blob the
+    /// device now runs.
+    pub fn connect(&self) -> Result<(Link<Qemu>, Blob)> {
+        let elf = self.elf.clone().unwrap_or_else(default_elf);
+        let mut link = Link::new(Qemu::spawn(&elf)?);
+        let blob = match &self.blob {
+            Some(path) => {
+                let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+                let blob = Blob::decode(&bytes).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+                link.load(&bytes)
+                    .with_context(|| format!("the device refused {}", path.display()))?;
+                blob
+            }
+            None => table1_blob(),
+        };
+        Ok((link, blob))
+    }
 }
 
 /// Default firmware location in this repository.
@@ -129,18 +156,7 @@ fn regions(n: usize, edge: usize, seed: u64) -> Vec<(&'static str, Vec<[f32; 3]>
 
 impl CheckCmd {
     pub fn run(self) -> Result<()> {
-        let elf = self.elf.clone().unwrap_or_else(default_elf);
-        let mut link = Link::new(Qemu::spawn(&elf)?);
-        let blob = match &self.blob {
-            Some(path) => {
-                let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-                let blob = Blob::decode(&bytes).map_err(|e| anyhow!("{}: {e}", path.display()))?;
-                link.load(&bytes)
-                    .with_context(|| format!("the device refused {}", path.display()))?;
-                blob
-            }
-            None => table1_blob(),
-        };
+        let (mut link, blob) = self.device.connect()?;
         // The device's active blob must be exactly the one checked against.
         let mut buf = [0u8; MAX_BLOB_LEN];
         let n = blob.encode(&mut buf).map_err(|e| anyhow!("{e}"))?;

@@ -3,26 +3,18 @@
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
-use brdf_link::{Link, Qemu};
 use brdf_wire::frame::Input;
 use clap::Args;
 
-use crate::check::default_elf;
+use crate::check::DeviceArgs;
 use crate::common::parse_list;
 
 /// Ask a device (the firmware under QEMU) for f_r in 1/sr: one direction with --angles, or
 /// every row of a CSV with theta_i,theta_r,phi in degrees (written back with a `brdf` column).
 #[derive(Debug, Args)]
 pub struct QueryCmd {
-    /// Run the firmware under QEMU (the only transport so far).
-    #[arg(long, required = true)]
-    qemu: bool,
-    /// Firmware ELF (default: the release build in firmware/).
-    #[arg(long)]
-    elf: Option<PathBuf>,
-    /// LOAD this blob first.
-    #[arg(long)]
-    blob: Option<PathBuf>,
+    #[command(flatten)]
+    device: DeviceArgs,
     /// Material id in the active blob.
     #[arg(long, default_value_t = 0)]
     material: u8,
@@ -46,12 +38,7 @@ impl QueryCmd {
             (None, Some(path)) => read_csv(path)?,
             _ => bail!("give --angles or a CSV file"),
         };
-        let elf = self.elf.clone().unwrap_or_else(default_elf);
-        let mut link = Link::new(Qemu::spawn(&elf)?);
-        if let Some(b) = &self.blob {
-            let bytes = std::fs::read(b).with_context(|| format!("cannot read {}", b.display()))?;
-            link.load(&bytes)?;
-        }
+        let (mut link, _) = self.device.connect()?;
         let xs: Vec<[f32; 3]> = dirs.iter().map(|d| d.map(|v| v.to_radians() as f32)).collect();
         let vals = link.eval(self.material, Input::Angles, &xs)?;
         if self.angles.is_some() {
