@@ -11,12 +11,14 @@ cargo run --quiet --release -p brdf-bench
 echo
 echo "Flash cost of brdf-core on thumbv7em-none-eabihf (release, LTO): eval-only programs"
 if rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 && rustup component add llvm-tools >/dev/null 2>&1; then
-  (cd firmware && cargo build --quiet --release -p size-probe)
+  (cd firmware && cargo build --quiet --release -p size-probe -p brdf-fw)
   size="$(rustc --print sysroot)/lib/rustlib/$(rustc -vV | sed -n 's/^host: //p')/bin/llvm-size"
   for bin in eval_cosines eval_angles; do
     text=$("$size" -A "firmware/target/thumbv7em-none-eabihf/release/$bin" | awk '$1 == ".text" {print $2}')
     echo "  $bin: .text $text bytes"
   done
+  echo "Firmware brdf-fw (flash = text + data, static RAM = data + bss):"
+  "$size" firmware/target/thumbv7em-none-eabihf/release/brdf-fw | tail -n 1 | awk '{print "  text " $1 ", data " $2 ", bss " $3 " bytes"}'
 else
   echo "  SKIPPED: thumbv7em-none-eabihf target or llvm-tools could not be installed"
 fi

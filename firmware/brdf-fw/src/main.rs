@@ -8,8 +8,6 @@
 #![no_std]
 #![no_main]
 
-mod uart;
-
 use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox};
 use brdf_core::{
     AnyModel, Brdf, FiveParam, Geometry, Lambert, Minnaert, Model, ModelKind, SixParam, SixParamCos2,
@@ -22,7 +20,8 @@ use brdf_wire::frame::{
 use cortex_m_rt::entry;
 use rand_core::SeedableRng;
 
-use crate::uart::Uart;
+use brdf_fw::exit;
+use brdf_fw::uart::Uart;
 
 /// Build id reported by INFO.
 const BUILD_ID: u32 = 0x0001_0000;
@@ -166,7 +165,7 @@ fn main() -> ! {
     uart.init();
     let mut active = match Active::new(table1_blob()) {
         Some(a) => a,
-        None => halt(2),
+        None => exit(false),
     };
     let mut reader: FrameReader<MAX_FRAME> = FrameReader::new();
     let mut out = [0u8; 512];
@@ -188,21 +187,4 @@ fn main() -> ! {
             uart.write_all(&out[..n]);
         }
     }
-}
-
-/// Ends a QEMU run with `code` (semihosting); parks the core on hardware.
-fn halt(code: i32) -> ! {
-    cortex_m_semihosting::debug::exit(if code == 0 {
-        cortex_m_semihosting::debug::EXIT_SUCCESS
-    } else {
-        cortex_m_semihosting::debug::EXIT_FAILURE
-    });
-    loop {
-        cortex_m::asm::wfi();
-    }
-}
-
-#[panic_handler]
-fn panic(_: &core::panic::PanicInfo) -> ! {
-    halt(1)
 }

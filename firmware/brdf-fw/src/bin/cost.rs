@@ -5,6 +5,7 @@
 #![no_main]
 
 use brdf_core::{Brdf, Model, SixParam};
+use brdf_fw::exit;
 use core::hint::black_box;
 use cortex_m_rt::entry;
 
@@ -47,20 +48,4 @@ fn main() -> ! {
     cost_marker_end(2);
     black_box(acc);
     exit(true)
-}
-
-fn exit(ok: bool) -> ! {
-    cortex_m_semihosting::debug::exit(if ok {
-        cortex_m_semihosting::debug::EXIT_SUCCESS
-    } else {
-        cortex_m_semihosting::debug::EXIT_FAILURE
-    });
-    loop {
-        cortex_m::asm::wfi();
-    }
-}
-
-#[panic_handler]
-fn panic(_: &core::panic::PanicInfo) -> ! {
-    exit(false)
 }
