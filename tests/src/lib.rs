@@ -246,3 +246,54 @@ pub mod f32_paths {
 
     pub const PATHS: [(&str, Path); 3] = [("angles", angles), ("cosines", cosines), ("vectors", vectors)];
 }
+
+/// Accuracy of the tabulated path ([`brdf_core::table`]) against the exact f64 model.
+pub mod table_error {
+    use brdf_core::table::{fill_six_table, table_len, SixTable};
+    use brdf_core::{Brdf, SixParam};
+
+    /// Maximum and RMS relative error of the f32 table lookup from cosines against the exact
+    /// f64 model at the same f32 cosines, over the directions of `grid` (radians) whose
+    /// zeniths are at most `max_zenith_deg`, where f64 is above `F32_FLOOR_OF_MAX` of its
+    /// maximum. Returns (max, rms, worst direction, points).
+    pub fn table_error(p: [f64; 6], nodes: usize, max_zenith_deg: f64, grid: &[[f32; 3]]) -> (f64, f64, [f32; 3], usize) {
+        let p32 = crate::six_params(p.map(|v| v as f32 as f64));
+        let mut bytes = vec![0u8; table_len(nodes)];
+        fill_six_table(&p32, nodes, &mut bytes).unwrap();
+        let q = brdf_core::SixParams {
+            kb: p32.kb as f32,
+            kr: p32.kr as f32,
+            b: p32.b as f32,
+            a: p32.a as f32,
+            kd: p32.kd as f32,
+            c: p32.c as f32,
+        };
+        let table = SixTable::new(q, &bytes).unwrap();
+        let exact = SixParam::new(p32).unwrap();
+        let max_z = (max_zenith_deg.to_radians()) as f32;
+        let pts: Vec<([f32; 3], f32, f64)> = grid
+            .iter()
+            .filter(|x| x[0] <= max_z && x[1] <= max_z)
+            .map(|&[ti, tr, phi]| {
+                let c = [ti.cos(), tr.cos(), phi.cos()];
+                let t = table.eval_cosines(c[0], c[1], c[2]);
+                let e = exact.eval_cosines(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+                ([ti, tr, phi], t, e)
+            })
+            .collect();
+        let floor = brdf_core::tolerance::F32_FLOOR_OF_MAX * pts.iter().map(|p| p.2).fold(0.0, f64::max);
+        let (mut max, mut sum, mut at, mut n) = (0.0, 0.0, [0.0; 3], 0);
+        for (x, t, e) in pts {
+            assert!(t.is_finite(), "{p:?} at {x:?}");
+            if e > floor {
+                let r = ((f64::from(t) - e) / e).abs();
+                sum += r * r;
+                n += 1;
+                if r > max {
+                    (max, at) = (r, x);
+                }
+            }
+        }
+        (max, (sum / n as f64).sqrt(), at, n)
+    }
+}

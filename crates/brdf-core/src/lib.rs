@@ -37,6 +37,7 @@ mod float;
 mod geometry;
 mod model;
 pub mod models;
+pub mod table;
 pub mod tolerance;
 
 pub use error::{DomainError, ParamError};

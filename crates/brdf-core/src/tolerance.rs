@@ -68,3 +68,25 @@ pub const MODEL_MD_ALBEDO_ABS: f64 = 5e-4;
 /// Angles written with 8 or 9 significant digits in test fixtures (e.g. 3.14159265 for pi)
 /// come back within this many degrees.
 pub const PRINTED_ANGLE_DEG: f64 = 1e-5;
+
+/// A table node recomputed in f32 on the device against the node the host wrote (computed in
+/// f64, rounded once), relative. The f32 recomputation errs by a few ulp, times the lobe's
+/// amplification `|b| u^(4a)` (up to ~100 over the fitter's search box) where the node is
+/// still above 1e-30: about 1e-5 at worst. A node of another material differs by 1e-3 or
+/// more, so 1e-4 separates the two.
+pub const TABLE_NODE_REL: f64 = 1e-4;
+
+/// Zenith limit (degrees) of the table accuracy promise [`TABLE_MAX_REL`]. Beyond it the
+/// diffuse table `mu^c` approaches its unbounded slope at the horizon: the error reaches
+/// 1e-2 to 1 within 0.1 degree of grazing (`--example table_domain` prints it).
+pub const TABLE_MAX_ZENITH_DEG: f64 = 85.0;
+
+/// Maximum relative error of the tabulated path ([`crate::table`]) against the exact f64
+/// model, per node count, over zeniths up to [`TABLE_MAX_ZENITH_DEG`] and every azimuth,
+/// where `f >= F32_FLOOR_OF_MAX * max f`. Measured (`cargo run --release -p brdf-tests
+/// --example table_domain`) over the Table 1 materials and 40 random sets in the paper's
+/// range (those of `F32_MAX_REL`): 1.4e-2, 8.4e-4 and 5.4e-5 for 64, 256 and 1024 nodes
+/// (white paint, the steepest lobe, sets each worst figure). Linear interpolation error
+/// scales as `1/n^2`; the bounds allow 1.8x over the worst set measured, for sets not drawn.
+/// 256 nodes (3 KiB per material) meet a 1e-3 budget.
+pub const TABLE_MAX_REL: [(usize, f64); 3] = [(64, 2.5e-2), (256, 1.5e-3), (1024, 1e-4)];

@@ -1,34 +1,38 @@
 //! The parameter blob: the materials a device evaluates, as flashed or loaded.
 //!
-//! Little-endian layout, version 1:
+//! Little-endian layout, version 2 (version 1 is version 2 without tables, and is still read):
 //!
 //! | offset | size | field |
 //! |---|---|---|
 //! | 0 | 4 | magic `BRDF` |
-//! | 4 | 2 | format version (1) |
+//! | 4 | 2 | format version (2) |
 //! | 6 | 2 | flags (0; readers reject unknown flags) |
 //! | 8 | 4 | sequence number (newer blobs have larger numbers) |
 //! | 12 | 2 | material count (1 to [`MAX_MATERIALS`]) |
 //! | 14 | 2 | reserved (0) |
-//! | 16 | 4 + 4 n | per material: model id, parameter count n, 2 reserved bytes, n f32 parameters |
+//! | 16 | 4 + 4 n + 12 t | per material: model id, parameter count n, table node count t (u16), n f32 parameters, then t x 3 f32 table nodes ([`brdf_core::table`]; six-parameter model only, t = 0 for none) |
 //! | end - 4 | 4 | CRC-32 (ISO-HDLC) of every byte before it |
 //!
 //! A reader rejects a wrong magic, a version or flag it does not know, any length mismatch, a
-//! bad CRC, an unknown model id, a wrong parameter count and parameters outside the model's
-//! valid ranges, each with its own [`BlobError`].
+//! bad CRC, an unknown model id, a wrong parameter count, parameters outside the model's
+//! valid ranges and a table that is malformed or belongs to other parameters (checked with
+//! [`SixTable::verify`]), each with its own [`BlobError`].
 
-use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
+use brdf_core::table::{table_len, SixTable, MAX_TABLE_NODES, MIN_TABLE_NODES};
+use brdf_core::{AnyModel, ModelKind, SixParams, MAX_PARAMS};
 
 use crate::crc32;
 
 /// `BRDF`.
 pub const BLOB_MAGIC: [u8; 4] = *b"BRDF";
 /// The blob format version this crate reads and writes.
-pub const BLOB_VERSION: u16 = 1;
+pub const BLOB_VERSION: u16 = 2;
 /// Most materials in one blob.
 pub const MAX_MATERIALS: usize = 8;
-/// Largest encoded blob.
-pub const MAX_BLOB_LEN: usize = HEADER_LEN + MAX_MATERIALS * (4 + 4 * MAX_PARAMS) + 4;
+/// Largest encoded blob: one flash slot, and what one LOAD frame carries. Eight materials
+/// without tables take 244 bytes; a 256-node table takes 3,072 (so one material's table of
+/// up to 337 nodes fits, or several smaller ones).
+pub const MAX_BLOB_LEN: usize = 4096;
 
 const HEADER_LEN: usize = 16;
 
@@ -69,6 +73,7 @@ pub fn table1_blob() -> Blob {
         let _ = materials.push(Material {
             kind: ModelKind::Six,
             params,
+            table: None,
         });
     }
     Blob {
@@ -77,19 +82,69 @@ pub fn table1_blob() -> Blob {
     }
 }
 
-/// One material: a model and its parameters (paper order, f32).
+/// One material: a model and its parameters (paper order, f32), and optionally its tables.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
     /// The model.
     pub kind: ModelKind,
     /// Parameters; entries past the model's count are zero.
     pub params: [f32; MAX_PARAMS],
+    /// Where this material's lookup tables are (six-parameter model only).
+    pub table: Option<TableRef>,
+}
+
+/// A material's tables inside an encoded blob.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TableRef {
+    /// Nodes per table.
+    pub nodes: u16,
+    /// Byte offset of the first node in the encoded blob (set by [`Blob::decode`]; ignored
+    /// by [`Blob::encode_with_tables`]).
+    pub offset: u16,
+}
+
+impl TableRef {
+    /// Bytes of the tables.
+    pub fn len(&self) -> usize {
+        table_len(usize::from(self.nodes))
+    }
+
+    /// Never true for a valid table (at least two nodes).
+    pub fn is_empty(&self) -> bool {
+        self.nodes == 0
+    }
+
+    /// The node bytes inside `blob`, the bytes this reference was decoded from.
+    pub fn bytes<'b>(&self, blob: &'b [u8]) -> Option<&'b [u8]> {
+        let at = usize::from(self.offset);
+        blob.get(at..at + self.len())
+    }
 }
 
 impl Material {
-    /// Validates and builds the f32 model.
+    /// Validates and builds the exact f32 model.
     pub fn model(&self) -> Result<AnyModel<f32>, brdf_core::ParamError> {
         AnyModel::new(self.kind, &self.params[..self.kind.param_count()])
+    }
+
+    /// The six-parameter parameters, if this is a six-parameter material.
+    pub fn six_params(&self) -> Option<SixParams<f32>> {
+        let p = self.params;
+        (self.kind == ModelKind::Six).then_some(SixParams {
+            kb: p[0],
+            kr: p[1],
+            b: p[2],
+            a: p[3],
+            kd: p[4],
+            c: p[5],
+        })
+    }
+
+    /// The tabulated model over `blob` (the bytes this material was decoded from), if the
+    /// material has tables. O(1): the nodes were verified by [`Blob::decode`].
+    pub fn table<'b>(&self, blob: &'b [u8]) -> Option<SixTable<'b>> {
+        let bytes = self.table?.bytes(blob)?;
+        SixTable::new(self.six_params()?, bytes).ok()
     }
 }
 
@@ -115,6 +170,9 @@ pub enum BlobError {
     ParamCount(u8),
     /// Parameters the model rejects (material index).
     Params(u8),
+    /// A table that is malformed, on a model without tables, in a version-1 blob, or not
+    /// matching the material's parameters (material index).
+    Table(u8),
     /// The output buffer is too small to encode into.
     BufferTooSmall,
 }
@@ -131,6 +189,7 @@ impl core::fmt::Display for BlobError {
             BlobError::ModelId(i, id) => write!(f, "material {i}: unknown model id {id}"),
             BlobError::ParamCount(i) => write!(f, "material {i}: wrong parameter count"),
             BlobError::Params(i) => write!(f, "material {i}: parameters out of range"),
+            BlobError::Table(i) => write!(f, "material {i}: table malformed or not matching its parameters"),
             BlobError::BufferTooSmall => write!(f, "output buffer too small"),
         }
     }
@@ -154,13 +213,19 @@ impl Blob {
             + self
                 .materials
                 .iter()
-                .map(|m| 4 + 4 * m.kind.param_count())
+                .map(|m| 4 + 4 * m.kind.param_count() + m.table.map_or(0, |t| t.len()))
                 .sum::<usize>()
             + 4
     }
 
-    /// Writes the blob into `out`; returns the length written.
+    /// Writes a blob without tables into `out`; returns the length written.
     pub fn encode(&self, out: &mut [u8]) -> Result<usize, BlobError> {
+        self.encode_with_tables(&[], out)
+    }
+
+    /// Writes the blob into `out`, with `tables[i]` the node bytes of material `i` wherever
+    /// that material has a [`TableRef`]; returns the length written.
+    pub fn encode_with_tables(&self, tables: &[Option<&[u8]>], out: &mut [u8]) -> Result<usize, BlobError> {
         let n = self.encoded_len();
         if out.len() < n {
             return Err(BlobError::BufferTooSmall);
@@ -175,16 +240,25 @@ impl Blob {
         out[12..14].copy_from_slice(&(self.materials.len() as u16).to_le_bytes());
         out[14..16].copy_from_slice(&0u16.to_le_bytes());
         let mut at = HEADER_LEN;
-        for m in &self.materials {
+        for (i, m) in self.materials.iter().enumerate() {
             let k = m.kind.param_count();
+            let nodes = m.table.map_or(0, |t| t.nodes);
             out[at] = model_id(m.kind);
             out[at + 1] = k as u8;
-            out[at + 2] = 0;
-            out[at + 3] = 0;
+            out[at + 2..at + 4].copy_from_slice(&nodes.to_le_bytes());
             at += 4;
             for p in &m.params[..k] {
                 out[at..at + 4].copy_from_slice(&p.to_le_bytes());
                 at += 4;
+            }
+            if let Some(t) = m.table {
+                match tables.get(i).copied().flatten() {
+                    Some(bytes) if bytes.len() == t.len() => {
+                        out[at..at + bytes.len()].copy_from_slice(bytes);
+                        at += bytes.len();
+                    }
+                    _ => return Err(BlobError::Table(i as u8)),
+                }
             }
         }
         let crc = crc32(&out[..at]);
@@ -194,7 +268,7 @@ impl Blob {
 
     /// Reads and validates a blob. Never panics, whatever the bytes.
     pub fn decode(bytes: &[u8]) -> Result<Blob, BlobError> {
-        if bytes.len() < HEADER_LEN + 4 {
+        if bytes.len() < HEADER_LEN + 4 || bytes.len() > MAX_BLOB_LEN {
             return Err(BlobError::Length);
         }
         if bytes[0..4] != BLOB_MAGIC {
@@ -202,7 +276,7 @@ impl Blob {
         }
         let u16_at = |i: usize| u16::from_le_bytes([bytes[i], bytes[i + 1]]);
         let version = u16_at(4);
-        if version != BLOB_VERSION {
+        if version != 1 && version != BLOB_VERSION {
             return Err(BlobError::Version(version));
         }
         let flags = u16_at(6);
@@ -230,6 +304,7 @@ impl Blob {
             if k != kind.param_count() {
                 return Err(BlobError::ParamCount(i));
             }
+            let nodes = u16_at(at + 2);
             at += 4;
             if at + 4 * k > body {
                 return Err(BlobError::Length);
@@ -240,8 +315,30 @@ impl Blob {
                 *p = f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
             }
             at += 4 * k;
-            let m = Material { kind, params };
+            let mut m = Material {
+                kind,
+                params,
+                table: None,
+            };
             m.model().map_err(|_| BlobError::Params(i))?;
+            if nodes != 0 {
+                let n = usize::from(nodes);
+                if version == 1 || kind != ModelKind::Six || !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&n) {
+                    return Err(BlobError::Table(i));
+                }
+                let t = TableRef {
+                    nodes,
+                    // at < body <= MAX_BLOB_LEN = 4096 was checked above.
+                    offset: at as u16,
+                };
+                if at + t.len() > body {
+                    return Err(BlobError::Length);
+                }
+                m.table = Some(t);
+                let table = m.table(bytes).ok_or(BlobError::Table(i))?;
+                table.verify().map_err(|_| BlobError::Table(i))?;
+                at += t.len();
+            }
             // Capacity is MAX_MATERIALS and count <= MAX_MATERIALS was checked.
             materials.push(m).map_err(|_| BlobError::MaterialCount(count))?;
         }
@@ -262,6 +359,7 @@ mod tests {
         Material {
             kind: ModelKind::Six,
             params,
+            table: None,
         }
     }
 
@@ -274,6 +372,7 @@ mod tests {
             .push(Material {
                 kind: ModelKind::Lambert,
                 params: l,
+                table: None,
             })
             .unwrap();
         Blob {
@@ -295,7 +394,7 @@ mod tests {
             Blob::decode(&c[..n]).unwrap_err()
         };
         assert_eq!(bad(&|c| c[0] = b'X'), BlobError::Magic);
-        assert_eq!(bad(&|c| c[4] = 2), BlobError::Version(2));
+        assert_eq!(bad(&|c| c[4] = 3), BlobError::Version(3));
         assert_eq!(bad(&|c| c[20] ^= 1), BlobError::Crc);
         assert_eq!(Blob::decode(&buf[..n - 1]).unwrap_err(), BlobError::Crc);
         assert_eq!(Blob::decode(&buf[..10]).unwrap_err(), BlobError::Length);
@@ -307,5 +406,85 @@ mod tests {
         assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Params(0));
         let mut small = [0u8; 8];
         assert_eq!(b.encode(&mut small).unwrap_err(), BlobError::BufferTooSmall);
+    }
+}
+
+#[cfg(test)]
+mod table_tests {
+    extern crate std;
+    use super::*;
+    use brdf_core::table::fill_six_table;
+    use brdf_core::Brdf;
+
+    const KHAKI: [f32; 6] = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+
+    fn tabled(nodes: u16) -> (Blob, std::vec::Vec<u8>) {
+        let p = KHAKI.map(f64::from);
+        let six = SixParams {
+            kb: p[0],
+            kr: p[1],
+            b: p[2],
+            a: p[3],
+            kd: p[4],
+            c: p[5],
+        };
+        let mut nodes_bytes = std::vec![0u8; table_len(usize::from(nodes))];
+        fill_six_table(&six, usize::from(nodes), &mut nodes_bytes).unwrap();
+        let mut b = table1_blob();
+        b.materials[0].table = Some(TableRef { nodes, offset: 0 });
+        (b, nodes_bytes)
+    }
+
+    #[test]
+    fn tables_round_trip_and_bad_tables_are_refused() {
+        let (b, t) = tabled(64);
+        let mut buf = [0u8; MAX_BLOB_LEN];
+        assert_eq!(b.encode(&mut buf).unwrap_err(), BlobError::Table(0));
+        let n = b.encode_with_tables(&[Some(&t)], &mut buf).unwrap();
+        assert_eq!(n, b.encoded_len());
+        let d = Blob::decode(&buf[..n]).unwrap();
+        let r = d.materials[0].table.unwrap();
+        assert_eq!((r.nodes, r.offset), (64, 44));
+        assert_eq!(r.bytes(&buf[..n]).unwrap(), &t[..]);
+        let table = d.materials[0].table(&buf[..n]).unwrap();
+        let exact = d.materials[0].model().unwrap().eval_cosines(0.8, 0.6, -0.5);
+        let tab = table.eval_cosines(0.8, 0.6, -0.5);
+        assert!(((tab - exact) / exact).abs() < 2e-2);
+        assert!(d.materials[1].table(&buf[..n]).is_none());
+
+        let resign = |c: &mut [u8]| {
+            let crc = crc32(&c[..n - 4]);
+            c[n - 4..n].copy_from_slice(&crc.to_le_bytes());
+        };
+        // A node of the wrong material (c changed after the table was made).
+        let mut c = buf;
+        c[16 + 4 + 20..16 + 4 + 24].copy_from_slice(&0.5f32.to_le_bytes());
+        resign(&mut c);
+        assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Table(0));
+        // A NaN node.
+        let mut c = buf;
+        c[44 + 8..44 + 12].copy_from_slice(&f32::NAN.to_le_bytes());
+        resign(&mut c);
+        assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Table(0));
+        // A table on a version-1 blob.
+        let mut c = buf;
+        c[4] = 1;
+        resign(&mut c);
+        assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Table(0));
+        // A node count that runs past the end.
+        let mut c = buf;
+        c[18..20].copy_from_slice(&300u16.to_le_bytes());
+        resign(&mut c);
+        assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Length);
+        // One node: not a table.
+        let mut c = buf;
+        c[18..20].copy_from_slice(&1u16.to_le_bytes());
+        resign(&mut c);
+        assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Table(0));
+        // The largest table that fits one slot.
+        let (b, t) = tabled(256);
+        let n = b.encode_with_tables(&[Some(&t)], &mut buf).unwrap();
+        assert!(n <= MAX_BLOB_LEN);
+        assert!(Blob::decode(&buf[..n]).is_ok());
     }
 }

@@ -36,6 +36,8 @@ pub const MAX_BATCH: usize = 64;
 pub const MAX_FIT_SAMPLES: usize = 256;
 /// Largest payload (FIT with [`MAX_FIT_SAMPLES`] samples), without the CRC.
 pub const MAX_PAYLOAD: usize = 3 + 1 + 4 + 2 + 16 * MAX_FIT_SAMPLES;
+// A LOAD or COMMIT frame carries the largest blob.
+const _: () = assert!(3 + crate::blob::MAX_BLOB_LEN <= MAX_PAYLOAD);
 /// Largest encoded frame including the 0 delimiter.
 pub const MAX_FRAME: usize = cobs::max_encoding_length(MAX_PAYLOAD + 4) + 1;
 

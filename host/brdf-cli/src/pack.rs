@@ -4,7 +4,9 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
 use brdf_core::{ModelKind, MAX_PARAMS};
-use brdf_wire::blob::{Blob, Material, MAX_BLOB_LEN, MAX_MATERIALS};
+use brdf_core::table::{fill_six_table, table_len, MAX_TABLE_NODES, MIN_TABLE_NODES};
+use brdf_core::tolerance::{TABLE_MAX_REL, TABLE_MAX_ZENITH_DEG};
+use brdf_wire::blob::{Blob, Material, TableRef, MAX_BLOB_LEN, MAX_MATERIALS};
 use clap::Args;
 
 /// Build a parameter blob for the firmware from `brdf fit --json` outputs: one material per
@@ -22,6 +24,11 @@ pub struct PackCmd {
     /// Sequence number: a device keeps the valid blob with the larger one.
     #[arg(long, default_value_t = 1)]
     sequence: u32,
+    /// Add lookup tables with this many nodes to every six-parameter material (the
+    /// device's fast path; 256 nodes = 3,072 bytes per material, max relative error 1.5e-3
+    /// up to 85 degrees zenith).
+    #[arg(long, value_name = "NODES")]
+    table_nodes: Option<usize>,
 }
 
 fn material(file: &str, index: usize, v: &serde_json::Value) -> Result<Material> {
@@ -37,7 +44,11 @@ fn material(file: &str, index: usize, v: &serde_json::Value) -> Result<Material>
             .ok_or_else(|| anyhow!("{file}: fit {index}: parameter `{p}` missing or not a number"))?;
         params[j] = x as f32;
     }
-    let m = Material { kind, params };
+    let m = Material {
+        kind,
+        params,
+        table: None,
+    };
     let model = m
         .model()
         .map_err(|e| anyhow!("{file}: fit {index}: refused: {e}"))?;
@@ -69,12 +80,55 @@ impl PackCmd {
                 }
             }
         }
+        let mut tables: Vec<Option<Vec<u8>>> = vec![None; materials.len()];
+        if let Some(nodes) = self.table_nodes {
+            if !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&nodes) {
+                bail!("--table-nodes {nodes}: outside {MIN_TABLE_NODES}..={MAX_TABLE_NODES}");
+            }
+            for (m, t) in materials.iter_mut().zip(&mut tables) {
+                let Some(p) = m.six_params() else { continue };
+                // The device checks the nodes against its f32 parameters: build from those.
+                let p64 = brdf_core::SixParams {
+                    kb: f64::from(p.kb),
+                    kr: f64::from(p.kr),
+                    b: f64::from(p.b),
+                    a: f64::from(p.a),
+                    kd: f64::from(p.kd),
+                    c: f64::from(p.c),
+                };
+                let mut bytes = vec![0u8; table_len(nodes)];
+                fill_six_table(&p64, nodes, &mut bytes).map_err(|e| anyhow!("{e}"))?;
+                m.table = Some(TableRef {
+                    nodes: nodes as u16,
+                    offset: 0,
+                });
+                *t = Some(bytes);
+            }
+            match TABLE_MAX_REL.iter().find(|t| t.0 == nodes) {
+                Some((_, e)) => eprintln!(
+                    "tables of {nodes} nodes: max relative error {e:e} up to {TABLE_MAX_ZENITH_DEG} degrees zenith \
+                     (parameters in the paper's range)"
+                ),
+                None => eprintln!(
+                    "warning: {nodes} nodes is not a measured table size ({:?}); \
+                     measure it with `cargo run --release -p brdf-tests --example table_domain`",
+                    TABLE_MAX_REL.map(|t| t.0)
+                ),
+            }
+        }
         let blob = Blob {
             sequence: self.sequence,
             materials,
         };
+        if blob.encoded_len() > MAX_BLOB_LEN {
+            bail!(
+                "the blob would be {} bytes, more than a slot's {MAX_BLOB_LEN}: use fewer materials or fewer table nodes",
+                blob.encoded_len()
+            );
+        }
+        let refs: Vec<Option<&[u8]>> = tables.iter().map(|t| t.as_deref()).collect();
         let mut buf = [0u8; MAX_BLOB_LEN];
-        let n = blob.encode(&mut buf).map_err(|e| anyhow!("{e}"))?;
+        let n = blob.encode_with_tables(&refs, &mut buf).map_err(|e| anyhow!("{e}"))?;
         std::fs::write(&self.output, &buf[..n])
             .with_context(|| format!("cannot write {}", self.output.display()))?;
         eprintln!(

@@ -1,0 +1,285 @@
+//! Tabulated six-parameter evaluation: the device's fast path for repeated lookups of one
+//! material.
+//!
+//! The model factorises over the scattering geometry (MODEL.md, eq. 3):
+//!
+//! ```text
+//! f_r = kb/(pi ln 2) * F(alpha) * L(gamma) * ln(1 + cos ti cos tr) + kd/pi * cos(ti)^c * cos(tr)^c
+//! ```
+//!
+//! The facet term `F` is a multiply, an add and a divide and is computed exactly. The three
+//! transcendental pieces are read from 1-D tables of `n` nodes each, uniform on `[0, 1]`,
+//! with linear interpolation:
+//!
+//! - the lobe `L = exp(-|b| (1 - cos gamma)^a)`, indexed by `u = (1 - cos gamma)^(1/8)`
+//!   (three square roots, one instruction each on the Cortex-M4F). In `1 - cos gamma`
+//!   itself the lobe has an unbounded slope at the retro direction for `a < 1` (every
+//!   Table 1 material); in `u` it is `exp(-|b| u^(8a))`, whose slope is finite for
+//!   `a >= 1/8` (with `u^(1/4)` instead, random sets with `a` near 0.2 erred 10x more);
+//! - `ln(1 + m)` indexed by `m = cos ti cos tr`;
+//! - `mu^c` indexed by `mu = cos theta`, looked up once for each direction, so the diffuse
+//!   term keeps its exact reciprocity.
+//!
+//! The geometry is the exact cancellation-free [`Geometry`], so the table adds only the
+//! interpolation error of three smooth 1-D functions, and the result is still exactly
+//! reciprocal. Where it fails: `mu^c` has an unbounded slope at `mu = 0`, so the relative
+//! error grows in the last cell before the horizon (zenith beyond `acos(1/(n-1))`, 89.1° for
+//! 64 nodes, 89.9° for 1024); and a steep lobe (large `a |b|`) needs more nodes. Measured
+//! maximum errors per size are in [`crate::tolerance`] and tested in `tests/table_accuracy.rs`.
+//!
+//! The nodes are stored as little-endian f32 bytes, lobe then `ln(1 + m)` then `mu^c`
+//! ([`table_len`] bytes), exactly as they travel in a parameter blob, so the device reads them
+//! in place from flash. [`fill_six_table`] generates them (the host does it in f64);
+//! [`SixTable::new`] checks any byte slice before it is used.
+
+use crate::error::ParamError;
+use crate::float::Float;
+use crate::geometry::Geometry;
+use crate::model::Brdf;
+use crate::models::{facet, SixParams};
+
+/// Fewest nodes per table (one interpolation interval).
+pub const MIN_TABLE_NODES: usize = 2;
+/// Most nodes per table: 4096 nodes are 48 KiB, most of a small part's flash.
+pub const MAX_TABLE_NODES: usize = 4096;
+/// The table sizes whose accuracy is measured and promised ([`crate::tolerance`]).
+pub const TABLE_SIZES: [usize; 3] = [64, 256, 1024];
+
+/// Bytes of a table set with `nodes` nodes per table (three tables of f32).
+pub const fn table_len(nodes: usize) -> usize {
+    12 * nodes
+}
+
+/// Why a table was refused.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum TableError {
+    /// Node count outside [`MIN_TABLE_NODES`]`..=`[`MAX_TABLE_NODES`].
+    Nodes(usize),
+    /// Byte length is not [`table_len`] of a valid node count.
+    Length(usize),
+    /// The material parameters are invalid.
+    Params(ParamError),
+    /// A node is negative, infinite or NaN (node index over all three tables).
+    Node(usize),
+    /// A node disagrees with the parameters beyond [`crate::tolerance::TABLE_NODE_REL`]
+    /// (node index over all three tables): the table belongs to another material.
+    Mismatch(usize),
+}
+
+impl core::fmt::Display for TableError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            TableError::Nodes(n) => {
+                write!(f, "{n} table nodes, outside {MIN_TABLE_NODES}..={MAX_TABLE_NODES}")
+            }
+            TableError::Length(n) => write!(f, "table of {n} bytes is not 12 bytes per node"),
+            TableError::Params(e) => write!(f, "table parameters: {e}"),
+            TableError::Node(i) => write!(f, "table node {i} is negative or not finite"),
+            TableError::Mismatch(i) => write!(f, "table node {i} does not match the parameters"),
+        }
+    }
+}
+
+impl core::error::Error for TableError {}
+
+/// Node `k` of each of the three tables, in `T`: `(exp(-|b| (u^8)^a), ln(1 + u), u^c)` at
+/// `u = k/(n-1)`.
+fn node_values<T: Float>(p: &SixParams<T>, k: usize, nodes: usize) -> (T, T, T) {
+    let u = T::from_f64(k as f64) / T::from_f64((nodes - 1) as f64);
+    let y = ((u * u) * (u * u)) * ((u * u) * (u * u));
+    let lobe = (-(p.b.abs() * y.powf(p.a))).exp();
+    (lobe, u.ln_1p(), u.powf(p.c))
+}
+
+/// Writes the tables of `params` with `nodes` nodes each into `out` (exactly
+/// [`table_len`]`(nodes)` bytes), computing in `T` and rounding each node to f32 once.
+pub fn fill_six_table<T: Float>(params: &SixParams<T>, nodes: usize, out: &mut [u8]) -> Result<(), TableError> {
+    params.validate().map_err(TableError::Params)?;
+    if !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&nodes) {
+        return Err(TableError::Nodes(nodes));
+    }
+    if out.len() != table_len(nodes) {
+        return Err(TableError::Length(out.len()));
+    }
+    for k in 0..nodes {
+        let (lobe, log1p, power) = node_values(params, k, nodes);
+        for (t, v) in [lobe, log1p, power].into_iter().enumerate() {
+            let at = 4 * (t * nodes + k);
+            out[at..at + 4].copy_from_slice(&(v.to_f64() as f32).to_le_bytes());
+        }
+    }
+    Ok(())
+}
+
+/// A six-parameter material evaluated through its tables; borrows the node bytes.
+#[derive(Clone, Copy, Debug)]
+pub struct SixTable<'t> {
+    params: SixParams<f32>,
+    spec_scale: f32,
+    kr2: f32,
+    diffuse_scale: f32,
+    /// `nodes - 1` as f32: maps `[0, 1]` onto node positions.
+    scale: f32,
+    nodes: usize,
+    bytes: &'t [u8],
+}
+
+impl<'t> SixTable<'t> {
+    /// Checks the parameters and the byte length; O(1), so a device can build one per query
+    /// from bytes it has verified once. Until [`SixTable::verify`] has passed on these bytes
+    /// the values are only as good as the bytes.
+    pub fn new(params: SixParams<f32>, bytes: &'t [u8]) -> Result<Self, TableError> {
+        params.validate().map_err(TableError::Params)?;
+        if bytes.len() % 12 != 0 {
+            return Err(TableError::Length(bytes.len()));
+        }
+        let nodes = bytes.len() / 12;
+        if !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&nodes) {
+            return Err(TableError::Nodes(nodes));
+        }
+        Ok(SixTable {
+            params,
+            spec_scale: params.kb / (core::f32::consts::PI * core::f32::consts::LN_2),
+            kr2: params.kr * params.kr,
+            diffuse_scale: params.kd * core::f32::consts::FRAC_1_PI,
+            scale: (nodes - 1) as f32,
+            nodes,
+            bytes,
+        })
+    }
+
+    /// Checks every node: finite and non-negative, and equal within
+    /// [`crate::tolerance::TABLE_NODE_REL`] to the node recomputed in f32 from the
+    /// parameters, so a table shipped with another material's parameters is refused. About
+    /// 640 instructions per node index on the Cortex-M4F (three tables).
+    pub fn verify(&self) -> Result<(), TableError> {
+        let tol = crate::tolerance::TABLE_NODE_REL as f32;
+        for k in 0..self.nodes {
+            let (lobe, log1p, power) = node_values(&self.params, k, self.nodes);
+            for (t, want) in [lobe, log1p, power].into_iter().enumerate() {
+                let i = t * self.nodes + k;
+                let got = self.node(i);
+                if !(got.is_finite() && got >= 0.0) {
+                    return Err(TableError::Node(i));
+                }
+                // Nodes below 1e-30 are lobe tails that no longer affect any value.
+                if (got - want).abs() > tol * want.max(1e-30) {
+                    return Err(TableError::Mismatch(i));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The material's parameters.
+    pub fn params(&self) -> SixParams<f32> {
+        self.params
+    }
+
+    /// Nodes per table.
+    pub fn nodes(&self) -> usize {
+        self.nodes
+    }
+
+    #[inline(always)]
+    fn node(&self, i: usize) -> f32 {
+        match self.bytes.get(4 * i..4 * i + 4) {
+            Some(b) => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            None => f32::NAN,
+        }
+    }
+
+    /// Linear interpolation in table `t` at `x` in `[0, 1]`.
+    #[inline(always)]
+    fn lerp(&self, t: usize, x: f32) -> f32 {
+        let s = x * self.scale;
+        // `as` saturates (negative and NaN give 0); the last interval serves x = 1.
+        let i = (s as usize).min(self.nodes - 2);
+        let w = s - i as f32;
+        let base = t * self.nodes + i;
+        let (a, b) = (self.node(base), self.node(base + 1));
+        a + w * (b - a)
+    }
+}
+
+impl Brdf<f32> for SixTable<'_> {
+    #[inline]
+    fn eval(&self, g: &Geometry<f32>) -> f32 {
+        if let Some(v) = g.outside() {
+            return v;
+        }
+        let (mi, mr) = (g.cos_theta_i(), g.cos_theta_r());
+        // (1 - cos gamma)^(1/8), the lobe table's variable.
+        let u = g.one_minus_cos_gamma().sqrt().sqrt().sqrt();
+        let spec = self.spec_scale * facet(self.kr2, g) * self.lerp(0, u) * self.lerp(1, mi * mr);
+        spec + self.diffuse_scale * (self.lerp(2, mi) * self.lerp(2, mr))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const KHAKI: SixParams<f64> = SixParams {
+        kb: 0.2545,
+        kr: 21.8031,
+        b: -27.5721,
+        a: 0.6705,
+        kd: 0.3676,
+        c: 1.2,
+    };
+
+    fn f32_params(p: SixParams<f64>) -> SixParams<f32> {
+        SixParams {
+            kb: p.kb as f32,
+            kr: p.kr as f32,
+            b: p.b as f32,
+            a: p.a as f32,
+            kd: p.kd as f32,
+            c: p.c as f32,
+        }
+    }
+
+    #[test]
+    fn nodes_are_exact_at_the_nodes_and_refusals_are_typed() {
+        let mut bytes = [0u8; 12 * 16];
+        fill_six_table(&KHAKI, 16, &mut bytes).unwrap();
+        let t = SixTable::new(f32_params(KHAKI), &bytes).unwrap();
+        t.verify().unwrap();
+        // At normal incidence and view (u = 0, m = 1, mu = 1) every lookup is a node.
+        let exact = crate::SixParam::new(f32_params(KHAKI)).unwrap().eval_cosines(1.0, 1.0, 1.0);
+        let tab = t.eval_cosines(1.0, 1.0, 1.0);
+        assert!(((tab - exact) / exact).abs() < 1e-6, "{tab} vs {exact}");
+        assert_eq!(t.eval_cosines(0.0, 0.5, 1.0), 0.0);
+        assert!(t.eval_cosines(f32::NAN, 0.5, 1.0).is_nan());
+
+        assert_eq!(SixTable::new(f32_params(KHAKI), &bytes[..13]).unwrap_err(), TableError::Length(13));
+        assert_eq!(SixTable::new(f32_params(KHAKI), &bytes[..12]).unwrap_err(), TableError::Nodes(1));
+        let mut bad = bytes;
+        bad[4 * 5..4 * 6].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert_eq!(SixTable::new(f32_params(KHAKI), &bad).unwrap().verify().unwrap_err(), TableError::Node(5));
+        let mut other = KHAKI;
+        other.c = 0.5;
+        let t2 = SixTable::new(f32_params(other), &bytes).unwrap();
+        assert!(matches!(t2.verify(), Err(TableError::Mismatch(i)) if i >= 32));
+        let mut short = [0u8; 12];
+        assert_eq!(fill_six_table(&KHAKI, 1, &mut short).unwrap_err(), TableError::Nodes(1));
+        assert_eq!(fill_six_table(&KHAKI, 2, &mut short).unwrap_err(), TableError::Length(12));
+        let mut neg = KHAKI;
+        neg.kd = -1.0;
+        assert!(matches!(fill_six_table(&neg, 16, &mut bytes), Err(TableError::Params(_))));
+    }
+
+    #[test]
+    fn exactly_reciprocal() {
+        let mut bytes = [0u8; 12 * 64];
+        fill_six_table(&KHAKI, 64, &mut bytes).unwrap();
+        let t = SixTable::new(f32_params(KHAKI), &bytes).unwrap();
+        for k in 0..500 {
+            let x = k as f32 / 500.0;
+            let (ti, tr, phi) = (1.5 * x, 1.4 * (1.0 - x), 6.0 * x * x);
+            assert_eq!(t.eval_angles(ti, tr, phi), t.eval_angles(tr, ti, phi));
+        }
+    }
+}
