@@ -256,7 +256,12 @@ pub mod table_error {
     /// f64 model at the same f32 cosines, over the directions of `grid` (radians) whose
     /// zeniths are at most `max_zenith_deg`, where f64 is above `F32_FLOOR_OF_MAX` of its
     /// maximum. Returns (max, rms, worst direction, points).
-    pub fn table_error(p: [f64; 6], nodes: usize, max_zenith_deg: f64, grid: &[[f32; 3]]) -> (f64, f64, [f32; 3], usize) {
+    pub fn table_error(
+        p: [f64; 6],
+        nodes: usize,
+        max_zenith_deg: f64,
+        grid: &[[f32; 3]],
+    ) -> (f64, f64, [f32; 3], usize) {
         let p32 = crate::six_params(p.map(|v| v as f32 as f64));
         let mut bytes = vec![0u8; table_len(nodes)];
         fill_six_table(&p32, nodes, &mut bytes).unwrap();

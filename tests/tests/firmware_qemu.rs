@@ -13,6 +13,7 @@ use brdf_core::tolerance::{F32_FLOOR_OF_MAX, F32_MAX_REL};
 use brdf_core::{AnyModel, Brdf, ModelKind, SixParam};
 use brdf_link::{Link, Qemu};
 use brdf_tests::{SplitMix, TABLE1};
+use brdf_wire::blob::{table1_blob, Blob, TableRef, BLOB_VERSION, MAX_BLOB_LEN};
 use brdf_wire::frame::{encode_request, parse_response, Input, Request, Response, MAX_BATCH, MAX_FRAME};
 use rand_core::SeedableRng;
 
@@ -46,7 +47,7 @@ fn firmware_answers_like_the_host_and_survives_bad_frames() {
     let Some(elf) = available() else { return };
     let mut dev = Link::new(Qemu::spawn(&elf).unwrap());
     let (_, format_version, _, materials) = dev.info().unwrap();
-    assert_eq!((materials, format_version), (3, 1));
+    assert_eq!((materials, format_version), (3, BLOB_VERSION));
 
     // 10,240 directions per Table 1 material, f32 angles, against f64 at the same inputs.
     let mut rng = SplitMix(2026);
@@ -177,4 +178,94 @@ fn firmware_answers_like_the_host_and_survives_bad_frames() {
     assert_eq!((params, rms_rel, evals), (host.params, host.rms_rel, host.evals));
     assert!(rms_rel < 0.01);
     println!("{sent} bytes with {bad_frames} bad frames: each answered with an ERROR, every valid EVAL with its value");
+}
+
+#[test]
+fn firmware_serves_tabulated_materials_like_the_host() {
+    use brdf_core::table::{fill_six_table, table_len, SixTable};
+    use brdf_core::tolerance::{TABLE_MAX_REL, TABLE_MAX_ZENITH_DEG};
+
+    let Some(elf) = available() else { return };
+    let mut dev = Link::new(Qemu::spawn(&elf).unwrap());
+    let (_, _, crc_default, _) = dev.info().unwrap();
+    let (nodes, bound) = TABLE_MAX_REL[1];
+
+    // White paint (the steepest lobe) with a 256-node table, yellow without one.
+    let mut blob = table1_blob();
+    blob.materials.swap(0, 2);
+    blob.materials.truncate(2);
+    blob.sequence = 5;
+    let white = blob.materials[0].six_params().unwrap();
+    let white64 = brdf_tests::six_params(TABLE1[2].1.map(|v| f64::from(v as f32)));
+    let mut nodes_bytes = vec![0u8; table_len(nodes)];
+    fill_six_table(&white64, nodes, &mut nodes_bytes).unwrap();
+    blob.materials[0].table = Some(TableRef {
+        nodes: nodes as u16,
+        offset: 0,
+    });
+    let mut buf = [0u8; MAX_BLOB_LEN];
+    let n = blob
+        .encode_with_tables(&[Some(&nodes_bytes), None], &mut buf)
+        .unwrap();
+    let crc = dev.load(&buf[..n]).unwrap();
+    assert_eq!(crc, brdf_wire::crc32(&buf[..n - 4]));
+
+    let host_table = SixTable::new(white, &nodes_bytes).unwrap();
+    let exact = SixParam::new(white64).unwrap();
+    let limit = TABLE_MAX_ZENITH_DEG.to_radians();
+    let mut rng = SplitMix(85);
+    let dirs: Vec<[f32; 3]> = (0..160 * MAX_BATCH)
+        .map(|_| {
+            [
+                rng.uniform(0.0, limit).cos() as f32,
+                rng.uniform(0.0, limit).cos() as f32,
+                rng.uniform(-1.0, 1.0) as f32,
+            ]
+        })
+        .collect();
+    let device = dev.eval(0, Input::Cosines, &dirs).unwrap();
+    let values: Vec<f64> = dirs
+        .iter()
+        .map(|x| exact.eval_cosines(x[0].into(), x[1].into(), x[2].into()))
+        .collect();
+    let floor = F32_FLOOR_OF_MAX * values.iter().copied().fold(0.0, f64::max);
+    let mut worst = 0.0_f64;
+    for ((x, d), e) in dirs.iter().zip(&device).zip(&values) {
+        // The device runs the host's table code: bit for bit the same answer.
+        assert_eq!(
+            d.to_bits(),
+            host_table.eval_cosines(x[0], x[1], x[2]).to_bits(),
+            "at {x:?}"
+        );
+        if *e > floor {
+            worst = worst.max(((f64::from(*d) - e) / e).abs());
+        }
+    }
+    println!(
+        "device table ({nodes} nodes), white paint, {} directions: max relative error {worst:.2e}",
+        dirs.len()
+    );
+    assert!(worst <= bound, "{worst:e} > {bound:e}");
+    // The material without a table in the same blob is evaluated exactly: the host's f32 model.
+    let yellow = dev.eval(1, Input::Cosines, &dirs[..64]).unwrap();
+    let y32 = blob.materials[1].model().unwrap();
+    for (x, d) in dirs.iter().zip(&yellow) {
+        assert_eq!(
+            d.to_bits(),
+            y32.eval_cosines(x[0], x[1], x[2]).to_bits(),
+            "at {x:?}"
+        );
+    }
+
+    // A table that does not belong to its parameters is refused and the active set stays.
+    let mut bad = buf;
+    let at = 16 + 4 + 4 * 5; // white's c
+    bad[at..at + 4].copy_from_slice(&0.3f32.to_le_bytes());
+    let c = brdf_wire::crc32(&bad[..n - 4]);
+    bad[n - 4..n].copy_from_slice(&c.to_le_bytes());
+    assert!(Blob::decode(&bad[..n]).is_err());
+    assert!(dev.load(&bad[..n]).is_err());
+    let (_, _, active, materials) = dev.info().unwrap();
+    assert_eq!((active, materials), (crc, 2));
+    assert_ne!(active, crc_default);
 }

@@ -26,12 +26,18 @@ fn table_lookup_within_its_bound_for_table1_and_random_sets() {
         for (name, p) in &sets {
             let (e, _, at, n) = table_error(*p, nodes, TABLE_MAX_ZENITH_DEG, &grid);
             assert!(n > 40_000, "{name}: only {n} points");
-            assert!(e <= bound, "{name} {p:?}, {nodes} nodes: {e:.2e} at {at:?} (bound {bound:e})");
+            assert!(
+                e <= bound,
+                "{name} {p:?}, {nodes} nodes: {e:.2e} at {at:?} (bound {bound:e})"
+            );
             if e > worst.0 {
                 worst = (e, name.clone());
             }
         }
-        println!("{nodes:5} nodes: worst {:.2e} ({}), bound {bound:e}", worst.0, worst.1);
+        println!(
+            "{nodes:5} nodes: worst {:.2e} ({}), bound {bound:e}",
+            worst.0, worst.1
+        );
     }
 }
 
@@ -41,5 +47,8 @@ fn grazing_beyond_the_promise_is_where_the_table_fails() {
     // the bound, the documentation (and maybe the promised domain) should change.
     let grid = dense_grid_f32();
     let (e, _, at, _) = table_error(TABLE1[1].1, 256, 89.9, &grid);
-    assert!(e > 10.0 * TABLE_MAX_REL[1].1, "yellow at 89.9 deg: {e:e} at {at:?}");
+    assert!(
+        e > 10.0 * TABLE_MAX_REL[1].1,
+        "yellow at 89.9 deg: {e:e} at {at:?}"
+    );
 }

@@ -71,7 +71,10 @@ impl core::fmt::Display for TableError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             TableError::Nodes(n) => {
-                write!(f, "{n} table nodes, outside {MIN_TABLE_NODES}..={MAX_TABLE_NODES}")
+                write!(
+                    f,
+                    "{n} table nodes, outside {MIN_TABLE_NODES}..={MAX_TABLE_NODES}"
+                )
             }
             TableError::Length(n) => write!(f, "table of {n} bytes is not 12 bytes per node"),
             TableError::Params(e) => write!(f, "table parameters: {e}"),
@@ -94,7 +97,11 @@ fn node_values<T: Float>(p: &SixParams<T>, k: usize, nodes: usize) -> (T, T, T) 
 
 /// Writes the tables of `params` with `nodes` nodes each into `out` (exactly
 /// [`table_len`]`(nodes)` bytes), computing in `T` and rounding each node to f32 once.
-pub fn fill_six_table<T: Float>(params: &SixParams<T>, nodes: usize, out: &mut [u8]) -> Result<(), TableError> {
+pub fn fill_six_table<T: Float>(
+    params: &SixParams<T>,
+    nodes: usize,
+    out: &mut [u8],
+) -> Result<(), TableError> {
     params.validate().map_err(TableError::Params)?;
     if !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&nodes) {
         return Err(TableError::Nodes(nodes));
@@ -112,9 +119,11 @@ pub fn fill_six_table<T: Float>(params: &SixParams<T>, nodes: usize, out: &mut [
     Ok(())
 }
 
-/// A six-parameter material evaluated through its tables; borrows the node bytes.
-#[derive(Clone, Copy, Debug)]
-pub struct SixTable<'t> {
+/// The per-material constants of a table set, computed once by [`SixTable::new`]; with
+/// [`SixTable::from_parts`] a device rebinds them to node bytes it keeps elsewhere (its blob
+/// buffer) in a few instructions per query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TableConsts {
     params: SixParams<f32>,
     spec_scale: f32,
     kr2: f32,
@@ -122,6 +131,12 @@ pub struct SixTable<'t> {
     /// `nodes - 1` as f32: maps `[0, 1]` onto node positions.
     scale: f32,
     nodes: usize,
+}
+
+/// A six-parameter material evaluated through its tables; borrows the node bytes.
+#[derive(Clone, Copy, Debug)]
+pub struct SixTable<'t> {
+    c: TableConsts,
     bytes: &'t [u8],
 }
 
@@ -131,22 +146,34 @@ impl<'t> SixTable<'t> {
     /// the values are only as good as the bytes.
     pub fn new(params: SixParams<f32>, bytes: &'t [u8]) -> Result<Self, TableError> {
         params.validate().map_err(TableError::Params)?;
-        if bytes.len() % 12 != 0 {
+        if !bytes.len().is_multiple_of(12) {
             return Err(TableError::Length(bytes.len()));
         }
         let nodes = bytes.len() / 12;
         if !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&nodes) {
             return Err(TableError::Nodes(nodes));
         }
-        Ok(SixTable {
+        let c = TableConsts {
             params,
             spec_scale: params.kb / (core::f32::consts::PI * core::f32::consts::LN_2),
             kr2: params.kr * params.kr,
             diffuse_scale: params.kd * core::f32::consts::FRAC_1_PI,
             scale: (nodes - 1) as f32,
             nodes,
-            bytes,
-        })
+        };
+        Ok(SixTable { c, bytes })
+    }
+
+    /// The constants of this table, to rebind later with [`SixTable::from_parts`].
+    pub fn consts(&self) -> TableConsts {
+        self.c
+    }
+
+    /// Rebinds constants from [`SixTable::consts`] to node bytes; `None` unless the length
+    /// matches. The bytes should be the ones the constants were made with (and verified).
+    #[inline]
+    pub fn from_parts(c: TableConsts, bytes: &'t [u8]) -> Option<Self> {
+        (bytes.len() == table_len(c.nodes)).then_some(SixTable { c, bytes })
     }
 
     /// Checks every node: finite and non-negative, and equal within
@@ -155,10 +182,11 @@ impl<'t> SixTable<'t> {
     /// 640 instructions per node index on the Cortex-M4F (three tables).
     pub fn verify(&self) -> Result<(), TableError> {
         let tol = crate::tolerance::TABLE_NODE_REL as f32;
-        for k in 0..self.nodes {
-            let (lobe, log1p, power) = node_values(&self.params, k, self.nodes);
+        let n = self.c.nodes;
+        for k in 0..n {
+            let (lobe, log1p, power) = node_values(&self.c.params, k, n);
             for (t, want) in [lobe, log1p, power].into_iter().enumerate() {
-                let i = t * self.nodes + k;
+                let i = t * n + k;
                 let got = self.node(i);
                 if !(got.is_finite() && got >= 0.0) {
                     return Err(TableError::Node(i));
@@ -174,12 +202,12 @@ impl<'t> SixTable<'t> {
 
     /// The material's parameters.
     pub fn params(&self) -> SixParams<f32> {
-        self.params
+        self.c.params
     }
 
     /// Nodes per table.
     pub fn nodes(&self) -> usize {
-        self.nodes
+        self.c.nodes
     }
 
     #[inline(always)]
@@ -193,13 +221,20 @@ impl<'t> SixTable<'t> {
     /// Linear interpolation in table `t` at `x` in `[0, 1]`.
     #[inline(always)]
     fn lerp(&self, t: usize, x: f32) -> f32 {
-        let s = x * self.scale;
+        let s = x * self.c.scale;
         // `as` saturates (negative and NaN give 0); the last interval serves x = 1.
-        let i = (s as usize).min(self.nodes - 2);
+        let i = (s as usize).min(self.c.nodes - 2);
         let w = s - i as f32;
-        let base = t * self.nodes + i;
-        let (a, b) = (self.node(base), self.node(base + 1));
-        a + w * (b - a)
+        let at = 4 * (t * self.c.nodes + i);
+        // Both nodes with one bounds check; `new` guarantees the range exists.
+        match self.bytes.get(at..at + 8) {
+            Some(&[a0, a1, a2, a3, b0, b1, b2, b3]) => {
+                let a = f32::from_le_bytes([a0, a1, a2, a3]);
+                let b = f32::from_le_bytes([b0, b1, b2, b3]);
+                a + w * (b - a)
+            }
+            _ => f32::NAN,
+        }
     }
 }
 
@@ -212,8 +247,9 @@ impl Brdf<f32> for SixTable<'_> {
         let (mi, mr) = (g.cos_theta_i(), g.cos_theta_r());
         // (1 - cos gamma)^(1/8), the lobe table's variable.
         let u = g.one_minus_cos_gamma().sqrt().sqrt().sqrt();
-        let spec = self.spec_scale * facet(self.kr2, g) * self.lerp(0, u) * self.lerp(1, mi * mr);
-        spec + self.diffuse_scale * (self.lerp(2, mi) * self.lerp(2, mr))
+        let c = &self.c;
+        let spec = c.spec_scale * facet(c.kr2, g) * self.lerp(0, u) * self.lerp(1, mi * mr);
+        spec + c.diffuse_scale * (self.lerp(2, mi) * self.lerp(2, mr))
     }
 }
 
@@ -248,27 +284,53 @@ mod tests {
         let t = SixTable::new(f32_params(KHAKI), &bytes).unwrap();
         t.verify().unwrap();
         // At normal incidence and view (u = 0, m = 1, mu = 1) every lookup is a node.
-        let exact = crate::SixParam::new(f32_params(KHAKI)).unwrap().eval_cosines(1.0, 1.0, 1.0);
+        let exact = crate::SixParam::new(f32_params(KHAKI))
+            .unwrap()
+            .eval_cosines(1.0, 1.0, 1.0);
         let tab = t.eval_cosines(1.0, 1.0, 1.0);
         assert!(((tab - exact) / exact).abs() < 1e-6, "{tab} vs {exact}");
         assert_eq!(t.eval_cosines(0.0, 0.5, 1.0), 0.0);
         assert!(t.eval_cosines(f32::NAN, 0.5, 1.0).is_nan());
 
-        assert_eq!(SixTable::new(f32_params(KHAKI), &bytes[..13]).unwrap_err(), TableError::Length(13));
-        assert_eq!(SixTable::new(f32_params(KHAKI), &bytes[..12]).unwrap_err(), TableError::Nodes(1));
+        assert_eq!(
+            SixTable::new(f32_params(KHAKI), &bytes[..13]).unwrap_err(),
+            TableError::Length(13)
+        );
+        assert_eq!(
+            SixTable::new(f32_params(KHAKI), &bytes[..12]).unwrap_err(),
+            TableError::Nodes(1)
+        );
         let mut bad = bytes;
         bad[4 * 5..4 * 6].copy_from_slice(&f32::NAN.to_le_bytes());
-        assert_eq!(SixTable::new(f32_params(KHAKI), &bad).unwrap().verify().unwrap_err(), TableError::Node(5));
+        assert_eq!(
+            SixTable::new(f32_params(KHAKI), &bad)
+                .unwrap()
+                .verify()
+                .unwrap_err(),
+            TableError::Node(5)
+        );
         let mut other = KHAKI;
         other.c = 0.5;
         let t2 = SixTable::new(f32_params(other), &bytes).unwrap();
+        let back = SixTable::from_parts(t.consts(), &bytes).unwrap();
+        assert_eq!(back.eval_cosines(0.3, 0.9, -0.2), t.eval_cosines(0.3, 0.9, -0.2));
+        assert!(SixTable::from_parts(t.consts(), &bytes[..12 * 15]).is_none());
         assert!(matches!(t2.verify(), Err(TableError::Mismatch(i)) if i >= 32));
         let mut short = [0u8; 12];
-        assert_eq!(fill_six_table(&KHAKI, 1, &mut short).unwrap_err(), TableError::Nodes(1));
-        assert_eq!(fill_six_table(&KHAKI, 2, &mut short).unwrap_err(), TableError::Length(12));
+        assert_eq!(
+            fill_six_table(&KHAKI, 1, &mut short).unwrap_err(),
+            TableError::Nodes(1)
+        );
+        assert_eq!(
+            fill_six_table(&KHAKI, 2, &mut short).unwrap_err(),
+            TableError::Length(12)
+        );
         let mut neg = KHAKI;
         neg.kd = -1.0;
-        assert!(matches!(fill_six_table(&neg, 16, &mut bytes), Err(TableError::Params(_))));
+        assert!(matches!(
+            fill_six_table(&neg, 16, &mut bytes),
+            Err(TableError::Params(_))
+        ));
     }
 
     #[test]

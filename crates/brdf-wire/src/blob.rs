@@ -323,7 +323,8 @@ impl Blob {
             m.model().map_err(|_| BlobError::Params(i))?;
             if nodes != 0 {
                 let n = usize::from(nodes);
-                if version == 1 || kind != ModelKind::Six || !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&n) {
+                if version == 1 || kind != ModelKind::Six || !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&n)
+                {
                     return Err(BlobError::Table(i));
                 }
                 let t = TableRef {

@@ -2,6 +2,7 @@
 //! handler (a panic ends a QEMU run with a failure the host sees).
 #![no_std]
 
+pub mod ticks;
 pub mod uart;
 
 /// Ends a QEMU run with success or failure (semihosting); parks the core on hardware.

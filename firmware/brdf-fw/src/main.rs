@@ -9,10 +9,11 @@
 #![no_main]
 
 use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox};
+use brdf_core::table::{SixTable, TableConsts};
 use brdf_core::{
     AnyModel, Brdf, FiveParam, Geometry, Lambert, Minnaert, Model, ModelKind, SixParam, SixParamCos2,
 };
-use brdf_wire::blob::{table1_blob, Blob, BLOB_VERSION, MAX_BLOB_LEN};
+use brdf_wire::blob::{table1_blob, Blob, TableRef, BLOB_VERSION, MAX_BLOB_LEN};
 use brdf_wire::frame::{
     encode_response, parse_request, samples, ErrorCode, FrameReader, Input, Request, Response, MAX_BATCH,
     MAX_FIT_SAMPLES, MAX_FRAME,
@@ -29,38 +30,74 @@ const BUILD_ID: u32 = 0x0001_0000;
 /// Largest FIT budget accepted: a larger one would keep the device from serving for minutes.
 const MAX_FIT_BUDGET: u32 = 100_000;
 
-/// The active materials, their models and the CRC of their blob.
+/// The active blob (its bytes, since tables are read in place), its decoded materials,
+/// their exact models and the CRC reported by INFO.
 struct Active {
+    bytes: [u8; MAX_BLOB_LEN],
+    len: usize,
     blob: Blob,
     models: heapless::Vec<AnyModel<f32>, 8>,
+    /// Per material with tables: where its nodes are and its precomputed constants.
+    tables: heapless::Vec<Option<(TableRef, TableConsts)>, 8>,
     crc: u32,
 }
 
 impl Active {
-    fn new(blob: Blob) -> Option<Active> {
+    /// Decodes and checks `src` (CRC, parameters, tables against their parameters).
+    fn from_bytes(src: &[u8]) -> Option<Active> {
+        let blob = Blob::decode(src).ok()?;
         let mut models = heapless::Vec::new();
+        let mut tables = heapless::Vec::new();
         for m in &blob.materials {
             models.push(m.model().ok()?).ok()?;
+            let t = match m.table {
+                Some(r) => Some((r, m.table(src)?.consts())),
+                None => None,
+            };
+            tables.push(t).ok()?;
         }
-        let mut buf = [0u8; MAX_BLOB_LEN];
-        let n = blob.encode(&mut buf).ok()?;
-        let crc = brdf_wire::crc32(&buf[..n - 4]);
-        Some(Active { blob, models, crc })
+        let mut bytes = [0u8; MAX_BLOB_LEN];
+        bytes.get_mut(..src.len())?.copy_from_slice(src);
+        let crc = brdf_wire::crc32(&src[..src.len() - 4]);
+        Some(Active {
+            bytes,
+            len: src.len(),
+            blob,
+            models,
+            tables,
+            crc,
+        })
     }
-}
 
-/// Evaluates one input; out-of-domain inputs are refused, never clamped.
-fn eval(model: &AnyModel<f32>, input: Input, x: [f32; 3]) -> Result<f32, ErrorCode> {
-    let g = match input {
-        Input::Angles => Geometry::try_from_angles(x[0], x[1], x[2]),
-        Input::Cosines => Geometry::try_from_cosines(x[0], x[1], x[2]),
+    /// The built-in default: the paper's Table 1.
+    fn default_materials() -> Option<Active> {
+        let mut buf = [0u8; MAX_BLOB_LEN];
+        let n = table1_blob().encode(&mut buf).ok()?;
+        Active::from_bytes(&buf[..n])
     }
-    .map_err(|_| ErrorCode::OutOfDomain)?;
-    let f = model.eval(&g);
-    if f.is_finite() {
-        Ok(f)
-    } else {
-        Err(ErrorCode::OutOfDomain)
+
+    /// Evaluates material `id`: through its tables if it has them, else the exact model.
+    /// Out-of-domain inputs are refused, never clamped.
+    fn eval(&self, id: u8, input: Input, x: [f32; 3]) -> Result<f32, ErrorCode> {
+        let i = usize::from(id);
+        let (Some(model), Some(table)) = (self.models.get(i), self.tables.get(i)) else {
+            return Err(ErrorCode::UnknownMaterial);
+        };
+        let g = match input {
+            Input::Angles => Geometry::try_from_angles(x[0], x[1], x[2]),
+            Input::Cosines => Geometry::try_from_cosines(x[0], x[1], x[2]),
+        }
+        .map_err(|_| ErrorCode::OutOfDomain)?;
+        let table = table.and_then(|(r, c)| SixTable::from_parts(c, r.bytes(&self.bytes[..self.len])?));
+        let f = match table {
+            Some(t) => t.eval(&g),
+            None => model.eval(&g),
+        };
+        if f.is_finite() {
+            Ok(f)
+        } else {
+            Err(ErrorCode::OutOfDomain)
+        }
     }
 }
 
@@ -80,7 +117,6 @@ fn fit<M: Model<f32>>(
 
 /// Handles one request; the reply's variable part goes into `values`.
 fn handle<'v>(req: Request<'_>, active: &mut Active, values: &'v mut [u8; 4 * MAX_BATCH]) -> Response<'v> {
-    let material = |id: u8, active: &Active| active.models.get(usize::from(id)).copied();
     match req {
         Request::Info => Response::Info {
             build_id: BUILD_ID,
@@ -88,36 +124,29 @@ fn handle<'v>(req: Request<'_>, active: &mut Active, values: &'v mut [u8; 4 * MA
             active_crc: active.crc,
             materials: active.blob.materials.len() as u8,
         },
-        Request::Eval {
-            material: id,
-            input,
-            x,
-        } => match material(id, active) {
-            None => Response::Error(ErrorCode::UnknownMaterial),
-            Some(m) => match eval(&m, input, x) {
-                Ok(f) => Response::Value(f),
-                Err(e) => Response::Error(e),
-            },
+        Request::Eval { material, input, x } => match active.eval(material, input, x) {
+            Ok(f) => Response::Value(f),
+            Err(e) => Response::Error(e),
         },
         Request::EvalBatch {
-            material: id,
+            material,
             input,
             points,
         } => {
-            let Some(m) = material(id, active) else {
-                return Response::Error(ErrorCode::UnknownMaterial);
-            };
             let mut n = 0;
             for x in brdf_wire::frame::points(points) {
-                match eval(&m, input, x) {
+                match active.eval(material, input, x) {
                     Ok(f) => values[4 * n..4 * n + 4].copy_from_slice(&f.to_le_bytes()),
                     Err(e) => return Response::Error(e),
                 }
                 n += 1;
             }
+            if n == 0 && usize::from(material) >= active.blob.materials.len() {
+                return Response::Error(ErrorCode::UnknownMaterial);
+            }
             Response::Values(&values[..4 * n])
         }
-        Request::Load(bytes) => match Blob::decode(bytes).ok().and_then(Active::new) {
+        Request::Load(bytes) => match Active::from_bytes(bytes) {
             Some(a) => {
                 *active = a;
                 Response::Done(active.crc)
@@ -163,7 +192,7 @@ fn handle<'v>(req: Request<'_>, active: &mut Active, values: &'v mut [u8; 4 * MA
 fn main() -> ! {
     let uart = Uart::uart0();
     uart.init();
-    let mut active = match Active::new(table1_blob()) {
+    let mut active = match Active::default_materials() {
         Some(a) => a,
         None => exit(false),
     };

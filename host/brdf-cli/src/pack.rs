@@ -3,9 +3,9 @@
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
-use brdf_core::{ModelKind, MAX_PARAMS};
 use brdf_core::table::{fill_six_table, table_len, MAX_TABLE_NODES, MIN_TABLE_NODES};
 use brdf_core::tolerance::{TABLE_MAX_REL, TABLE_MAX_ZENITH_DEG};
+use brdf_core::{ModelKind, MAX_PARAMS};
 use brdf_wire::blob::{Blob, Material, TableRef, MAX_BLOB_LEN, MAX_MATERIALS};
 use clap::Args;
 
@@ -128,7 +128,9 @@ impl PackCmd {
         }
         let refs: Vec<Option<&[u8]>> = tables.iter().map(|t| t.as_deref()).collect();
         let mut buf = [0u8; MAX_BLOB_LEN];
-        let n = blob.encode_with_tables(&refs, &mut buf).map_err(|e| anyhow!("{e}"))?;
+        let n = blob
+            .encode_with_tables(&refs, &mut buf)
+            .map_err(|e| anyhow!("{e}"))?;
         std::fs::write(&self.output, &buf[..n])
             .with_context(|| format!("cannot write {}", self.output.display()))?;
         eprintln!(

@@ -1,13 +1,23 @@
-//! Instruction cost of one evaluation on the Cortex-M4F, measured under QEMU by
-//! `bench/firmware_cost.sh`: each path runs between two marker functions, and the script
-//! counts the instructions QEMU executes between the markers (exact, repeatable).
+//! Instruction cost of each evaluation path on the Cortex-M4F, measured under QEMU by
+//! `bench/firmware_cost.sh`.
+//!
+//! Each path runs [`N`] evaluations between two marker functions. Two independent counts:
+//! - under `-icount shift=0` one instruction is one nanosecond of virtual time and SysTick
+//!   (core clock, 25 MHz on the MPS2) ticks every 40 instructions; this binary reads it and
+//!   prints instructions per evaluation over semihosting;
+//! - under `-singlestep -d exec` the script counts the logged instructions between markers.
+//!
+//! The two agree to within the SysTick resolution (40 instructions per run of N).
 #![no_std]
 #![no_main]
 
-use brdf_core::{Brdf, Model, SixParam};
+use brdf_core::table::{fill_six_table, table_len, SixTable};
+use brdf_core::{Brdf, FiveParam, Lambert, Minnaert, Model, SixParam};
 use brdf_fw::exit;
+use brdf_fw::ticks::Ticks;
 use core::hint::black_box;
 use cortex_m_rt::entry;
+use cortex_m_semihosting::hprintln;
 
 /// Evaluations per measured run.
 const N: usize = 100;
@@ -24,28 +34,98 @@ extern "C" fn cost_marker_end(id: u32) -> u32 {
     black_box(id + 2)
 }
 
+/// Runs `f` N times between the markers and prints its instructions per call.
+fn measure(id: u32, name: &str, ticks: &Ticks, mut f: impl FnMut(f32) -> f32) {
+    let mut acc = 0.0f32;
+    let t0 = ticks.now();
+    cost_marker_start(id);
+    for k in 0..N {
+        acc += f(black_box(k as f32 * 0.002));
+    }
+    cost_marker_end(id);
+    let t1 = ticks.now();
+    black_box(acc);
+    hprintln!(
+        "path {}: {} : {} instructions",
+        id,
+        name,
+        Ticks::instructions(t1 - t0) / N as u64
+    );
+}
+
+#[inline(always)]
+fn angles<M: Brdf<f32>>(m: &M, x: f32) -> f32 {
+    m.eval_angles(black_box(0.2 + x), black_box(0.7 - x), black_box(1.0 + x))
+}
+
+#[inline(always)]
+fn cosines<M: Brdf<f32>>(m: &M, x: f32) -> f32 {
+    m.eval_cosines(black_box(0.9 - x), black_box(0.7 + x), black_box(-0.3 + x))
+}
+
 #[entry]
 fn main() -> ! {
+    let ticks = Ticks::start();
     let p = black_box([0.2545_f32, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]);
-    let m = match SixParam::from_params(&p) {
-        Ok(m) => m,
-        Err(_) => exit(false),
+    let (Ok(six), Ok(five), Ok(minnaert), Ok(lambert)) = (
+        SixParam::from_params(&p),
+        FiveParam::from_params(&p[..5]),
+        Minnaert::from_params(&[0.3, 0.8]),
+        Lambert::from_params(&[0.3]),
+    ) else {
+        exit(false)
     };
-    let mut acc = 0.0f32;
-    // Path 1: from angles (radians).
-    cost_marker_start(1);
-    for k in 0..N {
-        let x = k as f32 * 0.005;
-        acc += m.eval_angles(black_box(0.2 + x), black_box(0.7 - x), black_box(1.0 + x));
+    measure(1, "six exact from angles", &ticks, |x| angles(&six, x));
+    measure(2, "six exact from cosines", &ticks, |x| cosines(&six, x));
+    let mut bytes = [0u8; table_len(1024)];
+    let six_p = six.params();
+    for (id, nodes) in [(3, 64), (4, 256), (5, 1024)] {
+        let buf = &mut bytes[..table_len(nodes)];
+        if fill_six_table(&six_p, nodes, buf).is_err() {
+            exit(false);
+        }
+        let Ok(t) = SixTable::new(six_p, buf) else {
+            exit(false)
+        };
+        let name = match nodes {
+            64 => "six table 64 from cosines",
+            256 => "six table 256 from cosines",
+            _ => "six table 1024 from cosines",
+        };
+        measure(id, name, &ticks, |x| cosines(&t, x));
     }
-    cost_marker_end(1);
-    // Path 2: from cosines.
-    cost_marker_start(2);
-    for k in 0..N {
-        let x = k as f32 * 0.002;
-        acc += m.eval_cosines(black_box(0.9 - x), black_box(0.7 + x), black_box(-0.3 + x));
+    measure(6, "five exact from cosines", &ticks, |x| cosines(&five, x));
+    measure(7, "minnaert exact from cosines", &ticks, |x| {
+        cosines(&minnaert, x)
+    });
+    measure(8, "lambert exact from cosines", &ticks, |x| cosines(&lambert, x));
+    // As the firmware serves EVAL: constants computed at LOAD, rebound to the blob per query.
+    let buf = &mut bytes[..table_len(256)];
+    if fill_six_table(&six_p, 256, buf).is_err() {
+        exit(false);
     }
-    cost_marker_end(2);
-    black_box(acc);
+    let buf = &bytes[..table_len(256)];
+    let Ok(t) = SixTable::new(six_p, buf) else {
+        exit(false)
+    };
+    let consts = t.consts();
+    measure(
+        9,
+        "six table 256 from cosines, rebound per query",
+        &ticks,
+        |x| match SixTable::from_parts(black_box(consts), buf) {
+            Some(t) => cosines(&t, x),
+            None => f32::NAN,
+        },
+    );
+    measure(
+        10,
+        "six table 256 from angles, rebound per query",
+        &ticks,
+        |x| match SixTable::from_parts(black_box(consts), buf) {
+            Some(t) => angles(&t, x),
+            None => f32::NAN,
+        },
+    );
     exit(true)
 }
