@@ -302,3 +302,37 @@ pub mod table_error {
         (max, (sum / n as f64).sqrt(), at, n)
     }
 }
+
+/// The firmware under QEMU, for the tests that run it.
+pub mod qemu {
+    use std::path::PathBuf;
+    use std::process::Command;
+
+    fn build() -> Option<PathBuf> {
+        let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware");
+        let status = Command::new(env!("CARGO"))
+            .args(["build", "--release", "-p", "brdf-fw", "--bin", "brdf-fw"])
+            .current_dir(&dir)
+            .status()
+            .ok()?;
+        status
+            .success()
+            .then(|| dir.join("target/thumbv7em-none-eabihf/release/brdf-fw"))
+    }
+
+    /// Builds the firmware and returns its ELF. Without `qemu-system-arm` or the cross target
+    /// this fails the calling test, unless `BRDF_SKIP_QEMU=1` is set (`.ci/run` sets it after
+    /// printing a `SKIPPED:` line when it cannot install them): then `None`.
+    pub fn firmware() -> Option<PathBuf> {
+        let qemu = Command::new("qemu-system-arm").arg("--version").output().is_ok();
+        let elf = if qemu { build() } else { None };
+        if elf.is_none() {
+            assert!(
+                std::env::var("BRDF_SKIP_QEMU").as_deref() == Ok("1"),
+                "qemu-system-arm or the thumbv7em-none-eabihf build is missing (set BRDF_SKIP_QEMU=1 to skip)"
+            );
+            eprintln!("SKIPPED: firmware QEMU test (BRDF_SKIP_QEMU=1)");
+        }
+        elf
+    }
+}

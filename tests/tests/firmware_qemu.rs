@@ -5,46 +5,19 @@
 //! fails, unless `BRDF_SKIP_QEMU=1` is set (`.ci/run` sets it after printing a `SKIPPED:` line
 //! when it cannot install them).
 
-use std::path::PathBuf;
-use std::process::Command;
-
 use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox};
 use brdf_core::tolerance::{F32_FLOOR_OF_MAX, F32_MAX_REL};
 use brdf_core::{AnyModel, Brdf, ModelKind, SixParam};
 use brdf_link::{Link, Qemu};
+use brdf_tests::qemu::firmware;
 use brdf_tests::{SplitMix, TABLE1};
 use brdf_wire::blob::{table1_blob, Blob, TableRef, BLOB_VERSION, MAX_BLOB_LEN};
 use brdf_wire::frame::{encode_request, parse_response, Input, Request, Response, MAX_BATCH, MAX_FRAME};
 use rand_core::SeedableRng;
 
-fn firmware_elf() -> Option<PathBuf> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware");
-    let status = Command::new(env!("CARGO"))
-        .args(["build", "--release", "-p", "brdf-fw"])
-        .current_dir(&dir)
-        .status()
-        .ok()?;
-    status
-        .success()
-        .then(|| dir.join("target/thumbv7em-none-eabihf/release/brdf-fw"))
-}
-
-fn available() -> Option<PathBuf> {
-    let qemu = Command::new("qemu-system-arm").arg("--version").output().is_ok();
-    let elf = if qemu { firmware_elf() } else { None };
-    if elf.is_none() {
-        assert!(
-            std::env::var("BRDF_SKIP_QEMU").as_deref() == Ok("1"),
-            "qemu-system-arm or the thumbv7em-none-eabihf build is missing (set BRDF_SKIP_QEMU=1 to skip)"
-        );
-        eprintln!("SKIPPED: firmware QEMU test (BRDF_SKIP_QEMU=1)");
-    }
-    elf
-}
-
 #[test]
 fn firmware_answers_like_the_host_and_survives_bad_frames() {
-    let Some(elf) = available() else { return };
+    let Some(elf) = firmware() else { return };
     let mut dev = Link::new(Qemu::spawn(&elf).unwrap());
     let (_, format_version, _, materials) = dev.info().unwrap();
     assert_eq!((materials, format_version), (3, BLOB_VERSION));
@@ -185,7 +158,7 @@ fn firmware_serves_tabulated_materials_like_the_host() {
     use brdf_core::table::{fill_six_table, table_len, SixTable};
     use brdf_core::tolerance::{TABLE_MAX_REL, TABLE_MAX_ZENITH_DEG};
 
-    let Some(elf) = available() else { return };
+    let Some(elf) = firmware() else { return };
     let mut dev = Link::new(Qemu::spawn(&elf).unwrap());
     let (_, _, crc_default, _) = dev.info().unwrap();
     let (nodes, bound) = TABLE_MAX_REL[1];

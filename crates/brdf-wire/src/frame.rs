@@ -65,6 +65,11 @@ pub enum ErrorCode {
     InvalidBlob = 9,
     /// The on-sensor fit could not run (no valid samples, unknown model, ...).
     FitFailed = 10,
+    /// A COMMIT blob whose sequence number is not above the active one's (after a restart
+    /// the older blob would win).
+    StaleSequence = 11,
+    /// Writing or verifying a flash slot failed; the active parameters are unchanged.
+    FlashFailed = 12,
 }
 
 impl ErrorCode {
@@ -82,6 +87,8 @@ impl ErrorCode {
             UnknownKind,
             InvalidBlob,
             FitFailed,
+            StaleSequence,
+            FlashFailed,
         ]
         .into_iter()
         .find(|c| *c as u8 == b)

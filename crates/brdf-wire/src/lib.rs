@@ -1,5 +1,6 @@
 //! Wire formats shared by the firmware and the host, `no_std`: the versioned parameter blob
-//! ([`blob`]) and the query frames over a byte stream ([`frame`]).
+//! ([`blob`]), the query frames over a byte stream ([`frame`]) and the two flash slots a
+//! device keeps its parameters in ([`slots`]).
 //!
 //! ```
 //! use brdf_wire::frame::{encode_request, parse_request, FrameReader, Input, Request, MAX_FRAME};
@@ -22,6 +23,7 @@
 
 pub mod blob;
 pub mod frame;
+pub mod slots;
 
 /// CRC-32 (ISO-HDLC: the zlib and Ethernet polynomial) of `bytes`.
 pub fn crc32(bytes: &[u8]) -> u32 {

@@ -1,10 +1,11 @@
-//! BRDF query firmware: serves the frames of `brdf-wire` on a UART.
+//! BRDF query firmware: serves the frames of `brdf-wire` on a serial port.
 //!
-//! Boots with the built-in default materials (the paper's Table 1: khaki, yellow, white),
-//! then answers INFO, EVAL, EVAL_BATCH, LOAD (a blob into RAM) and FIT (the on-sensor
-//! annealer); every bad frame gets an ERROR reply and reading resumes at the next frame.
-//! COMMIT (flash slots) is not implemented yet and is answered with `UnknownKind`.
-//! Nothing on the query path panics; a panic would end a QEMU run with exit code 1.
+//! Boots from the newer valid of its two flash slots, falls back to the other, then to the
+//! built-in default materials (the paper's Table 1: khaki, yellow, white), and logs which
+//! with defmt. Then answers INFO, EVAL, EVAL_BATCH, LOAD (a blob into RAM), COMMIT (a blob
+//! into the inactive flash slot, then active) and FIT (the on-sensor annealer); every bad
+//! frame gets an ERROR reply and reading resumes at the next frame. Nothing on the query
+//! path panics; a panic would end a QEMU run with exit code 1 (reset on hardware).
 #![no_std]
 #![no_main]
 
@@ -18,11 +19,15 @@ use brdf_wire::frame::{
     encode_response, parse_request, samples, ErrorCode, FrameReader, Input, Request, Response, MAX_BATCH,
     MAX_FIT_SAMPLES, MAX_FRAME,
 };
+use brdf_wire::slots::{
+    commit_target, read_slot, select, slot_image, CommitError, SlotId, SlotState, SLOT_IMAGE_LEN,
+};
 use cortex_m_rt::entry;
 use rand_core::SeedableRng;
 
 use brdf_fw::exit;
-use brdf_fw::uart::Uart;
+use brdf_fw::flash::{write_slot, Flash};
+use brdf_fw::port::Port;
 
 /// Build id reported by INFO.
 const BUILD_ID: u32 = 0x0001_0000;
@@ -116,7 +121,12 @@ fn fit<M: Model<f32>>(
 }
 
 /// Handles one request; the reply's variable part goes into `values`.
-fn handle<'v>(req: Request<'_>, active: &mut Active, values: &'v mut [u8; 4 * MAX_BATCH]) -> Response<'v> {
+fn handle<'v, F: Flash>(
+    req: Request<'_>,
+    active: &mut Active,
+    flash: &mut F,
+    values: &'v mut [u8; 4 * MAX_BATCH],
+) -> Response<'v> {
     match req {
         Request::Info => Response::Info {
             build_id: BUILD_ID,
@@ -153,7 +163,13 @@ fn handle<'v>(req: Request<'_>, active: &mut Active, values: &'v mut [u8; 4 * MA
             }
             None => Response::Error(ErrorCode::InvalidBlob),
         },
-        Request::Commit(_) => Response::Error(ErrorCode::UnknownKind),
+        Request::Commit(bytes) => match commit(bytes, flash) {
+            Ok(a) => {
+                *active = a;
+                Response::Done(active.crc)
+            }
+            Err(e) => Response::Error(e),
+        },
         Request::Fit {
             model,
             budget,
@@ -188,32 +204,132 @@ fn handle<'v>(req: Request<'_>, active: &mut Active, values: &'v mut [u8; 4 * MA
     }
 }
 
-#[entry]
-fn main() -> ! {
-    let uart = Uart::uart0();
-    uart.init();
-    let mut active = match Active::default_materials() {
+/// Reads both slots, logs what each holds, and returns the newest valid one's contents.
+fn boot<F: Flash>(flash: &F) -> Active {
+    let states = [SlotId::A, SlotId::B].map(|id| read_slot(flash.slot(id)).0);
+    for (id, state) in [SlotId::A, SlotId::B].into_iter().zip(&states) {
+        match state {
+            SlotState::Empty => defmt::info!("boot: slot {=str} empty", id.name()),
+            SlotState::BadLength(n) => {
+                defmt::warn!("boot: slot {=str} invalid: length {=u32}", id.name(), n)
+            }
+            SlotState::Invalid(e) => {
+                defmt::warn!("boot: slot {=str} invalid: {=str}", id.name(), blob_error(e))
+            }
+            SlotState::Valid { sequence, crc, len } => defmt::info!(
+                "boot: slot {=str} valid: sequence {=u32}, {=u32} bytes, CRC {=u32:#010x}",
+                id.name(),
+                sequence,
+                len,
+                crc
+            ),
+        }
+    }
+    if let Some(id) = select(&states[0], &states[1]) {
+        if let Some(a) = read_slot(flash.slot(id)).1.and_then(Active::from_bytes) {
+            defmt::info!(
+                "boot: active slot {=str}, sequence {=u32}, {=usize} materials",
+                id.name(),
+                a.blob.sequence,
+                a.blob.materials.len()
+            );
+            return a;
+        }
+    }
+    defmt::warn!("boot: no valid slot, built-in default (Table 1)");
+    match Active::default_materials() {
         Some(a) => a,
         None => exit(false),
+    }
+}
+
+fn blob_error(e: &brdf_wire::blob::BlobError) -> &'static str {
+    use brdf_wire::blob::BlobError::*;
+    match e {
+        Length => "length",
+        Magic => "magic",
+        Version(_) => "version",
+        Flags(_) => "flags",
+        Crc => "CRC",
+        MaterialCount(_) => "material count",
+        ModelId(..) => "model id",
+        ParamCount(_) => "parameter count",
+        Params(_) => "parameters",
+        Table(_) => "table",
+        _ => "other",
+    }
+}
+
+/// COMMIT: checks the blob, writes it to the slot that is not the newest valid one, and
+/// returns it as the new active set. The newest valid slot is never touched.
+fn commit<F: Flash>(bytes: &[u8], flash: &mut F) -> Result<Active, ErrorCode> {
+    let states = [SlotId::A, SlotId::B].map(|id| read_slot(flash.slot(id)).0);
+    let newest = select(&states[0], &states[1]);
+    let newest_sequence = newest.and_then(|id| states[id as usize].sequence()).unwrap_or(0);
+    let mut image = [0u8; SLOT_IMAGE_LEN];
+    let n = match slot_image(bytes, newest_sequence, &mut image) {
+        Ok(n) => n,
+        Err(CommitError::Stale { sequence, active }) => {
+            defmt::warn!(
+                "commit refused: sequence {=u32} not above {=u32}",
+                sequence,
+                active
+            );
+            return Err(ErrorCode::StaleSequence);
+        }
+        Err(CommitError::Blob(_)) => return Err(ErrorCode::InvalidBlob),
     };
+    let next = Active::from_bytes(bytes).ok_or(ErrorCode::InvalidBlob)?;
+    let target = commit_target(newest);
+    match write_slot(flash, target, &image[..n]) {
+        Ok(()) => {
+            defmt::info!(
+                "commit: slot {=str}, sequence {=u32}, {=usize} bytes, CRC {=u32:#010x}",
+                target.name(),
+                next.blob.sequence,
+                bytes.len(),
+                next.crc
+            );
+            Ok(next)
+        }
+        Err(e) => {
+            defmt::error!("commit: writing slot {=str} failed: {}", target.name(), e);
+            Err(ErrorCode::FlashFailed)
+        }
+    }
+}
+
+fn serve<P: Port, F: Flash>(port: &mut P, flash: &mut F, mut active: Active) -> ! {
     let mut reader: FrameReader<MAX_FRAME> = FrameReader::new();
     let mut out = [0u8; 512];
     let mut values = [0u8; 4 * MAX_BATCH];
     loop {
-        let byte = uart.read();
+        let byte = port.read();
         let reply = match reader.push(byte) {
             None => continue,
             Some(Err(code)) => encode_response(&Response::Error(code), 0, &mut out),
             Some(Ok(())) => match parse_request(reader.payload()) {
                 Ok((tag, req)) => {
-                    let resp = handle(req, &mut active, &mut values);
+                    let resp = handle(req, &mut active, flash, &mut values);
                     encode_response(&resp, tag, &mut out)
                 }
                 Err(code) => encode_response(&Response::Error(code), 0, &mut out),
             },
         };
         if let Ok(n) = reply {
-            uart.write_all(&out[..n]);
+            port.write_all(&out[..n]);
         }
     }
+}
+
+#[entry]
+fn main() -> ! {
+    let (mut port, mut flash) = brdf_fw::board();
+    defmt::info!(
+        "boot: brdf-fw build {=u32:#010x}, blob format {=u16}",
+        BUILD_ID,
+        BLOB_VERSION
+    );
+    let active = boot(&flash);
+    serve(&mut port, &mut flash, active)
 }

@@ -1,5 +1,5 @@
 //! The CMSDK APB UART of the MPS2 boards (UART0 at 0x4000_4000 on `mps2-an386`): polled,
-//! no interrupts. A real board's UART or an RTT channel would offer the same two calls.
+//! no interrupts.
 
 use core::ptr::{read_volatile, write_volatile};
 
@@ -35,7 +35,7 @@ impl Uart {
     }
 
     /// Blocks until a byte arrives.
-    pub fn read(&self) -> u8 {
+    pub fn read_byte(&self) -> u8 {
         // SAFETY: as in `init`.
         unsafe {
             while read_volatile(self.reg(STATE)) & RX_FULL == 0 {}
@@ -44,7 +44,7 @@ impl Uart {
     }
 
     /// Sends every byte, waiting while the transmitter is full.
-    pub fn write_all(&self, bytes: &[u8]) {
+    pub fn write_bytes(&self, bytes: &[u8]) {
         for &b in bytes {
             // SAFETY: as in `init`.
             unsafe {
@@ -52,5 +52,14 @@ impl Uart {
                 write_volatile(self.reg(DATA), u32::from(b));
             }
         }
+    }
+}
+
+impl crate::port::Port for Uart {
+    fn read(&mut self) -> u8 {
+        self.read_byte()
+    }
+    fn write_all(&mut self, bytes: &[u8]) {
+        self.write_bytes(bytes);
     }
 }

@@ -3,12 +3,15 @@
 //! frames it could not read.
 //!
 //! The transport here is QEMU ([`Qemu`]): `qemu-system-arm` runs the firmware ELF on the
-//! `mps2-an386` board with UART0 connected to a TCP port this process listens on.
+//! `mps2-an386` board with UART0 connected to a TCP port this process listens on, in a
+//! working directory that holds the device's flash image, with the firmware's defmt log
+//! captured from its semihosting output ([`Qemu::log`], decoded by [`decode_defmt`]).
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use brdf_core::ModelKind;
@@ -50,6 +53,10 @@ pub trait Transport {
 pub struct Qemu {
     child: Child,
     stream: TcpStream,
+    log: Arc<Mutex<Vec<u8>>>,
+    reader: Option<std::thread::JoinHandle<()>>,
+    // A private working directory (removed on drop) when none was given.
+    _dir: Option<tempfile::TempDir>,
 }
 
 impl std::fmt::Debug for Qemu {
@@ -58,15 +65,30 @@ impl std::fmt::Debug for Qemu {
     }
 }
 
+/// File in QEMU's working directory holding the two flash slots (see `firmware/README.md`).
+pub const FLASH_IMAGE: &str = "brdf-flash.bin";
+
 impl Qemu {
-    /// Starts `qemu-system-arm` with `elf` and waits for its UART to connect.
+    /// Starts `qemu-system-arm` with `elf` in a fresh private directory (erased flash) and
+    /// waits for its UART to connect.
     pub fn spawn(elf: &Path) -> Result<Qemu, LinkError> {
+        let dir = tempfile::tempdir()?;
+        let mut q = Qemu::spawn_in(elf, dir.path())?;
+        q._dir = Some(dir);
+        Ok(q)
+    }
+
+    /// Starts `qemu-system-arm` with `elf` in `dir`, whose [`FLASH_IMAGE`] (created erased if
+    /// missing) is the device's flash: a restart in the same directory keeps what was
+    /// committed.
+    pub fn spawn_in(elf: &Path, dir: &Path) -> Result<Qemu, LinkError> {
         if !elf.is_file() {
             return Err(LinkError::ElfMissing(elf.to_owned()));
         }
+        let elf = elf.canonicalize()?;
         let listener = TcpListener::bind("127.0.0.1:0")?;
         let port = listener.local_addr()?.port();
-        let child = Command::new("qemu-system-arm")
+        let mut child = Command::new("qemu-system-arm")
             .args([
                 "-machine",
                 "mps2-an386",
@@ -80,22 +102,93 @@ impl Qemu {
             .arg("-serial")
             .arg(format!("tcp:127.0.0.1:{port},nodelay=on"))
             .arg("-kernel")
-            .arg(elf)
+            .arg(&elf)
+            .current_dir(dir)
             .stdin(Stdio::null())
-            .stdout(Stdio::null())
+            .stdout(Stdio::piped())
             .spawn()
             .map_err(LinkError::QemuMissing)?;
+        let log = Arc::new(Mutex::new(Vec::new()));
+        let reader = child.stdout.take().map(|mut out| {
+            let log = Arc::clone(&log);
+            std::thread::spawn(move || {
+                let mut buf = [0u8; 4096];
+                while let Ok(n) = out.read(&mut buf) {
+                    if n == 0 {
+                        break;
+                    }
+                    if let Ok(mut l) = log.lock() {
+                        l.extend_from_slice(&buf[..n]);
+                    }
+                }
+            })
+        });
         let (stream, _) = listener.accept()?;
         stream.set_nodelay(true)?;
         stream.set_read_timeout(Some(Duration::from_secs(30)))?;
-        Ok(Qemu { child, stream })
+        Ok(Qemu {
+            child,
+            stream,
+            log,
+            reader,
+            _dir: None,
+        })
     }
+
+    /// The firmware's log output (defmt frames) so far.
+    pub fn log(&self) -> Vec<u8> {
+        self.log.lock().map(|l| l.clone()).unwrap_or_default()
+    }
+
+    /// Stops QEMU (as a power cut would) and returns the complete log output.
+    pub fn stop(mut self) -> Vec<u8> {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        if let Some(r) = self.reader.take() {
+            let _ = r.join();
+        }
+        self.log()
+    }
+}
+
+/// Decodes a defmt byte stream with the tables of the firmware `elf`: one line per log
+/// frame, `LEVEL message` (no timestamps). A trailing partial frame is ignored.
+pub fn decode_defmt(elf: &Path, bytes: &[u8]) -> Result<Vec<String>, LinkError> {
+    let data = std::fs::read(elf).map_err(|_| LinkError::ElfMissing(elf.to_owned()))?;
+    let table = defmt_decoder::Table::parse(&data)
+        .map_err(|e| LinkError::Protocol(format!("{}: defmt tables: {e}", elf.display())))?
+        .ok_or_else(|| LinkError::Protocol(format!("{}: no defmt data", elf.display())))?;
+    let mut decoder = table.new_stream_decoder();
+    decoder.received(bytes);
+    let mut lines = Vec::new();
+    loop {
+        match decoder.decode() {
+            Ok(frame) => {
+                let level = frame.level().map_or("PRINT", |l| match l.as_str() {
+                    "trace" => "TRACE",
+                    "debug" => "DEBUG",
+                    "info" => "INFO",
+                    "warn" => "WARN",
+                    _ => "ERROR",
+                });
+                lines.push(format!("{level} {}", frame.display_message()));
+            }
+            Err(defmt_decoder::DecodeError::UnexpectedEof) => break,
+            Err(defmt_decoder::DecodeError::Malformed) => {
+                return Err(LinkError::Protocol("malformed defmt frame in the log".into()))
+            }
+        }
+    }
+    Ok(lines)
 }
 
 impl Drop for Qemu {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+        if let Some(r) = self.reader.take() {
+            let _ = r.join();
+        }
     }
 }
 
@@ -143,6 +236,16 @@ impl<T: Transport> Link<T> {
             tag: 0,
             stray_errors: Vec::new(),
         }
+    }
+
+    /// The transport.
+    pub fn transport(&self) -> &T {
+        &self.transport
+    }
+
+    /// Ends the link, returning the transport.
+    pub fn into_transport(self) -> T {
+        self.transport
     }
 
     /// Sends raw bytes (for tests of the device's robustness).
@@ -227,6 +330,16 @@ impl<T: Transport> Link<T> {
     /// LOAD a blob into the device's RAM; returns the CRC of the now active blob.
     pub fn load(&mut self, blob: &[u8]) -> Result<u32, LinkError> {
         match parse_response(&self.request(&Request::Load(blob))?).map(|r| r.1) {
+            Ok(Response::Done(crc)) => Ok(crc),
+            Ok(Response::Error(e)) => Err(LinkError::Device(e)),
+            other => Err(LinkError::Protocol(format!("{other:?}"))),
+        }
+    }
+
+    /// COMMIT a blob to the device's inactive flash slot; returns the CRC of the now active
+    /// blob.
+    pub fn commit(&mut self, blob: &[u8]) -> Result<u32, LinkError> {
+        match parse_response(&self.request(&Request::Commit(blob))?).map(|r| r.1) {
             Ok(Response::Done(crc)) => Ok(crc),
             Ok(Response::Error(e)) => Err(LinkError::Device(e)),
             other => Err(LinkError::Protocol(format!("{other:?}"))),

@@ -1,0 +1,257 @@
+//! Two flash slots (A and B) holding parameter blobs, so that no interrupted write can leave
+//! a device without valid parameters.
+//!
+//! A slot image is a little-endian `u32` length followed by that many blob bytes; an erased
+//! slot reads `0xFFFF_FFFF` there. The device boots from the valid slot with the larger
+//! sequence number, falls back to the other, and then to its built-in default. A new blob is
+//! always written to the slot that is *not* active ([`commit_target`]), blob bytes first and
+//! the length word last, then read back and verified; only a complete, valid image with a
+//! larger sequence number than the active one ever wins the next boot. An interruption at
+//! any point therefore leaves the previously active slot as it was.
+//!
+//! The firmware and `brdf flash` share this logic; they differ only in how bytes reach flash.
+
+use crate::blob::{Blob, BlobError, MAX_BLOB_LEN};
+
+/// Bytes of a slot image: the length word and the largest blob.
+pub const SLOT_IMAGE_LEN: usize = 4 + MAX_BLOB_LEN;
+
+/// The two slots.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlotId {
+    /// Slot A.
+    A,
+    /// Slot B.
+    B,
+}
+
+impl SlotId {
+    /// `"A"` or `"B"`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            SlotId::A => "A",
+            SlotId::B => "B",
+        }
+    }
+
+    /// The other slot.
+    pub const fn other(self) -> SlotId {
+        match self {
+            SlotId::A => SlotId::B,
+            SlotId::B => SlotId::A,
+        }
+    }
+}
+
+/// What a slot holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlotState {
+    /// Erased (length word `0xFFFF_FFFF`).
+    Empty,
+    /// A length beyond [`MAX_BLOB_LEN`] (a torn or foreign write).
+    BadLength(u32),
+    /// A length in range but a blob that does not decode.
+    Invalid(BlobError),
+    /// A valid blob.
+    Valid {
+        /// Its sequence number.
+        sequence: u32,
+        /// CRC-32 of the blob without its own CRC (what INFO reports).
+        crc: u32,
+        /// Blob length in bytes.
+        len: u32,
+    },
+}
+
+impl SlotState {
+    /// The sequence number of a valid slot.
+    pub fn sequence(&self) -> Option<u32> {
+        match self {
+            SlotState::Valid { sequence, .. } => Some(*sequence),
+            _ => None,
+        }
+    }
+}
+
+/// Reads a slot image (at least the length word; more bytes than the image are ignored).
+/// Returns its state and, when valid, the blob bytes inside it.
+pub fn read_slot(image: &[u8]) -> (SlotState, Option<&[u8]>) {
+    let Some(&[l0, l1, l2, l3]) = image.get(..4) else {
+        return (SlotState::BadLength(0), None);
+    };
+    let len = u32::from_le_bytes([l0, l1, l2, l3]);
+    if len == u32::MAX {
+        return (SlotState::Empty, None);
+    }
+    let Some(bytes) = usize::try_from(len)
+        .ok()
+        .filter(|&n| n <= MAX_BLOB_LEN)
+        .and_then(|n| image.get(4..4 + n))
+    else {
+        return (SlotState::BadLength(len), None);
+    };
+    match Blob::decode(bytes) {
+        Ok(blob) => (
+            SlotState::Valid {
+                sequence: blob.sequence,
+                crc: crate::crc32(&bytes[..bytes.len() - 4]),
+                len,
+            },
+            Some(bytes),
+        ),
+        Err(e) => (SlotState::Invalid(e), None),
+    }
+}
+
+/// The slot to boot from: the valid one with the larger sequence number (A on a tie), or
+/// `None` for the built-in default.
+pub fn select(a: &SlotState, b: &SlotState) -> Option<SlotId> {
+    match (a.sequence(), b.sequence()) {
+        (Some(sa), Some(sb)) => Some(if sb > sa { SlotId::B } else { SlotId::A }),
+        (Some(_), None) => Some(SlotId::A),
+        (None, Some(_)) => Some(SlotId::B),
+        (None, None) => None,
+    }
+}
+
+/// The slot a new blob goes to: never the active one.
+pub fn commit_target(active: Option<SlotId>) -> SlotId {
+    match active {
+        Some(s) => s.other(),
+        None => SlotId::A,
+    }
+}
+
+/// Why a blob may not be committed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CommitError {
+    /// The blob does not decode.
+    Blob(BlobError),
+    /// Its sequence number is not above the active one's.
+    Stale {
+        /// The blob's sequence number.
+        sequence: u32,
+        /// The active sequence number.
+        active: u32,
+    },
+}
+
+impl core::fmt::Display for CommitError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            CommitError::Blob(e) => write!(f, "{e}"),
+            CommitError::Stale { sequence, active } => write!(
+                f,
+                "sequence {sequence} is not above the active {active}: after a restart the older blob would win"
+            ),
+        }
+    }
+}
+
+/// Checks that `blob` may be committed over parameters with sequence `active_sequence` (0
+/// for the built-in default) and writes its slot image into `out`: the length word, then
+/// the blob. Returns the image length. Program it blob-first, length word last.
+pub fn slot_image(blob: &[u8], active_sequence: u32, out: &mut [u8]) -> Result<usize, CommitError> {
+    let b = Blob::decode(blob).map_err(CommitError::Blob)?;
+    if b.sequence <= active_sequence {
+        return Err(CommitError::Stale {
+            sequence: b.sequence,
+            active: active_sequence,
+        });
+    }
+    let n = 4 + blob.len();
+    if out.len() < n {
+        return Err(CommitError::Blob(BlobError::BufferTooSmall));
+    }
+    out[..4].copy_from_slice(&(blob.len() as u32).to_le_bytes());
+    out[4..n].copy_from_slice(blob);
+    Ok(n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::blob::table1_blob;
+
+    fn image(sequence: u32) -> [u8; SLOT_IMAGE_LEN] {
+        let mut b = table1_blob();
+        b.sequence = sequence;
+        let mut blob = [0u8; MAX_BLOB_LEN];
+        let n = b.encode(&mut blob).unwrap();
+        let mut img = [0xFFu8; SLOT_IMAGE_LEN];
+        slot_image(&blob[..n], sequence - 1, &mut img).unwrap();
+        img
+    }
+
+    #[test]
+    fn newest_valid_slot_wins_and_each_fault_falls_back() {
+        let erased = [0xFFu8; SLOT_IMAGE_LEN];
+        let (a, b) = (image(5), image(6));
+        let st = |img: &[u8]| read_slot(img).0;
+        assert_eq!(st(&erased), SlotState::Empty);
+        assert_eq!(select(&st(&erased), &st(&erased)), None);
+        assert_eq!(select(&st(&a), &st(&erased)), Some(SlotId::A));
+        assert_eq!(select(&st(&a), &st(&b)), Some(SlotId::B));
+        assert_eq!(select(&st(&b), &st(&a)), Some(SlotId::A));
+        assert!(matches!(st(&a), SlotState::Valid { sequence: 5, .. }));
+        // A flipped byte in B: CRC fails, A wins.
+        let mut bad = b;
+        bad[40] ^= 0x10;
+        assert_eq!(st(&bad), SlotState::Invalid(BlobError::Crc));
+        assert_eq!(select(&st(&a), &st(&bad)), Some(SlotId::A));
+        // Torn writes: blob half written and length still erased; length written over a
+        // partly erased blob.
+        let mut torn = erased;
+        torn[4..100].copy_from_slice(&b[4..100]);
+        assert_eq!(st(&torn), SlotState::Empty);
+        let mut torn2 = b;
+        torn2[60..].fill(0xFF);
+        assert!(matches!(st(&torn2), SlotState::Invalid(_)));
+        let mut long = b;
+        long[..4].copy_from_slice(&5000u32.to_le_bytes());
+        assert_eq!(st(&long), SlotState::BadLength(5000));
+        assert_eq!(read_slot(&b[..3]).0, SlotState::BadLength(0));
+        // Targets: never the active slot.
+        assert_eq!(commit_target(None), SlotId::A);
+        assert_eq!(commit_target(Some(SlotId::A)), SlotId::B);
+        assert_eq!(commit_target(Some(SlotId::B)), SlotId::A);
+    }
+
+    #[test]
+    fn stale_and_invalid_blobs_are_not_committed() {
+        let mut b = table1_blob();
+        b.sequence = 3;
+        let mut blob = [0u8; MAX_BLOB_LEN];
+        let n = b.encode(&mut blob).unwrap();
+        let mut img = [0u8; SLOT_IMAGE_LEN];
+        assert_eq!(
+            slot_image(&blob[..n], 3, &mut img),
+            Err(CommitError::Stale {
+                sequence: 3,
+                active: 3
+            })
+        );
+        assert_eq!(
+            slot_image(&blob[..n - 1], 0, &mut img),
+            Err(CommitError::Blob(BlobError::Crc))
+        );
+        assert_eq!(slot_image(&blob[..n], 2, &mut img), Ok(n + 4));
+        assert_eq!(read_slot(&img).1, Some(&blob[..n]));
+    }
+
+    #[test]
+    fn any_bytes_read_without_panic() {
+        let mut x = 0x1234_5678u32;
+        let mut img = [0u8; 300];
+        for _ in 0..2000 {
+            for v in img.iter_mut() {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                *v = x as u8;
+            }
+            img[..4].copy_from_slice(&(x % 400).to_le_bytes());
+            assert!(!matches!(read_slot(&img).0, SlotState::Valid { .. }));
+        }
+    }
+}
