@@ -17,8 +17,13 @@ if rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 && rustup component a
     text=$("$size" -A "firmware/target/thumbv7em-none-eabihf/release/$bin" | awk '$1 == ".text" {print $2}')
     echo "  $bin: .text $text bytes"
   done
+  (cd firmware && cargo build --quiet --release -p brdf-fw --no-default-features --features hardware \
+    --target-dir target/hardware)
   echo "Firmware brdf-fw (flash = text + data, static RAM = data + bss):"
-  "$size" firmware/target/thumbv7em-none-eabihf/release/brdf-fw | tail -n 1 | awk '{print "  text " $1 ", data " $2 ", bss " $3 " bytes"}'
+  for build in qemu:firmware/target hardware:firmware/target/hardware; do
+    "$size" "${build#*:}/thumbv7em-none-eabihf/release/brdf-fw" | tail -n 1 |
+      awk -v b="${build%%:*}" '{print "  " b ": text " $1 ", data " $2 ", bss " $3 " bytes; flash " $1 + $2 ", static RAM " $2 + $3}'
+  done
 else
   echo "  SKIPPED: thumbv7em-none-eabihf target or llvm-tools could not be installed"
 fi

@@ -16,7 +16,7 @@
 //! `ram_is_pinned` and printed by `bench/firmware_cost.sh`).
 //!
 //! Cost on the Cortex-M4F (`bench/firmware_cost.sh`): the six-parameter model at N = 256 and
-//! the default budget of 20,000 evaluations takes about 9.7e9 instructions (1,900 per
+//! the default budget of 20,000 evaluations takes about 9.8e9 instructions (1,900 per
 //! sample and evaluation: three model evaluations with `powf`, `expf`, `log1pf`).
 
 use rand_core::RngCore;

@@ -12,7 +12,7 @@
 #![no_main]
 
 use brdf_core::table::{fill_six_table, table_len, SixTable};
-use brdf_core::{Brdf, FiveParam, Lambert, Minnaert, Model, SixParam};
+use brdf_core::{Brdf, FiveParam, Lambert, Minnaert, Model, SixParam, SixParamCos2};
 use brdf_fw::exit;
 use brdf_fw::ticks::Ticks;
 use core::hint::black_box;
@@ -67,8 +67,9 @@ fn cosines<M: Brdf<f32>>(m: &M, x: f32) -> f32 {
 fn main() -> ! {
     let ticks = Ticks::start();
     let p = black_box([0.2545_f32, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]);
-    let (Ok(six), Ok(five), Ok(minnaert), Ok(lambert)) = (
+    let (Ok(six), Ok(six_cos2), Ok(five), Ok(minnaert), Ok(lambert)) = (
         SixParam::from_params(&p),
+        SixParamCos2::from_params(&p),
         FiveParam::from_params(&p[..5]),
         Minnaert::from_params(&[0.3, 0.8]),
         Lambert::from_params(&[0.3]),
@@ -127,5 +128,12 @@ fn main() -> ! {
             None => f32::NAN,
         },
     );
+    measure(11, "six-cos2 exact from cosines", &ticks, |x| {
+        cosines(&six_cos2, x)
+    });
+    measure(12, "five exact from angles", &ticks, |x| angles(&five, x));
+    measure(13, "minnaert exact from angles", &ticks, |x| angles(&minnaert, x));
+    measure(14, "lambert exact from angles", &ticks, |x| angles(&lambert, x));
+    measure(15, "six-cos2 exact from angles", &ticks, |x| angles(&six_cos2, x));
     exit(true)
 }
