@@ -116,7 +116,10 @@ fn firmware_answers_like_the_host_and_survives_bad_frames() {
     dev.info().expect("still serving");
     // No reset either: the firmware logged its boot exactly once.
     let log = brdf_link::decode_defmt(&elf, &dev.transport().log()).unwrap();
-    let boots = log.iter().filter(|l| l.starts_with("INFO boot: brdf-fw build")).count();
+    let boots = log
+        .iter()
+        .filter(|l| l.starts_with("INFO boot: brdf-fw build"))
+        .count();
     assert_eq!(boots, 1, "{log:?}");
 
     // FIT on the device equals the same annealer run on the host, bit for bit (same f32

@@ -17,9 +17,6 @@ pub mod uart;
 #[cfg(feature = "qemu")]
 use defmt_semihosting as _;
 
-#[cfg(feature = "hardware")]
-use defmt_rtt as _;
-
 /// The board's serial port and flash slots.
 #[cfg(feature = "qemu")]
 pub fn board() -> (uart::Uart, flash::QemuFlash) {
@@ -28,10 +25,28 @@ pub fn board() -> (uart::Uart, flash::QemuFlash) {
     (uart, flash::QemuFlash::open())
 }
 
-/// The board's serial port and flash slots.
+/// The board's serial port (USART2, or RTT with `rtt-port`) and flash slots; sets up RTT
+/// with the defmt log on up channel 0.
 #[cfg(feature = "hardware")]
-pub fn board() -> (stm32f4::Usart2, stm32f4::Stm32f4Flash) {
-    (stm32f4::Usart2::init(), stm32f4::Stm32f4Flash::new())
+pub fn board() -> (impl port::Port, stm32f4::Stm32f4Flash) {
+    let channels = rtt_target::rtt_init! {
+        up: {
+            0: { size: 1024, name: "defmt" }
+            1: { size: 512, mode: rtt_target::ChannelMode::BlockIfFull, name: "brdf" }
+        }
+        down: {
+            0: { size: 512, name: "brdf" }
+        }
+    };
+    rtt_target::set_defmt_channel(channels.up.0);
+    #[cfg(feature = "rtt-port")]
+    let port = stm32f4::RttPort {
+        up: channels.up.1,
+        down: channels.down.0,
+    };
+    #[cfg(not(feature = "rtt-port"))]
+    let port = stm32f4::Usart2::init();
+    (port, stm32f4::Stm32f4Flash::new())
 }
 
 /// Ends a QEMU run with success or failure (semihosting exit code).

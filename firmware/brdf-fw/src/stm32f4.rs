@@ -156,3 +156,29 @@ impl Flash for Stm32f4Flash {
         Ok(())
     }
 }
+
+/// The frames over RTT (`rtt-port`): requests from down channel 0, replies to up channel 1
+/// (blocking while the host has not drained it).
+#[cfg(feature = "rtt-port")]
+pub struct RttPort {
+    /// Replies.
+    pub up: rtt_target::UpChannel,
+    /// Requests.
+    pub down: rtt_target::DownChannel,
+}
+
+#[cfg(feature = "rtt-port")]
+impl crate::port::Port for RttPort {
+    fn read(&mut self) -> u8 {
+        let mut b = [0u8; 1];
+        while self.down.read(&mut b) == 0 {}
+        b[0]
+    }
+
+    fn write_all(&mut self, mut bytes: &[u8]) {
+        while !bytes.is_empty() {
+            let n = self.up.write(bytes);
+            bytes = &bytes[n..];
+        }
+    }
+}

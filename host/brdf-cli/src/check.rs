@@ -3,9 +3,11 @@
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
-use brdf_core::tolerance::{F32_FLOOR_OF_MAX, F32_MAX_REL};
+use brdf_core::tolerance::{F32_FLOOR_OF_MAX, F32_MAX_REL, TABLE_MAX_REL, TABLE_MAX_ZENITH_DEG};
 use brdf_core::{AnyModel, Brdf};
-use brdf_link::{Link, Qemu};
+use brdf_link::probe::ProbeRtt;
+use brdf_link::serial::Serial;
+use brdf_link::{Link, Qemu, Transport};
 use brdf_wire::blob::{table1_blob, Blob, MAX_BLOB_LEN};
 use brdf_wire::frame::Input;
 use clap::Args;
@@ -34,37 +36,69 @@ pub struct CheckCmd {
     json: bool,
 }
 
+/// A link over whichever transport the user chose.
+pub type Device = Link<Box<dyn Transport>>;
+
 /// Which device to talk to, and what to load into it first.
 #[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("transport").required(true).args(["qemu", "serial", "probe"])))]
 pub struct DeviceArgs {
-    /// Run the firmware under QEMU (the only transport so far).
-    #[arg(long, required = true)]
+    /// Run the firmware under QEMU (`--elf`, default: the release build in firmware/).
+    #[arg(long)]
     qemu: bool,
-    /// Firmware ELF (default: the release build in firmware/).
+    /// A board's UART, e.g. /dev/ttyUSB0 (firmware built with `--features hardware`).
+    #[arg(long, value_name = "PORT")]
+    serial: Option<String>,
+    /// Baud rate for --serial.
+    #[arg(long, default_value_t = 115_200)]
+    baud: u32,
+    /// A board on a debug probe, frames over RTT (firmware built with
+    /// `--features rtt-port`): the probe as `VID:PID[:SERIAL]`, or `auto` for the only one.
+    #[arg(long, value_name = "PROBE")]
+    probe: Option<String>,
+    /// The chip behind --probe (a probe-rs target name).
+    #[arg(long, default_value = "STM32F407VGTx")]
+    chip: String,
+    /// Seconds to wait for a reply from a serial or probe device.
+    #[arg(long, default_value_t = 10.0)]
+    timeout: f64,
+    /// Firmware ELF for --qemu (default: the release build in firmware/).
     #[arg(long)]
     elf: Option<PathBuf>,
-    /// LOAD this parameter blob first (default: the firmware's built-in Table 1).
+    /// LOAD this parameter blob first (default: whatever the device runs, which for a fresh
+    /// QEMU is the firmware's built-in Table 1).
     #[arg(long)]
     blob: Option<PathBuf>,
 }
 
 impl DeviceArgs {
-    /// Starts the device, LOADs `--blob` if given, and returns the link with the blob the
-    /// device now runs.
-    pub fn connect(&self) -> Result<(Link<Qemu>, Blob)> {
-        let elf = self.elf.clone().unwrap_or_else(default_elf);
-        let mut link = Link::new(Qemu::spawn(&elf)?);
-        let blob = match &self.blob {
+    /// Opens the transport, LOADs `--blob` if given, and returns the link with that blob and
+    /// its CRC.
+    pub fn connect(&self) -> Result<(Device, Option<(Blob, u32)>)> {
+        let timeout = std::time::Duration::from_secs_f64(self.timeout);
+        let transport: Box<dyn Transport> = if self.qemu {
+            let elf = self.elf.clone().unwrap_or_else(default_elf);
+            Box::new(Qemu::spawn(&elf)?)
+        } else if let Some(port) = &self.serial {
+            Box::new(Serial::open(port, self.baud, timeout)?)
+        } else if let Some(probe) = &self.probe {
+            let selector = (probe != "auto").then_some(probe.as_str());
+            Box::new(ProbeRtt::open(&self.chip, selector, timeout)?)
+        } else {
+            bail!("choose a device: --qemu, --serial PORT or --probe PROBE");
+        };
+        let mut link = Link::new(transport);
+        let loaded = match &self.blob {
             Some(path) => {
                 let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
                 let blob = Blob::decode(&bytes).map_err(|e| anyhow!("{}: {e}", path.display()))?;
                 link.load(&bytes)
                     .with_context(|| format!("the device refused {}", path.display()))?;
-                blob
+                Some((blob, brdf_wire::crc32(&bytes[..bytes.len() - 4])))
             }
-            None => table1_blob(),
+            None => None,
         };
-        Ok((link, blob))
+        Ok((link, loaded))
     }
 }
 
@@ -77,12 +111,16 @@ pub fn default_elf() -> PathBuf {
 #[derive(Debug, Serialize)]
 struct Region {
     material: usize,
-    region: &'static str,
+    region: String,
+    /// Table nodes, for a tabulated material.
+    tabulated: Option<u16>,
     n: usize,
     max_abs: f64,
     mean_abs: f64,
     max_rel: f64,
     mean_rel: f64,
+    /// The relative bound this region is held to (`None`: reported, not judged).
+    tolerance: Option<f64>,
     within_tolerance: bool,
 }
 
@@ -156,14 +194,25 @@ fn regions(n: usize, edge: usize, seed: u64) -> Vec<(&'static str, Vec<[f32; 3]>
 
 impl CheckCmd {
     pub fn run(self) -> Result<()> {
-        let (mut link, blob) = self.device.connect()?;
+        let (mut link, loaded) = self.device.connect()?;
+        // Without --blob the device must run the built-in Table 1, the only set the host
+        // then knows.
+        let (blob, expected_crc) = match loaded {
+            Some(b) => b,
+            None => {
+                let default = table1_blob();
+                let mut buf = [0u8; MAX_BLOB_LEN];
+                let n = default.encode(&mut buf).map_err(|e| anyhow!("{e}"))?;
+                (default, brdf_wire::crc32(&buf[..n - 4]))
+            }
+        };
         // The device's active blob must be exactly the one checked against.
-        let mut buf = [0u8; MAX_BLOB_LEN];
-        let n = blob.encode(&mut buf).map_err(|e| anyhow!("{e}"))?;
-        let expected_crc = brdf_wire::crc32(&buf[..n - 4]);
         let (_, _, active_crc, count) = link.info()?;
         if active_crc != expected_crc || usize::from(count) != blob.materials.len() {
-            bail!("the device's active parameters (CRC {active_crc:#010x}) are not the ones checked ({expected_crc:#010x})");
+            bail!(
+                "the device's active parameters (CRC {active_crc:#010x}) are not the ones checked \
+                 ({expected_crc:#010x}): pass the blob it runs with --blob"
+            );
         }
         let dirs = regions(self.directions, self.edge, self.seed);
         let mut table = Vec::new();
@@ -173,6 +222,15 @@ impl CheckCmd {
                 .map(|&v| f64::from(v))
                 .collect();
             let host = AnyModel::<f64>::new(mat.kind, &p64)?;
+            // A tabulated material is held to its table's bound within the promised zenith
+            // range; beyond it the errors are reported, not judged.
+            let promise = match mat.table {
+                None => Some((F32_MAX_REL, 90.0)),
+                Some(t) => TABLE_MAX_REL
+                    .iter()
+                    .find(|b| b.0 == usize::from(t.nodes))
+                    .map(|b| (b.1, TABLE_MAX_ZENITH_DEG)),
+            };
             let mut results = Vec::new();
             for (name, xs) in &dirs {
                 let dev = link.eval(m as u8, Input::Angles, xs)?;
@@ -180,13 +238,33 @@ impl CheckCmd {
                     .iter()
                     .map(|x| host.eval_angles(x[0].into(), x[1].into(), x[2].into()))
                     .collect();
-                results.push((*name, dev, exact));
+                let limit = promise.map_or(-1.0, |p| p.1.to_radians() as f32);
+                let inside = |x: &[f32; 3]| x[0] <= limit && x[1] <= limit;
+                let split = |keep: bool| -> (Vec<f32>, Vec<f64>) {
+                    xs.iter()
+                        .zip(dev.iter().zip(&exact))
+                        .filter(|(x, _)| inside(x) == keep)
+                        .map(|(_, (d, e))| (*d, *e))
+                        .unzip()
+                };
+                let (d_in, e_in) = split(true);
+                let (d_out, e_out) = split(false);
+                if !d_in.is_empty() {
+                    results.push((name.to_string(), d_in, e_in, promise.map(|p| p.0)));
+                }
+                if !d_out.is_empty() {
+                    let label = match promise {
+                        Some((_, z)) => format!("{name} (>{z} deg)"),
+                        None => format!("{name} (table size not measured)"),
+                    };
+                    results.push((label, d_out, e_out, None));
+                }
             }
             let max = results
                 .iter()
                 .flat_map(|r| r.2.iter().copied())
                 .fold(0.0, f64::max);
-            for (name, dev, exact) in results {
+            for (name, dev, exact, tolerance) in results {
                 let (mut max_abs, mut sum_abs, mut max_rel, mut sum_rel, mut nrel) =
                     (0.0f64, 0.0, 0.0f64, 0.0, 0usize);
                 for (&d, &e) in dev.iter().zip(&exact) {
@@ -202,12 +280,14 @@ impl CheckCmd {
                 table.push(Region {
                     material: m,
                     region: name,
+                    tabulated: mat.table.map(|t| t.nodes),
                     n: dev.len(),
                     max_abs,
                     mean_abs: sum_abs / dev.len().max(1) as f64,
                     max_rel,
                     mean_rel: sum_rel / nrel.max(1) as f64,
-                    within_tolerance: max_rel <= F32_MAX_REL,
+                    tolerance,
+                    within_tolerance: tolerance.is_none_or(|t| max_rel <= t),
                 });
             }
         }
@@ -215,33 +295,38 @@ impl CheckCmd {
             println!("{}", serde_json::to_string_pretty(&table)?);
         } else {
             println!(
-                "{:>3} {:<20} {:>6} {:>11} {:>11} {:>11} {:>11}  (tolerance {F32_MAX_REL:e} relative)",
-                "mat", "region", "n", "max abs", "mean abs", "max rel", "mean rel"
+                "{:>3} {:<30} {:>6} {:>11} {:>11} {:>11} {:>11} {:>10}",
+                "mat", "region", "n", "max abs", "mean abs", "max rel", "mean rel", "tolerance"
             );
             for r in &table {
                 println!(
-                    "{:>3} {:<20} {:>6} {:>11.3e} {:>11.3e} {:>11.3e} {:>11.3e}  {}",
+                    "{:>3} {:<30} {:>6} {:>11.3e} {:>11.3e} {:>11.3e} {:>11.3e} {:>10}  {}",
                     r.material,
-                    r.region,
+                    match r.tabulated {
+                        Some(n) => format!("{} [table {n}]", r.region),
+                        None => r.region.clone(),
+                    },
                     r.n,
                     r.max_abs,
                     r.mean_abs,
                     r.max_rel,
                     r.mean_rel,
-                    if r.within_tolerance {
-                        "ok"
-                    } else {
-                        "BEYOND TOLERANCE"
+                    r.tolerance.map_or("-".to_owned(), |t| format!("{t:e}")),
+                    match (r.tolerance, r.within_tolerance) {
+                        (None, _) => "reported",
+                        (_, true) => "ok",
+                        (_, false) => "BEYOND TOLERANCE",
                     }
                 );
             }
         }
         if let Some(r) = table.iter().find(|r| !r.within_tolerance) {
             bail!(
-                "material {} ({}): max relative error {:e} exceeds {F32_MAX_REL:e}",
+                "material {} ({}): max relative error {:e} exceeds {:e}",
                 r.material,
                 r.region,
-                r.max_rel
+                r.max_rel,
+                r.tolerance.unwrap_or(0.0)
             );
         }
         Ok(())

@@ -4,6 +4,7 @@ mod check;
 mod common;
 mod eval;
 mod fit;
+mod flash;
 mod import;
 mod pack;
 mod params;
@@ -25,7 +26,7 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Cross-check a device (firmware under QEMU) against the host's f64 model.
+    /// Cross-check a device (QEMU, serial or probe) against the host's f64 model.
     Check(check::CheckCmd),
     /// Evaluate a model over a CSV of angles (theta_i, theta_r, phi in degrees).
     Eval(eval::EvalCmd),
@@ -33,6 +34,8 @@ enum Command {
     Import(import::ImportCmd),
     /// Fit a model to measured data (one or many datasets).
     Fit(fit::FitCmd),
+    /// Write a parameter blob into a board's inactive flash slot through a debug probe.
+    Flash(flash::FlashCmd),
     /// Build a parameter blob for the firmware from fit results.
     Pack(pack::PackCmd),
     /// Fit models to a dataset and plot them (in-plane curves, hemisphere map, residuals).
@@ -53,6 +56,7 @@ fn main() -> std::process::ExitCode {
         Command::Check(cmd) => cmd.run(),
         Command::Eval(cmd) => cmd.run(),
         Command::Fit(cmd) => cmd.run(),
+        Command::Flash(cmd) => cmd.run(),
         Command::Import(cmd) => cmd.run(),
         Command::Pack(cmd) => cmd.run(),
         Command::Plot(cmd) => cmd.run(),

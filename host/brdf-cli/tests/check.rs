@@ -119,4 +119,94 @@ fn check_qemu_passes_for_table1_and_a_fresh_fit() {
         .map(|r| r["max_rel"].as_f64().unwrap())
         .fold(0.0, f64::max);
     println!("freshly fitted Garnet Red: worst relative error {worst:.2e}");
+
+    // The same fit with 256-node tables: held to the table bound up to 85 degrees zenith,
+    // the rest reported.
+    let tabled = dir.path().join("garnet-table.bin");
+    let pack = brdf(&[
+        "pack",
+        json.to_str().unwrap(),
+        "-o",
+        tabled.to_str().unwrap(),
+        "--sequence",
+        "3",
+        "--table-nodes",
+        "256",
+    ]);
+    assert!(pack.status.success(), "{}", String::from_utf8_lossy(&pack.stderr));
+    let out = brdf(&["check", "--qemu", "--blob", tabled.to_str().unwrap(), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = v.as_array().unwrap();
+    let judged: Vec<_> = rows.iter().filter(|r| !r["tolerance"].is_null()).collect();
+    assert!(judged.len() >= 4, "{rows:?}");
+    assert!(judged
+        .iter()
+        .all(|r| r["tolerance"] == 1.5e-3 && r["tabulated"] == 256));
+    assert!(rows
+        .iter()
+        .any(|r| r["tolerance"].is_null() && r["region"] == "grazing (>85 deg)"));
+    let worst = judged
+        .iter()
+        .map(|r| r["max_rel"].as_f64().unwrap())
+        .fold(0.0, f64::max);
+    println!("Garnet Red with 256-node tables: worst relative error {worst:.2e} up to 85 deg");
+    assert!(worst > 1e-6, "a table this coarse cannot be exact: {worst:e}");
+}
+
+#[test]
+fn flash_reads_slot_addresses_from_the_elf_and_needs_a_probe() {
+    if !firmware_built() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let blob = dir.path().join("t1.bin");
+    let json = dir.path().join("k.json");
+    std::fs::write(
+        &json,
+        r#"{"model":"six","params":{"kb":0.2545,"kr":21.8031,"b":-27.5721,"a":0.6705,"kd":0.3676,"c":1.2}}"#,
+    )
+    .unwrap();
+    assert!(
+        brdf(&["pack", json.to_str().unwrap(), "-o", blob.to_str().unwrap()])
+            .status
+            .success()
+    );
+    let elf = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../firmware/target/thumbv7em-none-eabihf/release/brdf-fw");
+    let args = |extra: &[&str]| {
+        let mut a = vec![
+            "flash",
+            blob.to_str().unwrap(),
+            "--chip",
+            "STM32F407VGTx",
+            "--elf",
+            elf.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        brdf(&a)
+    };
+    // No probe on this machine: a dry run still reports the slots from the ELF's symbols.
+    let dry = args(&["--dry-run"]);
+    let text = String::from_utf8_lossy(&dry.stdout);
+    assert!(dry.status.success(), "{}", String::from_utf8_lossy(&dry.stderr));
+    assert!(
+        text.contains("slot A at 0x00300000, slot B at 0x00340000"),
+        "{text}"
+    );
+    // A real write without a probe fails with a clear reason.
+    let real = args(&[]);
+    assert!(!real.status.success());
+    let err = String::from_utf8_lossy(&real.stderr);
+    assert!(err.contains("probe"), "{err}");
+    // A file that is not a blob is refused by name.
+    let bad = brdf(&[
+        "flash",
+        json.to_str().unwrap(),
+        "--chip",
+        "STM32F407VGTx",
+        "--dry-run",
+    ]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("k.json"));
 }

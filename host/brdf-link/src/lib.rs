@@ -2,10 +2,12 @@
 //! frames requests, pairs replies by tag and skips the ERROR replies the device sends for
 //! frames it could not read.
 //!
-//! The transport here is QEMU ([`Qemu`]): `qemu-system-arm` runs the firmware ELF on the
-//! `mps2-an386` board with UART0 connected to a TCP port this process listens on, in a
-//! working directory that holds the device's flash image, with the firmware's defmt log
-//! captured from its semihosting output ([`Qemu::log`], decoded by [`decode_defmt`]).
+//! Transports: QEMU ([`Qemu`]: `qemu-system-arm` runs the firmware ELF on the `mps2-an386`
+//! board with UART0 connected to a TCP port this process listens on, in a working directory
+//! that holds the device's flash image, with the firmware's defmt log captured from its
+//! semihosting output, decoded by [`decode_defmt`]); a serial port ([`serial::Serial`]); a
+//! debug probe's RTT channels ([`probe::ProbeRtt`]). [`flash`] writes parameter blobs into
+//! a device's flash slots through a probe.
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -13,6 +15,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
+
+pub mod flash;
+pub mod probe;
+pub mod serial;
 
 use brdf_core::ModelKind;
 use brdf_wire::frame::{
@@ -27,6 +33,9 @@ pub enum LinkError {
     /// QEMU could not be started.
     #[error("cannot start qemu-system-arm (is it installed?): {0}")]
     QemuMissing(std::io::Error),
+    /// A serial port or probe could not be opened.
+    #[error("{0}")]
+    Open(String),
     /// The firmware ELF does not exist.
     #[error("firmware {0} not found: build it with `cd firmware && cargo build --release -p brdf-fw`")]
     ElfMissing(PathBuf),
@@ -47,6 +56,15 @@ pub trait Transport {
     fn send(&mut self, bytes: &[u8]) -> std::io::Result<()>;
     /// Receives at least one byte into `buf`; returns how many.
     fn recv(&mut self, buf: &mut [u8]) -> std::io::Result<usize>;
+}
+
+impl<T: Transport + ?Sized> Transport for Box<T> {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        (**self).send(bytes)
+    }
+    fn recv(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        (**self).recv(buf)
+    }
 }
 
 /// The firmware under QEMU, UART0 over a loopback TCP socket. Dropping it stops QEMU.
