@@ -32,6 +32,7 @@
 
 pub mod anneal;
 pub mod checks;
+pub mod cost;
 mod error;
 mod float;
 mod geometry;

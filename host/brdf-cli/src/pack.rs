@@ -31,7 +31,9 @@ pub struct PackCmd {
     table_nodes: Option<usize>,
 }
 
-fn material(file: &str, index: usize, v: &serde_json::Value) -> Result<Material> {
+/// One material from one `brdf fit --json` result (refusing invalid parameters, warning on
+/// energy).
+pub(crate) fn material(file: &str, index: usize, v: &serde_json::Value, warn: bool) -> Result<Material> {
     let name = v["model"]
         .as_str()
         .ok_or_else(|| anyhow!("{file}: fit {index}: no `model`"))?;
@@ -53,6 +55,7 @@ fn material(file: &str, index: usize, v: &serde_json::Value) -> Result<Material>
         .model()
         .map_err(|e| anyhow!("{file}: fit {index}: refused: {e}"))?;
     match model.energy_bound() {
+        _ if !warn => {}
         Some(b) if b <= 1.0 => {}
         Some(b) => eprintln!(
             "warning: {file}: fit {index} ({name}): energy bound {b} > 1, conservation not guaranteed"
@@ -97,6 +100,65 @@ fn table_error(
     Ok((judged.iter().copied().fold(0.0, f64::max), judged.len()))
 }
 
+/// Gives a six-parameter material `nodes`-node tables built from its f32 parameters (the
+/// device checks the nodes against those). Returns the node bytes and the measured maximum
+/// relative error of the table against the exact model with the points it was taken over.
+pub(crate) fn add_tables(m: &mut Material, nodes: usize) -> Result<(Vec<u8>, f64, usize)> {
+    if !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&nodes) {
+        bail!("{nodes} table nodes: outside {MIN_TABLE_NODES}..={MAX_TABLE_NODES}");
+    }
+    let p = m
+        .six_params()
+        .ok_or_else(|| anyhow!("tables exist for the six-parameter model only"))?;
+    let p64 = brdf_core::SixParams {
+        kb: f64::from(p.kb),
+        kr: f64::from(p.kr),
+        b: f64::from(p.b),
+        a: f64::from(p.a),
+        kd: f64::from(p.kd),
+        c: f64::from(p.c),
+    };
+    let mut bytes = vec![0u8; table_len(nodes)];
+    fill_six_table(&p64, nodes, &mut bytes).map_err(|e| anyhow!("{e}"))?;
+    let (worst, n) = table_error(p, p64, &bytes)?;
+    m.table = Some(TableRef {
+        nodes: nodes as u16,
+        offset: 0,
+    });
+    Ok((bytes, worst, n))
+}
+
+/// Encodes `materials` (with `tables[i]` for those that have tables) and writes the blob.
+pub(crate) fn write_blob(
+    materials: heapless::Vec<Material, MAX_MATERIALS>,
+    tables: &[Option<Vec<u8>>],
+    sequence: u32,
+    output: &std::path::Path,
+) -> Result<()> {
+    let blob = Blob { sequence, materials };
+    if blob.encoded_len() > MAX_BLOB_LEN {
+        bail!(
+            "the blob would be {} bytes, more than a slot's {MAX_BLOB_LEN}: use fewer materials or fewer table nodes",
+            blob.encoded_len()
+        );
+    }
+    let refs: Vec<Option<&[u8]>> = tables.iter().map(|t| t.as_deref()).collect();
+    let mut buf = [0u8; MAX_BLOB_LEN];
+    let n = blob
+        .encode_with_tables(&refs, &mut buf)
+        .map_err(|e| anyhow!("{e}"))?;
+    std::fs::write(output, &buf[..n]).with_context(|| format!("cannot write {}", output.display()))?;
+    eprintln!(
+        "wrote {} ({} bytes, {} materials, sequence {}, CRC {:#010x})",
+        output.display(),
+        n,
+        blob.materials.len(),
+        sequence,
+        brdf_wire::crc32(&buf[..n - 4])
+    );
+    Ok(())
+}
+
 impl PackCmd {
     pub fn run(self) -> Result<()> {
         let mut materials: heapless::Vec<Material, MAX_MATERIALS> = heapless::Vec::new();
@@ -110,7 +172,7 @@ impl PackCmd {
                 other => vec![other],
             };
             for (i, f) in fits.into_iter().enumerate() {
-                if materials.push(material(&file, i, f)?).is_err() {
+                if materials.push(material(&file, i, f, true)?).is_err() {
                     bail!("more than {MAX_MATERIALS} materials: a blob holds at most {MAX_MATERIALS}");
                 }
             }
@@ -121,24 +183,15 @@ impl PackCmd {
                 bail!("--table-nodes {nodes}: outside {MIN_TABLE_NODES}..={MAX_TABLE_NODES}");
             }
             for (i, (m, t)) in materials.iter_mut().zip(&mut tables).enumerate() {
-                let Some(p) = m.six_params() else { continue };
-                // The device checks the nodes against its f32 parameters: build from those.
-                let p64 = brdf_core::SixParams {
-                    kb: f64::from(p.kb),
-                    kr: f64::from(p.kr),
-                    b: f64::from(p.b),
-                    a: f64::from(p.a),
-                    kd: f64::from(p.kd),
-                    c: f64::from(p.c),
-                };
-                let mut bytes = vec![0u8; table_len(nodes)];
-                fill_six_table(&p64, nodes, &mut bytes).map_err(|e| anyhow!("{e}"))?;
-                let (worst, n) = table_error(p, p64, &bytes)?;
-                let bound = TABLE_MAX_REL.iter().find(|t| t.0 == nodes).map(|t| t.1);
+                if m.six_params().is_none() {
+                    continue;
+                }
+                let (bytes, worst, n) = add_tables(m, nodes)?;
                 eprintln!(
                     "material {i}: {nodes}-node tables, measured max relative error {worst:.2e} over {n} \
                      directions up to {TABLE_MAX_ZENITH_DEG} degrees zenith"
                 );
+                let bound = TABLE_MAX_REL.iter().find(|t| t.0 == nodes).map(|t| t.1);
                 if bound.is_some_and(|b| worst > b) {
                     eprintln!(
                         "warning: that exceeds the {:e} promised for parameters in the paper's range: \
@@ -146,10 +199,6 @@ impl PackCmd {
                         bound.unwrap_or(0.0)
                     );
                 }
-                m.table = Some(TableRef {
-                    nodes: nodes as u16,
-                    offset: 0,
-                });
                 *t = Some(bytes);
             }
             match TABLE_MAX_REL.iter().find(|t| t.0 == nodes) {
@@ -164,31 +213,7 @@ impl PackCmd {
                 ),
             }
         }
-        let blob = Blob {
-            sequence: self.sequence,
-            materials,
-        };
-        if blob.encoded_len() > MAX_BLOB_LEN {
-            bail!(
-                "the blob would be {} bytes, more than a slot's {MAX_BLOB_LEN}: use fewer materials or fewer table nodes",
-                blob.encoded_len()
-            );
-        }
-        let refs: Vec<Option<&[u8]>> = tables.iter().map(|t| t.as_deref()).collect();
-        let mut buf = [0u8; MAX_BLOB_LEN];
-        let n = blob
-            .encode_with_tables(&refs, &mut buf)
-            .map_err(|e| anyhow!("{e}"))?;
-        std::fs::write(&self.output, &buf[..n])
-            .with_context(|| format!("cannot write {}", self.output.display()))?;
-        eprintln!(
-            "wrote {} ({} bytes, {} materials, sequence {}, CRC {:#010x})",
-            self.output.display(),
-            n,
-            blob.materials.len(),
-            self.sequence,
-            brdf_wire::crc32(&buf[..n - 4])
-        );
+        write_blob(materials, &tables, self.sequence, &self.output)?;
         Ok(())
     }
 }

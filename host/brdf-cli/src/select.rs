@@ -1,17 +1,21 @@
-//! `brdf select`: the simplest model of the family that meets an error budget.
+//! `brdf select`: the simplest model of the family, and the cheapest representation on the
+//! device, that meet an error budget over the angular domain a scene uses.
 
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
-use brdf_core::ModelKind;
+use anyhow::{anyhow, bail, Result};
+use brdf_core::table::{table_len, SixTable, TABLE_SIZES};
+use brdf_core::{Brdf, ModelKind};
 use brdf_fit::report::FitReport;
 use brdf_fit::Dataset;
+use brdf_wire::blob::{Material, MAX_BLOB_LEN};
 use clap::Args;
 use serde::Serialize;
 
 use crate::common::{parse_fraction, EngineArgs};
 use crate::fit::fit_all;
+use crate::pack::{add_tables, write_blob};
 
 /// The model ladder, simplest first: Lambert (1 parameter), Minnaert (2), five-parameter
 /// (5), six-parameter (6) and its cos^2 variant (6).
@@ -23,8 +27,12 @@ pub const LADDER: [ModelKind; 5] = [
     ModelKind::SixCos2,
 ];
 
-/// Fit the model ladder to a dataset over the angular domain a scene uses and name the
-/// simplest model whose RMS relative error meets the budget.
+/// Fit the model ladder to a dataset over the angular domain a scene uses, name the simplest
+/// model whose RMS relative error meets the budget, and the cheapest representation on the
+/// device (Lambert, Minnaert, five- or six-parameter exact, six-parameter tables of 64, 256 or
+/// 1024 nodes) that meets it, with its cost per lookup (Cortex-M4F instructions from
+/// `brdf_core::cost`, host ns measured now) and its error against the data; `-o` writes it as
+/// a parameter blob for `brdf flash`.
 #[derive(Debug, Args)]
 pub struct SelectCmd {
     /// Largest acceptable RMS relative error over the domain, e.g. 2% or 0.02.
@@ -33,6 +41,18 @@ pub struct SelectCmd {
     /// Angular domain: only points with theta_i and theta_r at most this (degrees).
     #[arg(long, default_value_t = 90.0)]
     max_theta: f64,
+    /// Largest incidence zenith of the domain (degrees; default --max-theta).
+    #[arg(long)]
+    max_theta_i: Option<f64>,
+    /// Largest viewing zenith of the domain (degrees; default --max-theta).
+    #[arg(long)]
+    max_theta_r: Option<f64>,
+    /// Write the chosen representation as a parameter blob.
+    #[arg(short = 'o', long)]
+    output: Option<PathBuf>,
+    /// Sequence number of the blob written with -o.
+    #[arg(long, default_value_t = 1)]
+    sequence: u32,
     #[command(flatten)]
     engine: EngineArgs,
     /// Print JSON instead of the table.
@@ -46,10 +66,35 @@ pub struct SelectCmd {
 struct Selection<'a> {
     dataset: &'a str,
     budget: f64,
-    max_theta: f64,
+    max_theta_i: f64,
+    max_theta_r: f64,
     n: usize,
     chosen: Option<&'static str>,
+    chosen_representation: Option<String>,
     candidates: &'a [FitReport],
+    representations: &'a [Representation],
+}
+
+/// One way the device could answer lookups for this data.
+#[derive(Clone, Debug, Serialize)]
+struct Representation {
+    /// `six exact`, `six table 256`, ...
+    name: String,
+    model: &'static str,
+    /// Table nodes, if tabulated.
+    nodes: Option<usize>,
+    /// Cortex-M4F instructions per lookup from cosines (`brdf_core::cost`).
+    device_instructions: u32,
+    /// Host nanoseconds per f32 lookup from cosines, measured in this run.
+    host_ns: f64,
+    /// RMS and max relative error against the data over the domain.
+    rms_rel: f64,
+    max_rel: f64,
+    /// Max relative error of the table against the exact model at the data points.
+    table_vs_exact: Option<f64>,
+    /// Blob bytes; false `fits_blob` when over a slot's 4,096.
+    blob_bytes: usize,
+    fits_blob: bool,
 }
 
 impl SelectCmd {
@@ -62,23 +107,26 @@ impl SelectCmd {
                 datasets.len()
             );
         }
-        let limit = self.max_theta.to_radians() + 1e-12;
+        let (max_i, max_r) = (
+            self.max_theta_i.unwrap_or(self.max_theta),
+            self.max_theta_r.unwrap_or(self.max_theta),
+        );
+        let (limit_i, limit_r) = (max_i.to_radians() + 1e-12, max_r.to_radians() + 1e-12);
         let d = &datasets[0];
         let domain = Dataset {
             name: d.name.clone(),
             points: d
                 .points
                 .iter()
-                .filter(|p| p.theta_i <= limit && p.theta_r <= limit)
+                .filter(|p| p.theta_i <= limit_i && p.theta_r <= limit_r)
                 .copied()
                 .collect(),
         };
         if domain.points.len() < 7 {
             bail!(
-                "{}: only {} points with both zeniths <= {} deg; too few to compare models",
+                "{}: only {} points with theta_i <= {max_i} and theta_r <= {max_r} deg; too few to compare models",
                 d.name,
                 domain.points.len(),
-                self.max_theta
             );
         }
         let residual = self.engine.residual.into();
@@ -91,26 +139,48 @@ impl SelectCmd {
             .iter()
             .find(|r| r.metrics.rms_rel <= self.budget)
             .map(|r| r.model);
+        let (reprs, materials) = representations(&reports, &domain)?;
+        let best = reprs
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.rms_rel <= self.budget && r.fits_blob)
+            // Cheapest per lookup, then smallest in flash, then most accurate.
+            .min_by(|a, b| {
+                (a.1.device_instructions, a.1.blob_bytes, a.1.rms_rel)
+                    .partial_cmp(&(b.1.device_instructions, b.1.blob_bytes, b.1.rms_rel))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            })
+            .map(|(i, _)| i);
+        if let (Some(path), Some(i)) = (&self.output, best) {
+            let (m, table) = materials[i].clone();
+            let mut v = heapless::Vec::new();
+            v.push(m).map_err(|_| anyhow!("one material"))?;
+            write_blob(v, &[table], self.sequence, path)?;
+        } else if self.output.is_some() {
+            bail!("no representation meets the budget; nothing written");
+        }
         let stdout = std::io::stdout();
         let mut out = stdout.lock();
         if self.json {
             let s = Selection {
                 dataset: &domain.name,
                 budget: self.budget,
-                max_theta: self.max_theta,
+                max_theta_i: max_i,
+                max_theta_r: max_r,
                 n: domain.points.len(),
                 chosen,
+                chosen_representation: best.map(|i| reprs[i].name.clone()),
                 candidates: &reports,
+                representations: &reprs,
             };
             writeln!(out, "{}", serde_json::to_string_pretty(&s)?)?;
             return Ok(());
         }
         writeln!(
             out,
-            "{}: {} points with theta_i, theta_r <= {} deg; budget: RMS relative error <= {:.2}%",
+            "{}: {} points with theta_i <= {max_i} deg, theta_r <= {max_r} deg; budget: RMS relative error <= {:.2}%",
             domain.name,
             domain.points.len(),
-            self.max_theta,
             100.0 * self.budget
         )?;
         writeln!(
@@ -153,6 +223,131 @@ impl SelectCmd {
                 )?
             }
         }
+        writeln!(out)?;
+        writeln!(
+            out,
+            "{:<16} {:>10} {:>10} {:>13} {:>12} {:>8} {:>7}",
+            "representation", "rms rel %", "max rel %", "table vs exact", "M4F instr", "host ns", "bytes"
+        )?;
+        for r in &reprs {
+            writeln!(
+                out,
+                "{:<16} {:>10.3} {:>10.3} {:>13} {:>12} {:>8.1} {:>7}{}",
+                r.name,
+                100.0 * r.rms_rel,
+                100.0 * r.max_rel,
+                r.table_vs_exact.map_or("-".into(), |e| format!("{e:.1e}")),
+                r.device_instructions,
+                r.host_ns,
+                r.blob_bytes,
+                if r.fits_blob { "" } else { "  (over a slot)" }
+            )?;
+        }
+        match best {
+            Some(i) => writeln!(
+                out,
+                "cheapest representation within budget: {} ({} instructions per lookup on the Cortex-M4F, \
+                 RMS relative error {:.3}%){}",
+                reprs[i].name,
+                reprs[i].device_instructions,
+                100.0 * reprs[i].rms_rel,
+                self.output
+                    .as_ref()
+                    .map_or(String::new(), |p| format!("; written to {}", p.display()))
+            )?,
+            None => writeln!(out, "no representation meets the budget")?,
+        }
         Ok(())
     }
+}
+
+/// Every representation of every fitted model, with its error against the data over the
+/// domain and its cost; and the material (with table bytes) each would be flashed as.
+#[allow(clippy::type_complexity)]
+fn representations(
+    reports: &[FitReport],
+    domain: &Dataset,
+) -> Result<(Vec<Representation>, Vec<(Material, Option<Vec<u8>>)>)> {
+    let mut reprs = Vec::new();
+    let mut materials = Vec::new();
+    let cos: Vec<[f32; 3]> = domain
+        .points
+        .iter()
+        .map(|p| [p.theta_i.cos() as f32, p.theta_r.cos() as f32, p.phi.cos() as f32])
+        .collect();
+    let errors = |f: &dyn Fn(&[f32; 3]) -> f64| -> (f64, f64) {
+        let rel: Vec<f64> = domain
+            .points
+            .iter()
+            .zip(&cos)
+            .map(|(p, c)| ((f(c) - p.brdf) / p.brdf).abs())
+            .collect();
+        let rms = (rel.iter().map(|r| r * r).sum::<f64>() / rel.len() as f64).sqrt();
+        (rms, rel.iter().copied().fold(0.0, f64::max))
+    };
+    let host_ns = |f: &dyn Fn(&[f32; 3]) -> f32| -> f64 {
+        let reps = (200_000 / cos.len()).max(1);
+        let t = std::time::Instant::now();
+        let mut acc = 0.0f32;
+        for _ in 0..reps {
+            for c in &cos {
+                acc += f(std::hint::black_box(c));
+            }
+        }
+        std::hint::black_box(acc);
+        t.elapsed().as_secs_f64() * 1e9 / (reps * cos.len()) as f64
+    };
+    for r in reports {
+        let kind = ModelKind::from_name(r.model).ok_or_else(|| anyhow!("unknown model {}", r.model))?;
+        let json = serde_json::to_value(r)?;
+        let material = crate::pack::material(&r.dataset, 0, &json, false)?;
+        let exact = material.model().map_err(|e| anyhow!("{}: {e}", r.model))?;
+        let (rms, max) = errors(&|c| f64::from(exact.eval_cosines(c[0], c[1], c[2])));
+        let blob_bytes = 16 + 4 + 4 * kind.param_count() + 4;
+        reprs.push(Representation {
+            name: format!("{} exact", r.model),
+            model: r.model,
+            nodes: None,
+            device_instructions: brdf_core::cost::exact_instructions(kind),
+            host_ns: host_ns(&|c| exact.eval_cosines(c[0], c[1], c[2])),
+            rms_rel: rms,
+            max_rel: max,
+            table_vs_exact: None,
+            blob_bytes,
+            fits_blob: blob_bytes <= MAX_BLOB_LEN,
+        });
+        materials.push((material, None));
+        if kind != ModelKind::Six {
+            continue;
+        }
+        for nodes in TABLE_SIZES {
+            let mut m = material;
+            let (bytes, _, _) = add_tables(&mut m, nodes)?;
+            let p = m.six_params().ok_or_else(|| anyhow!("six-parameter material"))?;
+            let table = SixTable::new(p, &bytes).map_err(|e| anyhow!("{e}"))?;
+            let (rms, max) = errors(&|c| f64::from(table.eval_cosines(c[0], c[1], c[2])));
+            let vs_exact = cos
+                .iter()
+                .map(|c| {
+                    let e = f64::from(exact.eval_cosines(c[0], c[1], c[2]));
+                    ((f64::from(table.eval_cosines(c[0], c[1], c[2])) - e) / e).abs()
+                })
+                .fold(0.0, f64::max);
+            let blob_bytes = 16 + 4 + 4 * 6 + table_len(nodes) + 4;
+            reprs.push(Representation {
+                name: format!("six table {nodes}"),
+                model: r.model,
+                nodes: Some(nodes),
+                device_instructions: brdf_core::cost::TABLE_INSTRUCTIONS,
+                host_ns: host_ns(&|c| table.eval_cosines(c[0], c[1], c[2])),
+                rms_rel: rms,
+                max_rel: max,
+                table_vs_exact: Some(vs_exact),
+                blob_bytes,
+                fits_blob: blob_bytes <= MAX_BLOB_LEN,
+            });
+            materials.push((m, Some(bytes)));
+        }
+    }
+    Ok((reprs, materials))
 }

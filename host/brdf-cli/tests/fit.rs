@@ -234,6 +234,59 @@ fn select_picks_the_simplest_model_within_budget() {
 }
 
 #[test]
+fn select_names_the_cheapest_representation_and_writes_its_blob() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = repo("data/khaki-synthetic-inplane.csv");
+    let blob = dir.path().join("scene.bin");
+    // 1%: only the six-parameter fits meet it; the 64-node table is the cheapest of those
+    // on the device (285 against 753 instructions) and the smallest table.
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "select",
+        &data,
+        "--budget",
+        "1%",
+        "--max-theta-i",
+        "40",
+        "--max-theta-r",
+        "60",
+        "--json",
+        "-o",
+        blob.to_str().unwrap(),
+    ]))
+    .unwrap();
+    assert_eq!(v["chosen"], "six");
+    assert_eq!(v["chosen_representation"], "six table 64");
+    let reprs = v["representations"].as_array().unwrap();
+    let names: Vec<&str> = reprs.iter().map(|r| r["name"].as_str().unwrap()).collect();
+    assert!(
+        names.contains(&"six table 1024") && names.contains(&"lambert exact"),
+        "{names:?}"
+    );
+    let big = reprs.iter().find(|r| r["name"] == "six table 1024").unwrap();
+    assert_eq!(big["fits_blob"], false);
+    let bytes = std::fs::read(&blob).unwrap();
+    let b = brdf_wire::blob::Blob::decode(&bytes).unwrap();
+    assert_eq!(b.materials.len(), 1);
+    assert_eq!(b.materials[0].table.map(|t| t.nodes), Some(64));
+    // A budget Lambert meets within 40 degrees: the cheapest representation of all.
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "select",
+        &data,
+        "--budget",
+        "40%",
+        "--max-theta",
+        "40",
+        "--json",
+    ]))
+    .unwrap();
+    assert_eq!(v["chosen_representation"], "lambert exact");
+    // A budget nothing meets writes nothing and says so.
+    let none = brdf(&["select", &data, "--budget", "0.01%", "-o", blob.to_str().unwrap()]);
+    assert!(!none.status.success());
+    assert!(String::from_utf8_lossy(&none.stderr).contains("no representation meets the budget"));
+}
+
+#[test]
 fn pack_builds_a_blob_the_firmware_format_reads_and_refuses_bad_parameters() {
     let dir = tempfile::tempdir().unwrap();
     let six = ok(&["fit", &repo("data/khaki-synthetic-inplane.csv"), "--json"]);

@@ -1,0 +1,27 @@
+//! What one lookup costs on the Cortex-M4F, per model and representation: instructions per
+//! evaluation from cosines as the firmware serves EVAL (release, LTO, `opt-level = "s"`,
+//! libm; counted exactly under QEMU by `bash bench/firmware_cost.sh`). `brdf select` ranks
+//! representations by these figures; the test `tests/tests/firmware_cost.rs` re-counts them
+//! under QEMU and fails when one drifts by more than [`COST_DRIFT`].
+
+use crate::model::ModelKind;
+
+/// Instructions per exact f32 evaluation from cosines.
+pub const fn exact_instructions(kind: ModelKind) -> u32 {
+    match kind {
+        ModelKind::Lambert => 69,
+        ModelKind::Minnaert => 290,
+        ModelKind::Five => 457,
+        ModelKind::Six => 753,
+        ModelKind::SixCos2 => 772,
+    }
+}
+
+/// Instructions per tabulated six-parameter lookup from cosines as the firmware serves it
+/// (table constants rebound to the blob per query); independent of the node count.
+pub const TABLE_INSTRUCTIONS: u32 = 285;
+
+/// Relative drift of a measured count from these constants that the test tolerates (a
+/// compiler or libm update moves counts by a few percent; a change of method moves them by
+/// far more).
+pub const COST_DRIFT: f64 = 0.10;

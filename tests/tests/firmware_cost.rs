@@ -1,0 +1,82 @@
+//! The device cost figures `brdf select` ranks by (`brdf_core::cost`) against a fresh count
+//! under QEMU (`firmware/brdf-fw/src/bin/cost.rs`, `-icount shift=0`: exact and repeatable).
+
+use std::path::PathBuf;
+use std::process::Command;
+
+use brdf_core::cost::{exact_instructions, COST_DRIFT, TABLE_INSTRUCTIONS};
+use brdf_core::ModelKind;
+
+#[test]
+fn device_cost_constants_match_a_fresh_count() {
+    if brdf_tests::qemu::firmware().is_none() {
+        return;
+    }
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware");
+    let built = Command::new(env!("CARGO"))
+        .args(["build", "--release", "-p", "brdf-fw", "--bin", "cost"])
+        .current_dir(&dir)
+        .status()
+        .unwrap();
+    assert!(built.success());
+    let out = Command::new("qemu-system-arm")
+        .args([
+            "-machine",
+            "mps2-an386",
+            "-cpu",
+            "cortex-m4",
+            "-nographic",
+            "-monitor",
+            "none",
+        ])
+        .args([
+            "-semihosting-config",
+            "enable=on,target=native",
+            "-icount",
+            "shift=0",
+            "-kernel",
+        ])
+        .arg(dir.join("target/thumbv7em-none-eabihf/release/cost"))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let measured = |name: &str| -> f64 {
+        text.lines()
+            .find_map(|l| {
+                let (_, rest) = l.split_once(": ")?;
+                let (n, count) = rest.split_once(" : ")?;
+                (n == name).then(|| count.trim_end_matches(" instructions").parse().ok())?
+            })
+            .unwrap_or_else(|| panic!("no `{name}` in\n{text}"))
+    };
+    let expected = [
+        (
+            "lambert exact from cosines",
+            exact_instructions(ModelKind::Lambert),
+        ),
+        (
+            "minnaert exact from cosines",
+            exact_instructions(ModelKind::Minnaert),
+        ),
+        ("five exact from cosines", exact_instructions(ModelKind::Five)),
+        ("six exact from cosines", exact_instructions(ModelKind::Six)),
+        (
+            "six-cos2 exact from cosines",
+            exact_instructions(ModelKind::SixCos2),
+        ),
+        (
+            "six table 256 from cosines, rebound per query",
+            TABLE_INSTRUCTIONS,
+        ),
+    ];
+    for (name, constant) in expected {
+        let m = measured(name);
+        println!("{name}: measured {m}, constant {constant}");
+        let drift = (m - f64::from(constant)).abs() / f64::from(constant);
+        assert!(
+            drift <= COST_DRIFT,
+            "{name}: measured {m}, brdf_core::cost says {constant}"
+        );
+    }
+}
