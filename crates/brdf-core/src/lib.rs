@@ -34,6 +34,7 @@ pub mod anneal;
 pub mod checks;
 pub mod cost;
 mod error;
+pub mod fast;
 mod float;
 mod geometry;
 mod model;
