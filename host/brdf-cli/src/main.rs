@@ -1,5 +1,7 @@
 //! `brdf`: evaluate the six-parameter BRDF model family from the command line.
 
+mod bench;
+mod bench_fit;
 mod check;
 mod common;
 mod eval;
@@ -26,6 +28,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Chart cost against accuracy: evaluation variants, fitting methods.
+    Bench(bench::BenchCmd),
     /// Cross-check a device (QEMU, serial or probe) against the host's f64 model.
     Check(check::CheckCmd),
     /// Evaluate a model over a CSV of angles (theta_i, theta_r, phi in degrees).
@@ -53,6 +57,7 @@ enum Command {
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Bench(cmd) => cmd.run(),
         Command::Check(cmd) => cmd.run(),
         Command::Eval(cmd) => cmd.run(),
         Command::Fit(cmd) => cmd.run(),
