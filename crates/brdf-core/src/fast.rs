@@ -28,8 +28,11 @@ const LN_2: f32 = core::f32::consts::LN_2;
 /// infinity for infinity. Subnormal `x` are treated as 0 (`-inf`).
 #[inline]
 pub fn log2_fast(x: f32) -> f32 {
-    if !(x > 0.0) {
-        return if x == 0.0 { f32::NEG_INFINITY } else { f32::NAN };
+    if x.is_nan() || x < 0.0 {
+        return f32::NAN;
+    }
+    if x == 0.0 {
+        return f32::NEG_INFINITY;
     }
     if x == f32::INFINITY {
         return x;
