@@ -91,7 +91,7 @@ impl FitBench {
                 errors: Vec::new(),
             };
             for seed in 0..self.seeds {
-                let opts = FitOptions { seed, ..base.clone() };
+                let opts = FitOptions { seed, ..base };
                 let out = fit(&problem, &opts);
                 m.seconds.push(out.seconds);
                 m.errors.push(report(data, &problem, &out, seed).metrics.rms_rel);
