@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-use brdf_core::cost::{exact_instructions, COST_DRIFT, TABLE_INSTRUCTIONS};
+use brdf_core::cost::{exact_instructions, COST_DRIFT, FAST_SIX_INSTRUCTIONS, TABLE_INSTRUCTIONS};
 use brdf_core::ModelKind;
 
 #[test]
@@ -69,6 +69,7 @@ fn device_cost_constants_match_a_fresh_count() {
             "six table 256 from cosines, rebound per query",
             TABLE_INSTRUCTIONS,
         ),
+        ("six fast from cosines", FAST_SIX_INSTRUCTIONS),
     ];
     for (name, constant) in expected {
         let m = measured(name);

@@ -22,6 +22,7 @@ use brdf_core::{AnyModel, Brdf};
 use brdf_fit::Dataset;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{register_font, FontStyle};
 
 /// Why a plot could not be written.
@@ -700,15 +701,19 @@ pub fn tradeoff(
             chart
                 .draw_series([Circle::new((p.cost, p.error), 6, style)])
                 .map_err(err)?;
-            // Labels alternate above and below their markers, so that neighbours at nearly
-            // the same error stay readable.
-            let dy = if i % 2 == 0 { 1.15 } else { 0.62 };
+            // Labels cycle through four heights around their markers, so that neighbours at
+            // nearly the same error stay readable; in the right third of the chart they end
+            // at the marker instead of starting there.
+            let dy = [1.2, 0.6, 1.55, 0.45][i % 4];
+            let right = (p.cost / xlo).ln() > 0.66 * (xhi / xlo).ln();
+            let (x, anchor) = if right {
+                (p.cost / 1.08, HPos::Right)
+            } else {
+                (p.cost * 1.08, HPos::Left)
+            };
+            let style = TextStyle::from((FONT, 13).into_font()).pos(Pos::new(anchor, VPos::Center));
             chart
-                .draw_series([Text::new(
-                    p.label.clone(),
-                    (p.cost * 1.08, p.error * dy),
-                    (FONT, 13).into_font(),
-                )])
+                .draw_series([Text::new(p.label.clone(), (x, p.error * dy), style)])
                 .map_err(err)?;
         }
         Ok(())
