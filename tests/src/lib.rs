@@ -70,14 +70,7 @@ pub const FIVE_REFERENCE: [(f64, f64, f64, f64); 6] = [
 
 /// Six-parameter struct from a Table 1 row.
 pub fn six_params(p: [f64; 6]) -> SixParams<f64> {
-    SixParams {
-        kb: p[0],
-        kr: p[1],
-        b: p[2],
-        a: p[3],
-        kd: p[4],
-        c: p[5],
-    }
+    SixParams::from_array(p)
 }
 
 /// Degrees to radians in f64.
@@ -265,14 +258,7 @@ pub mod table_error {
         let p32 = crate::six_params(p.map(|v| v as f32 as f64));
         let mut bytes = vec![0u8; table_len(nodes)];
         fill_six_table(&p32, nodes, &mut bytes).unwrap();
-        let q = brdf_core::SixParams {
-            kb: p32.kb as f32,
-            kr: p32.kr as f32,
-            b: p32.b as f32,
-            a: p32.a as f32,
-            kd: p32.kd as f32,
-            c: p32.c as f32,
-        };
+        let q = brdf_core::SixParams::from_array(p.map(|v| v as f32));
         let table = SixTable::new(q, &bytes).unwrap();
         let exact = SixParam::new(p32).unwrap();
         let max_z = (max_zenith_deg.to_radians()) as f32;

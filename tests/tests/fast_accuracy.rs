@@ -9,15 +9,7 @@ use brdf_tests::{dense_grid_f32, random_six, SplitMix, TABLE1};
 
 fn worst(p: [f64; 6], grid: &[[f32; 3]]) -> (f64, [f32; 3]) {
     let p32 = p.map(|v| v as f32);
-    let fast = FastSix::new(SixParams {
-        kb: p32[0],
-        kr: p32[1],
-        b: p32[2],
-        a: p32[3],
-        kd: p32[4],
-        c: p32[5],
-    })
-    .unwrap();
+    let fast = FastSix::new(SixParams::from_array(p32)).unwrap();
     let exact = SixParam::new(brdf_tests::six_params(p32.map(f64::from))).unwrap();
     let pts: Vec<([f32; 3], f32, f64)> = grid
         .iter()

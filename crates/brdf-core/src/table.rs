@@ -257,24 +257,10 @@ impl Brdf<f32> for SixTable<'_> {
 mod tests {
     use super::*;
 
-    const KHAKI: SixParams<f64> = SixParams {
-        kb: 0.2545,
-        kr: 21.8031,
-        b: -27.5721,
-        a: 0.6705,
-        kd: 0.3676,
-        c: 1.2,
-    };
+    const KHAKI: SixParams<f64> = SixParams::from_array([0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]);
 
     fn f32_params(p: SixParams<f64>) -> SixParams<f32> {
-        SixParams {
-            kb: p.kb as f32,
-            kr: p.kr as f32,
-            b: p.b as f32,
-            a: p.a as f32,
-            kd: p.kd as f32,
-            c: p.c as f32,
-        }
+        SixParams::from_array(p.as_array().map(|v| v as f32))
     }
 
     #[test]

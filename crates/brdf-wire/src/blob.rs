@@ -130,14 +130,7 @@ impl Material {
     /// The six-parameter parameters, if this is a six-parameter material.
     pub fn six_params(&self) -> Option<SixParams<f32>> {
         let p = self.params;
-        (self.kind == ModelKind::Six).then_some(SixParams {
-            kb: p[0],
-            kr: p[1],
-            b: p[2],
-            a: p[3],
-            kd: p[4],
-            c: p[5],
-        })
+        (self.kind == ModelKind::Six).then_some(SixParams::from_array([p[0], p[1], p[2], p[3], p[4], p[5]]))
     }
 
     /// The tabulated model over `blob` (the bytes this material was decoded from), if the
@@ -420,15 +413,7 @@ mod table_tests {
     const KHAKI: [f32; 6] = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
 
     fn tabled(nodes: u16) -> (Blob, std::vec::Vec<u8>) {
-        let p = KHAKI.map(f64::from);
-        let six = SixParams {
-            kb: p[0],
-            kr: p[1],
-            b: p[2],
-            a: p[3],
-            kd: p[4],
-            c: p[5],
-        };
+        let six = SixParams::from_array(KHAKI).widen();
         let mut nodes_bytes = std::vec![0u8; table_len(usize::from(nodes))];
         fill_six_table(&six, usize::from(nodes), &mut nodes_bytes).unwrap();
         let mut b = table1_blob();

@@ -103,23 +103,8 @@ fn bench<T: Float>(label: &str) -> Result<Vec<Row>> {
 
 /// The f32 table lookup from cosines at each promised size.
 fn bench_tables() -> Result<Vec<Row>> {
-    let p = KHAKI.map(|v| v as f32);
-    let p32 = SixParams {
-        kb: p[0],
-        kr: p[1],
-        b: p[2],
-        a: p[3],
-        kd: p[4],
-        c: p[5],
-    };
-    let p64 = SixParams {
-        kb: f64::from(p[0]),
-        kr: f64::from(p[1]),
-        b: f64::from(p[2]),
-        a: f64::from(p[3]),
-        kd: f64::from(p[4]),
-        c: f64::from(p[5]),
-    };
+    let p32 = SixParams::from_array(KHAKI.map(|v| v as f32));
+    let p64 = p32.widen();
     let g = grid::<f32>();
     let mut rows = Vec::new();
     for nodes in TABLE_SIZES {

@@ -104,40 +104,9 @@ fn device_counts() -> Result<Vec<(String, f64)>> {
     if !built.success() {
         bail!("the cost firmware did not build (is the thumbv7em-none-eabihf target installed?)");
     }
-    let out = Command::new("qemu-system-arm")
-        .args([
-            "-machine",
-            "mps2-an386",
-            "-cpu",
-            "cortex-m4",
-            "-nographic",
-            "-monitor",
-            "none",
-        ])
-        .args([
-            "-semihosting-config",
-            "enable=on,target=native",
-            "-icount",
-            "shift=0",
-            "-kernel",
-        ])
-        .arg(dir.join("target/thumbv7em-none-eabihf/release/cost"))
-        .output()
-        .context("cannot run qemu-system-arm")?;
-    if !out.status.success() {
-        bail!("the cost firmware failed under QEMU");
-    }
-    Ok(String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .filter_map(|l| {
-            let (_, rest) = l.split_once(": ")?;
-            let (name, count) = rest.split_once(" : ")?;
-            Some((
-                name.to_string(),
-                count.trim_end_matches(" instructions").parse().ok()?,
-            ))
-        })
-        .collect())
+    Ok(brdf_link::instruction_counts(
+        &dir.join("target/thumbv7em-none-eabihf/release/cost"),
+    )?)
 }
 
 /// Fits `kind` to the six-parameter values at `points` (relative residuals) and returns it.
@@ -159,24 +128,8 @@ impl EvalBench {
             .iter()
             .find(|m| m.0 == self.material)
             .ok_or_else(|| anyhow!("--material {}: use khaki, yellow or white", self.material))?;
-        let p32 = p.map(|v| v as f32);
-        let p64 = p32.map(f64::from);
-        let six32 = SixParams {
-            kb: p32[0],
-            kr: p32[1],
-            b: p32[2],
-            a: p32[3],
-            kd: p32[4],
-            c: p32[5],
-        };
-        let six64 = SixParams {
-            kb: p64[0],
-            kr: p64[1],
-            b: p64[2],
-            a: p64[3],
-            kd: p64[4],
-            c: p64[5],
-        };
+        let six32 = SixParams::from_array(p.map(|v| v as f32));
+        let six64 = six32.widen();
         // Grid: 40 x 40 zeniths in (0, max], 36 azimuths in [0, 360).
         let zmax = self.max_theta.to_radians();
         let mut ang = Vec::new();

@@ -110,14 +110,7 @@ pub(crate) fn add_tables(m: &mut Material, nodes: usize) -> Result<(Vec<u8>, f64
     let p = m
         .six_params()
         .ok_or_else(|| anyhow!("tables exist for the six-parameter model only"))?;
-    let p64 = brdf_core::SixParams {
-        kb: f64::from(p.kb),
-        kr: f64::from(p.kr),
-        b: f64::from(p.b),
-        a: f64::from(p.a),
-        kd: f64::from(p.kd),
-        c: f64::from(p.c),
-    };
+    let p64 = p.widen();
     let mut bytes = vec![0u8; table_len(nodes)];
     fill_six_table(&p64, nodes, &mut bytes).map_err(|e| anyhow!("{e}"))?;
     let (worst, n) = table_error(p, p64, &bytes)?;

@@ -106,17 +106,7 @@ impl Qemu {
         let elf = elf.canonicalize()?;
         let listener = TcpListener::bind("127.0.0.1:0")?;
         let port = listener.local_addr()?.port();
-        let mut child = Command::new("qemu-system-arm")
-            .args([
-                "-machine",
-                "mps2-an386",
-                "-cpu",
-                "cortex-m4",
-                "-nographic",
-                "-monitor",
-                "none",
-            ])
-            .args(["-semihosting-config", "enable=on,target=native"])
+        let mut child = qemu_command()
             .arg("-serial")
             .arg(format!("tcp:127.0.0.1:{port},nodelay=on"))
             .arg("-kernel")
@@ -167,6 +157,53 @@ impl Qemu {
         }
         self.log()
     }
+}
+
+/// `qemu-system-arm` for the MPS2-AN386 (Cortex-M4F) with semihosting, no display or monitor.
+pub fn qemu_command() -> Command {
+    let mut c = Command::new("qemu-system-arm");
+    c.args([
+        "-machine",
+        "mps2-an386",
+        "-cpu",
+        "cortex-m4",
+        "-nographic",
+        "-monitor",
+        "none",
+    ])
+    .args(["-semihosting-config", "enable=on,target=native"]);
+    c
+}
+
+/// Runs a firmware measurement program (`brdf-fw`'s `cost`: lines
+/// `path N: NAME : COUNT instructions`) under QEMU with `-icount shift=0`, where counts are
+/// exact, and returns each (NAME, COUNT).
+pub fn instruction_counts(elf: &Path) -> Result<Vec<(String, f64)>, LinkError> {
+    if !elf.is_file() {
+        return Err(LinkError::ElfMissing(elf.to_owned()));
+    }
+    let out = qemu_command()
+        .args(["-icount", "shift=0", "-kernel"])
+        .arg(elf)
+        .output()
+        .map_err(LinkError::QemuMissing)?;
+    if !out.status.success() {
+        return Err(LinkError::Protocol(format!(
+            "{} failed under QEMU",
+            elf.display()
+        )));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| {
+            let (_, rest) = l.split_once(": ")?;
+            let (name, count) = rest.split_once(" : ")?;
+            Some((
+                name.to_string(),
+                count.trim_end_matches(" instructions").parse().ok()?,
+            ))
+        })
+        .collect())
 }
 
 /// Decodes a defmt byte stream with the tables of the firmware `elf`: one line per log

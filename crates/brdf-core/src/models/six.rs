@@ -27,6 +27,13 @@ pub struct SixParams<T> {
     pub c: T,
 }
 
+impl SixParams<f32> {
+    /// The same parameters in f64 (exact widening): the host reference of a device material.
+    pub fn widen(&self) -> SixParams<f64> {
+        SixParams::from_array(self.as_array().map(f64::from))
+    }
+}
+
 impl<T: Float> SixParams<T> {
     /// Checks every range listed on the fields.
     pub fn validate(&self) -> Result<(), ParamError> {
@@ -37,6 +44,23 @@ impl<T: Float> SixParams<T> {
         non_negative("kd", self.kd)?;
         non_negative("c", self.c)?;
         Ok(())
+    }
+
+    /// From `[kb, kr, b, a, kd, c]` (paper order), unchecked (see [`SixParams::validate`]).
+    pub const fn from_array(p: [T; 6]) -> Self {
+        SixParams {
+            kb: p[0],
+            kr: p[1],
+            b: p[2],
+            a: p[3],
+            kd: p[4],
+            c: p[5],
+        }
+    }
+
+    /// `[kb, kr, b, a, kd, c]`.
+    pub fn as_array(&self) -> [T; 6] {
+        [self.kb, self.kr, self.b, self.a, self.kd, self.c]
     }
 
     pub(crate) fn from_slice(values: &[T]) -> Result<Self, ParamError> {
