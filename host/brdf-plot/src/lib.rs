@@ -22,7 +22,6 @@ use brdf_core::{AnyModel, Brdf};
 use brdf_fit::Dataset;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{register_font, FontStyle};
 
 /// Why a plot could not be written.
@@ -650,12 +649,31 @@ pub fn tradeoff(
         points: &[TradePoint],
         front: &[usize],
     ) -> Res {
-        let (head, body) = root.split_vertically(60);
+        // Header: title, the key to the numbered markers (wrapped), the Pareto note.
+        let mut key: Vec<Vec<String>> = vec![Vec::new()];
+        let mut width = 0;
+        for (i, p) in points.iter().enumerate() {
+            let item = format!("{} {}", i + 1, p.label);
+            let w = 8 * item.len() + 24;
+            if width + w > 960 && !key[key.len() - 1].is_empty() {
+                key.push(Vec::new());
+                width = 0;
+            }
+            width += w;
+            let last = key.len() - 1;
+            key[last].push(item);
+        }
+        let head_h = 64 + 22 * key.len() as u32;
+        let (head, body) = root.split_vertically(head_h);
         head.draw(&Text::new(title.to_string(), (16, 8), (FONT, 20).into_font()))
             .map_err(err)?;
+        for (r, line) in key.iter().enumerate() {
+            head.draw(&Text::new(line.join("   "), (16, 36 + 22 * r as i32), (FONT, 14).into_font()))
+                .map_err(err)?;
+        }
         head.draw(&Text::new(
             "filled, joined: Pareto front (nothing both cheaper and more accurate)".to_string(),
-            (16, 36),
+            (16, 36 + 22 * key.len() as i32),
             (FONT, 14).into_font(),
         ))
         .map_err(err)?;
@@ -701,19 +719,14 @@ pub fn tradeoff(
             chart
                 .draw_series([Circle::new((p.cost, p.error), 6, style)])
                 .map_err(err)?;
-            // Labels cycle through four heights around their markers, so that neighbours at
-            // nearly the same error stay readable; in the right third of the chart they end
-            // at the marker instead of starting there.
-            let dy = [1.2, 0.6, 1.55, 0.45][i % 4];
-            let right = (p.cost / xlo).ln() > 0.66 * (xhi / xlo).ln();
-            let (x, anchor) = if right {
-                (p.cost / 1.08, HPos::Right)
-            } else {
-                (p.cost * 1.08, HPos::Left)
-            };
-            let style = TextStyle::from((FONT, 13).into_font()).pos(Pos::new(anchor, VPos::Center));
+            // Each marker carries its number; the names are listed above the chart, so
+            // that markers at nearly the same place stay unambiguous.
             chart
-                .draw_series([Text::new(p.label.clone(), (x, p.error * dy), style)])
+                .draw_series([Text::new(
+                    format!("{}", i + 1),
+                    (p.cost * 1.12, p.error * 1.12),
+                    (FONT, 14).into_font(),
+                )])
                 .map_err(err)?;
         }
         Ok(())
