@@ -668,8 +668,12 @@ pub fn tradeoff(
         head.draw(&Text::new(title.to_string(), (16, 8), (FONT, 20).into_font()))
             .map_err(err)?;
         for (r, line) in key.iter().enumerate() {
-            head.draw(&Text::new(line.join("   "), (16, 36 + 22 * r as i32), (FONT, 14).into_font()))
-                .map_err(err)?;
+            head.draw(&Text::new(
+                line.join("   "),
+                (16, 36 + 22 * r as i32),
+                (FONT, 14).into_font(),
+            ))
+            .map_err(err)?;
         }
         head.draw(&Text::new(
             "filled, joined: Pareto front (nothing both cheaper and more accurate)".to_string(),
