@@ -188,7 +188,7 @@ fn firmware_serves_tabulated_materials_like_the_host() {
         .encode_with_tables(&[Some(&nodes_bytes), None], &mut buf)
         .unwrap();
     let crc = dev.load(&buf[..n]).unwrap();
-    assert_eq!(crc, brdf_wire::crc32(&buf[..n - 4]));
+    assert_eq!(crc, brdf_wire::blob::blob_crc(&buf[..n]));
 
     let host_table = SixTable::new(white, &nodes_bytes).unwrap();
     let exact = SixParam::new(white64).unwrap();
@@ -241,7 +241,7 @@ fn firmware_serves_tabulated_materials_like_the_host() {
     let mut bad = buf;
     let at = 16 + 4 + 4 * 5; // white's c
     bad[at..at + 4].copy_from_slice(&0.3f32.to_le_bytes());
-    let c = brdf_wire::crc32(&bad[..n - 4]);
+    let c = brdf_wire::blob::blob_crc(&bad[..n]);
     bad[n - 4..n].copy_from_slice(&c.to_le_bytes());
     assert!(Blob::decode(&bad[..n]).is_err());
     assert!(dev.load(&bad[..n]).is_err());

@@ -26,7 +26,7 @@ fn blob(sequence: u32, materials: &[usize]) -> Vec<u8> {
 }
 
 fn crc(blob: &[u8]) -> u32 {
-    brdf_wire::crc32(&blob[..blob.len() - 4])
+    brdf_wire::blob::blob_crc(blob)
 }
 
 /// Boots QEMU in `dir`, returns (INFO's active CRC and material count, decoded boot log).

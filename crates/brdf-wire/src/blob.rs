@@ -36,6 +36,12 @@ pub const MAX_BLOB_LEN: usize = 4096;
 
 const HEADER_LEN: usize = 16;
 
+/// The CRC that identifies a blob (what INFO reports): CRC-32 of every byte before its
+/// trailing CRC. Equal to that trailer for any blob that decodes.
+pub fn blob_crc(bytes: &[u8]) -> u32 {
+    crc32(&bytes[..bytes.len().saturating_sub(4)])
+}
+
 /// Model id on the wire.
 pub const fn model_id(kind: ModelKind) -> u8 {
     match kind {

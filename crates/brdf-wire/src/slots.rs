@@ -74,8 +74,9 @@ impl SlotState {
 }
 
 /// Reads a slot image (at least the length word; more bytes than the image are ignored).
-/// Returns its state and, when valid, the blob bytes inside it.
-pub fn read_slot(image: &[u8]) -> (SlotState, Option<&[u8]>) {
+/// Returns its state and, when valid, the blob bytes inside it with the blob they decode to
+/// (so that a caller never decodes them again).
+pub fn read_slot(image: &[u8]) -> (SlotState, Option<(&[u8], Blob)>) {
     let Some(&[l0, l1, l2, l3]) = image.get(..4) else {
         return (SlotState::BadLength(0), None);
     };
@@ -94,10 +95,10 @@ pub fn read_slot(image: &[u8]) -> (SlotState, Option<&[u8]>) {
         Ok(blob) => (
             SlotState::Valid {
                 sequence: blob.sequence,
-                crc: crate::crc32(&bytes[..bytes.len() - 4]),
+                crc: crate::blob::blob_crc(bytes),
                 len,
             },
-            Some(bytes),
+            Some((bytes, blob)),
         ),
         Err(e) => (SlotState::Invalid(e), None),
     }
@@ -150,8 +151,9 @@ impl core::fmt::Display for CommitError {
 
 /// Checks that `blob` may be committed over parameters with sequence `active_sequence` (0
 /// for the built-in default) and writes its slot image into `out`: the length word, then
-/// the blob. Returns the image length. Program it blob-first, length word last.
-pub fn slot_image(blob: &[u8], active_sequence: u32, out: &mut [u8]) -> Result<usize, CommitError> {
+/// the blob. Returns the image length and the decoded blob. Program it blob-first, length
+/// word last.
+pub fn slot_image(blob: &[u8], active_sequence: u32, out: &mut [u8]) -> Result<(usize, Blob), CommitError> {
     let b = Blob::decode(blob).map_err(CommitError::Blob)?;
     if b.sequence <= active_sequence {
         return Err(CommitError::Stale {
@@ -165,7 +167,7 @@ pub fn slot_image(blob: &[u8], active_sequence: u32, out: &mut [u8]) -> Result<u
     }
     out[..4].copy_from_slice(&(blob.len() as u32).to_le_bytes());
     out[4..n].copy_from_slice(blob);
-    Ok(n)
+    Ok((n, b))
 }
 
 #[cfg(test)]
@@ -235,8 +237,9 @@ mod tests {
             slot_image(&blob[..n - 1], 0, &mut img),
             Err(CommitError::Blob(BlobError::Crc))
         );
-        assert_eq!(slot_image(&blob[..n], 2, &mut img), Ok(n + 4));
-        assert_eq!(read_slot(&img).1, Some(&blob[..n]));
+        assert_eq!(slot_image(&blob[..n], 2, &mut img).map(|r| r.0), Ok(n + 4));
+        let (bytes, decoded) = read_slot(&img).1.unwrap();
+        assert_eq!((bytes, decoded.sequence), (&blob[..n], 3));
     }
 
     #[test]

@@ -14,7 +14,7 @@ use brdf_core::table::{SixTable, TableConsts};
 use brdf_core::{
     AnyModel, Brdf, FiveParam, Geometry, Lambert, Minnaert, Model, ModelKind, SixParam, SixParamCos2,
 };
-use brdf_wire::blob::{table1_blob, Blob, TableRef, BLOB_VERSION, MAX_BLOB_LEN};
+use brdf_wire::blob::{blob_crc, table1_blob, Blob, TableRef, BLOB_VERSION, MAX_BLOB_LEN};
 use brdf_wire::frame::{
     encode_response, parse_request, samples, ErrorCode, FrameReader, Input, Request, Response, MAX_BATCH,
     MAX_FIT_SAMPLES, MAX_FRAME,
@@ -50,7 +50,11 @@ struct Active {
 impl Active {
     /// Decodes and checks `src` (CRC, parameters, tables against their parameters).
     fn from_bytes(src: &[u8]) -> Option<Active> {
-        let blob = Blob::decode(src).ok()?;
+        Active::from_decoded(Blob::decode(src).ok()?, src)
+    }
+
+    /// `blob`, already decoded and checked from `src`, as the active set.
+    fn from_decoded(blob: Blob, src: &[u8]) -> Option<Active> {
         let mut models = heapless::Vec::new();
         let mut tables = heapless::Vec::new();
         for m in &blob.materials {
@@ -63,7 +67,7 @@ impl Active {
         }
         let mut bytes = [0u8; MAX_BLOB_LEN];
         bytes.get_mut(..src.len())?.copy_from_slice(src);
-        let crc = brdf_wire::crc32(&src[..src.len() - 4]);
+        let crc = blob_crc(src);
         Some(Active {
             bytes,
             len: src.len(),
@@ -206,7 +210,8 @@ fn handle<'v, F: Flash>(
 
 /// Reads both slots, logs what each holds, and returns the newest valid one's contents.
 fn boot<F: Flash>(flash: &F) -> Active {
-    let states = [SlotId::A, SlotId::B].map(|id| read_slot(flash.slot(id)).0);
+    let [a, b] = [SlotId::A, SlotId::B].map(|id| read_slot(flash.slot(id)));
+    let states = [a.0, b.0];
     for (id, state) in [SlotId::A, SlotId::B].into_iter().zip(&states) {
         match state {
             SlotState::Empty => defmt::info!("boot: slot {=str} empty", id.name()),
@@ -226,7 +231,11 @@ fn boot<F: Flash>(flash: &F) -> Active {
         }
     }
     if let Some(id) = select(&states[0], &states[1]) {
-        if let Some(a) = read_slot(flash.slot(id)).1.and_then(Active::from_bytes) {
+        let decoded = match id {
+            SlotId::A => a.1,
+            SlotId::B => b.1,
+        };
+        if let Some(a) = decoded.and_then(|(bytes, blob)| Active::from_decoded(blob, bytes)) {
             defmt::info!(
                 "boot: active slot {=str}, sequence {=u32}, {=usize} materials",
                 id.name(),
@@ -267,8 +276,8 @@ fn commit<F: Flash>(bytes: &[u8], flash: &mut F) -> Result<Active, ErrorCode> {
     let newest = select(&states[0], &states[1]);
     let newest_sequence = newest.and_then(|id| states[id as usize].sequence()).unwrap_or(0);
     let mut image = [0u8; SLOT_IMAGE_LEN];
-    let n = match slot_image(bytes, newest_sequence, &mut image) {
-        Ok(n) => n,
+    let (n, blob) = match slot_image(bytes, newest_sequence, &mut image) {
+        Ok(r) => r,
         Err(CommitError::Stale { sequence, active }) => {
             defmt::warn!(
                 "commit refused: sequence {=u32} not above {=u32}",
@@ -279,7 +288,7 @@ fn commit<F: Flash>(bytes: &[u8], flash: &mut F) -> Result<Active, ErrorCode> {
         }
         Err(CommitError::Blob(_)) => return Err(ErrorCode::InvalidBlob),
     };
-    let next = Active::from_bytes(bytes).ok_or(ErrorCode::InvalidBlob)?;
+    let next = Active::from_decoded(blob, bytes).ok_or(ErrorCode::InvalidBlob)?;
     let target = commit_target(newest);
     match write_slot(flash, target, &image[..n]) {
         Ok(()) => {

@@ -94,7 +94,7 @@ impl DeviceArgs {
                 let blob = Blob::decode(&bytes).map_err(|e| anyhow!("{}: {e}", path.display()))?;
                 link.load(&bytes)
                     .with_context(|| format!("the device refused {}", path.display()))?;
-                Some((blob, brdf_wire::crc32(&bytes[..bytes.len() - 4])))
+                Some((blob, brdf_wire::blob::blob_crc(&bytes)))
             }
             None => None,
         };
@@ -203,7 +203,7 @@ impl CheckCmd {
                 let default = table1_blob();
                 let mut buf = [0u8; MAX_BLOB_LEN];
                 let n = default.encode(&mut buf).map_err(|e| anyhow!("{e}"))?;
-                (default, brdf_wire::crc32(&buf[..n - 4]))
+                (default, brdf_wire::blob::blob_crc(&buf[..n]))
             }
         };
         // The device's active blob must be exactly the one checked against.

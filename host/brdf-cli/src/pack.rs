@@ -147,7 +147,7 @@ pub(crate) fn write_blob(
         n,
         blob.materials.len(),
         sequence,
-        brdf_wire::crc32(&buf[..n - 4])
+        brdf_wire::blob::blob_crc(&buf[..n])
     );
     Ok(())
 }

@@ -170,7 +170,7 @@ pub fn flash_blob<T: SlotTarget + ?Sized>(
         })
         .unwrap_or(0);
     let mut image = vec![0u8; SLOT_IMAGE_LEN];
-    let n = slot_image(blob, newest_sequence, &mut image).map_err(FlashError::Refused)?;
+    let (n, decoded) = slot_image(blob, newest_sequence, &mut image).map_err(FlashError::Refused)?;
     image.truncate(n);
     let slot = commit_target(newest);
     let plan = FlashPlan {
@@ -179,9 +179,7 @@ pub fn flash_blob<T: SlotTarget + ?Sized>(
         target: slot,
         address: map.address(slot),
         image_len: n,
-        sequence: brdf_wire::blob::Blob::decode(blob)
-            .map(|b| b.sequence)
-            .unwrap_or(0),
+        sequence: decoded.sequence,
         dry_run,
     };
     if dry_run {
