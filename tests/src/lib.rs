@@ -242,8 +242,8 @@ pub mod f32_paths {
 
 /// Accuracy of the tabulated path ([`brdf_core::table`]) against the exact f64 model.
 pub mod table_error {
-    use brdf_core::table::{fill_six_table, table_len, SixTable};
-    use brdf_core::{Brdf, SixParam};
+    use brdf_core::table::{fill_six_table, table_accuracy, table_len, SixTable};
+    use brdf_core::SixParam;
 
     /// Maximum and RMS relative error of the f32 table lookup from cosines against the exact
     /// f64 model at the same f32 cosines, over the directions of `grid` (radians) whose
@@ -262,30 +262,24 @@ pub mod table_error {
         let table = SixTable::new(q, &bytes).unwrap();
         let exact = SixParam::new(p32).unwrap();
         let max_z = (max_zenith_deg.to_radians()) as f32;
-        let pts: Vec<([f32; 3], f32, f64)> = grid
+        // The grid holds angles; the worst direction is reported as angles too.
+        let dirs: Vec<[f32; 3]> = grid
             .iter()
             .filter(|x| x[0] <= max_z && x[1] <= max_z)
-            .map(|&[ti, tr, phi]| {
-                let c = [ti.cos(), tr.cos(), phi.cos()];
-                let t = table.eval_cosines(c[0], c[1], c[2]);
-                let e = exact.eval_cosines(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
-                ([ti, tr, phi], t, e)
-            })
+            .copied()
             .collect();
-        let floor = brdf_core::tolerance::F32_FLOOR_OF_MAX * pts.iter().map(|p| p.2).fold(0.0, f64::max);
-        let (mut max, mut sum, mut at, mut n) = (0.0, 0.0, [0.0; 3], 0);
-        for (x, t, e) in pts {
-            assert!(t.is_finite(), "{p:?} at {x:?}");
-            if e > floor {
-                let r = ((f64::from(t) - e) / e).abs();
-                sum += r * r;
-                n += 1;
-                if r > max {
-                    (max, at) = (r, x);
-                }
-            }
-        }
-        (max, (sum / n as f64).sqrt(), at, n)
+        let cos: Vec<[f32; 3]> = dirs.iter().map(|x| x.map(f32::cos)).collect();
+        let a = table_accuracy(&table, &exact, cos.iter().copied());
+        assert!(
+            a.max.is_finite(),
+            "{p:?}: non-finite table value at cosines {:?}",
+            a.worst_at
+        );
+        let at = cos
+            .iter()
+            .position(|c| *c == a.worst_at)
+            .map_or([0.0; 3], |k| dirs[k]);
+        (a.max, a.rms, at, a.n)
     }
 }
 

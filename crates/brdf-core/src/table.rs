@@ -133,6 +133,59 @@ pub struct TableConsts {
     nodes: usize,
 }
 
+/// How far a table is from the exact model over a set of directions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TableAccuracy {
+    /// Largest relative error.
+    pub max: f64,
+    /// RMS relative error.
+    pub rms: f64,
+    /// The cosines `(cos ti, cos tr, cos phi)` of the largest error.
+    pub worst_at: [f32; 3],
+    /// Directions judged: those where the exact value is at least
+    /// [`crate::tolerance::F32_FLOOR_OF_MAX`] of its largest over the set.
+    pub n: usize,
+}
+
+/// Relative error of `table` against the exact f64 model `exact` at each of `cosines`
+/// (the f32 inputs, widened exactly for the reference), over the directions whose exact
+/// value is above [`crate::tolerance::F32_FLOOR_OF_MAX`] of its maximum. A non-finite
+/// table value counts as an infinite error. Two passes over `cosines`, no allocation.
+pub fn table_accuracy<I>(table: &SixTable<'_>, exact: &crate::SixParam<f64>, cosines: I) -> TableAccuracy
+where
+    I: IntoIterator<Item = [f32; 3]> + Clone,
+{
+    let reference = |c: [f32; 3]| exact.eval_cosines(c[0].to_f64(), c[1].to_f64(), c[2].to_f64());
+    let top = cosines.clone().into_iter().map(reference).fold(0.0, f64::max);
+    let floor = crate::tolerance::F32_FLOOR_OF_MAX * top;
+    let mut acc = TableAccuracy {
+        max: 0.0,
+        rms: 0.0,
+        worst_at: [0.0; 3],
+        n: 0,
+    };
+    for c in cosines {
+        let e = reference(c);
+        if e > floor {
+            let t = table.eval_cosines(c[0], c[1], c[2]).to_f64();
+            let r = if t.is_finite() {
+                ((t - e) / e).abs()
+            } else {
+                f64::INFINITY
+            };
+            acc.rms += r * r;
+            acc.n += 1;
+            if r > acc.max {
+                (acc.max, acc.worst_at) = (r, c);
+            }
+        }
+    }
+    if acc.n > 0 {
+        acc.rms = libm::sqrt(acc.rms / acc.n as f64);
+    }
+    acc
+}
+
 /// A six-parameter material evaluated through its tables; borrows the node bytes.
 #[derive(Clone, Copy, Debug)]
 pub struct SixTable<'t> {

@@ -73,31 +73,18 @@ fn table_error(
     p64: brdf_core::SixParams<f64>,
     bytes: &[u8],
 ) -> Result<(f64, usize)> {
-    use brdf_core::table::SixTable;
-    use brdf_core::tolerance::F32_FLOOR_OF_MAX;
-    use brdf_core::{Brdf, SixParam};
+    use brdf_core::table::{table_accuracy, SixTable};
     let table = SixTable::new(p, bytes).map_err(|e| anyhow!("{e}"))?;
-    let exact = SixParam::new(p64).map_err(|e| anyhow!("{e}"))?;
+    let exact = brdf_core::SixParam::new(p64).map_err(|e| anyhow!("{e}"))?;
     let zmax = TABLE_MAX_ZENITH_DEG.to_radians();
-    let mut pairs = Vec::new();
-    for i in 0..46 {
-        for j in 0..46 {
-            for k in 0..37 {
-                let (ti, tr) = (zmax * i as f64 / 45.0, zmax * j as f64 / 45.0);
-                let phi = std::f64::consts::PI * k as f64 / 36.0;
-                let c = [ti.cos() as f32, tr.cos() as f32, phi.cos() as f32];
-                let t = f64::from(table.eval_cosines(c[0], c[1], c[2]));
-                pairs.push((t, exact.eval_cosines(c[0].into(), c[1].into(), c[2].into())));
-            }
-        }
-    }
-    let floor = F32_FLOOR_OF_MAX * pairs.iter().map(|p| p.1).fold(0.0, f64::max);
-    let judged: Vec<f64> = pairs
-        .iter()
-        .filter(|p| p.1 > floor)
-        .map(|(t, e)| ((t - e) / e).abs())
-        .collect();
-    Ok((judged.iter().copied().fold(0.0, f64::max), judged.len()))
+    let grid = (0..46 * 46 * 37).map(|n| {
+        let (i, j, k) = (n / (46 * 37), n / 37 % 46, n % 37);
+        let (ti, tr) = (zmax * i as f64 / 45.0, zmax * j as f64 / 45.0);
+        let phi = std::f64::consts::PI * k as f64 / 36.0;
+        [ti.cos() as f32, tr.cos() as f32, phi.cos() as f32]
+    });
+    let a = table_accuracy(&table, &exact, grid);
+    Ok((a.max, a.n))
 }
 
 /// Gives a six-parameter material `nodes`-node tables built from its f32 parameters (the

@@ -5,11 +5,11 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Result};
-use brdf_core::table::{table_len, SixTable, TABLE_SIZES};
+use brdf_core::table::{table_accuracy, SixTable, TABLE_SIZES};
 use brdf_core::{Brdf, ModelKind};
 use brdf_fit::report::FitReport;
 use brdf_fit::Dataset;
-use brdf_wire::blob::{Material, MAX_BLOB_LEN};
+use brdf_wire::blob::{Blob, Material, MAX_BLOB_LEN};
 use clap::Args;
 use serde::Serialize;
 
@@ -261,6 +261,18 @@ impl SelectCmd {
     }
 }
 
+/// Encoded size of a blob holding `m` alone.
+fn blob_len(m: Material) -> usize {
+    let mut materials = heapless::Vec::new();
+    // A blob holds up to MAX_MATERIALS (8) materials: one always fits.
+    let _ = materials.push(m);
+    Blob {
+        sequence: 0,
+        materials,
+    }
+    .encoded_len()
+}
+
 /// Every representation of every fitted model, with its error against the data over the
 /// domain and its cost; and the material (with table bytes) each would be flashed as.
 #[allow(clippy::type_complexity)]
@@ -303,7 +315,7 @@ fn representations(
         let material = crate::pack::material(&r.dataset, 0, &json, false)?;
         let exact = material.model().map_err(|e| anyhow!("{}: {e}", r.model))?;
         let (rms, max) = errors(&|c| f64::from(exact.eval_cosines(c[0], c[1], c[2])));
-        let blob_bytes = 16 + 4 + 4 * kind.param_count() + 4;
+        let blob_bytes = blob_len(material);
         reprs.push(Representation {
             name: format!("{} exact", r.model),
             model: r.model,
@@ -326,14 +338,9 @@ fn representations(
             let p = m.six_params().ok_or_else(|| anyhow!("six-parameter material"))?;
             let table = SixTable::new(p, &bytes).map_err(|e| anyhow!("{e}"))?;
             let (rms, max) = errors(&|c| f64::from(table.eval_cosines(c[0], c[1], c[2])));
-            let vs_exact = cos
-                .iter()
-                .map(|c| {
-                    let e = f64::from(exact.eval_cosines(c[0], c[1], c[2]));
-                    ((f64::from(table.eval_cosines(c[0], c[1], c[2])) - e) / e).abs()
-                })
-                .fold(0.0, f64::max);
-            let blob_bytes = 16 + 4 + 4 * 6 + table_len(nodes) + 4;
+            let exact64 = brdf_core::SixParam::new(p.widen()).map_err(|e| anyhow!("{e}"))?;
+            let vs_exact = table_accuracy(&table, &exact64, cos.iter().copied()).max;
+            let blob_bytes = blob_len(m);
             reprs.push(Representation {
                 name: format!("six table {nodes}"),
                 model: r.model,
