@@ -1,9 +1,8 @@
 //! `brdf-bench`: benchmarks that print figures against peers measured in the same run.
 //!
 //! - `brdf-bench eval`: nanoseconds per six-parameter evaluation on a 10^6-point grid, f64
-//!   and f32, from angles and from cosines, and the f32 table lookup at each promised size,
-//!   each with its maximum relative error against f64 on the same grid, against numpy's
-//!   vectorised evaluation of the same grid (`bench/eval.sh` installs numpy).
+//!   and f32, from angles and from cosines, against numpy's vectorised evaluation of the same
+//!   grid (`bench/eval.sh` installs numpy).
 //! - `brdf-bench fit DATA.csv`: this fitting engine against scipy's `least_squares` from 32
 //!   random starts and `dual_annealing` on the same data and parameter box (`bench/fit.sh`
 //!   installs scipy).
@@ -17,9 +16,7 @@ use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use brdf_core::table::{fill_six_table, table_len, SixTable, TABLE_SIZES};
-use brdf_core::tolerance::{F32_FLOOR_OF_MAX, TABLE_MAX_ZENITH_DEG};
-use brdf_core::{Brdf, Float, Model, SixParam, SixParams};
+use brdf_core::{Brdf, Float, Model, SixParam};
 
 /// Grid points per axis: theta_i x theta_r x phi = N^3 points.
 const N: usize = 100;
@@ -66,80 +63,27 @@ fn time(points: usize, mut f: impl FnMut() -> f64) -> (f64, f64) {
     (best * 1e9 / points as f64, sum)
 }
 
-/// One timed path: name, ns per point, checksum, and its value at every grid point.
-struct Row {
-    name: String,
-    ns: f64,
-    sum: f64,
-    values: Vec<f64>,
-}
-
-fn row(name: String, n: usize, f: impl Fn(usize) -> f64) -> Row {
-    let (ns, sum) = time(n, || (0..n).map(&f).sum());
-    Row {
-        name,
-        ns,
-        sum,
-        values: (0..n).map(f).collect(),
-    }
-}
-
-fn bench<T: Float>(label: &str) -> Result<Vec<Row>> {
+fn bench<T: Float>(label: &str) -> Result<Vec<(String, f64, f64)>> {
     let p: Vec<T> = KHAKI.iter().map(|&v| T::from_f64(v)).collect();
     let m = SixParam::<T>::from_params(&p).context("khaki parameters")?;
     let g = grid::<T>();
     let n = g.angles.len();
+    let from_angles = time(n, || {
+        g.angles
+            .iter()
+            .map(|&[ti, tr, phi]| m.eval_angles(ti, tr, phi).to_f64())
+            .sum()
+    });
+    let from_cosines = time(n, || {
+        g.cosines
+            .iter()
+            .map(|&[ci, cr, cp]| m.eval_cosines(ci, cr, cp).to_f64())
+            .sum()
+    });
     Ok(vec![
-        row(format!("{label} from angles"), n, |k| {
-            let [ti, tr, phi] = g.angles[k];
-            m.eval_angles(ti, tr, phi).to_f64()
-        }),
-        row(format!("{label} from cosines"), n, |k| {
-            let [ci, cr, cp] = g.cosines[k];
-            m.eval_cosines(ci, cr, cp).to_f64()
-        }),
+        (format!("{label} from angles"), from_angles.0, from_angles.1),
+        (format!("{label} from cosines"), from_cosines.0, from_cosines.1),
     ])
-}
-
-/// The f32 table lookup from cosines at each promised size.
-fn bench_tables() -> Result<Vec<Row>> {
-    let p32 = SixParams::from_array(KHAKI.map(|v| v as f32));
-    let p64 = p32.widen();
-    let g = grid::<f32>();
-    let mut rows = Vec::new();
-    for nodes in TABLE_SIZES {
-        let mut bytes = vec![0u8; table_len(nodes)];
-        fill_six_table(&p64, nodes, &mut bytes).context("table")?;
-        let t = SixTable::new(p32, &bytes).context("table")?;
-        rows.push(row(
-            format!("f32 table {nodes} from cosines"),
-            g.cosines.len(),
-            |k| {
-                let [ci, cr, cp] = g.cosines[k];
-                f64::from(t.eval_cosines(ci, cr, cp))
-            },
-        ));
-    }
-    Ok(rows)
-}
-
-/// Maximum relative error of `values` against `reference` where the reference is above
-/// `F32_FLOOR_OF_MAX` of its maximum: over the whole grid, and over zeniths up to
-/// `TABLE_MAX_ZENITH_DEG`.
-fn max_errors(values: &[f64], reference: &[f64], angles: &[[f64; 3]]) -> (f64, f64) {
-    let floor = F32_FLOOR_OF_MAX * reference.iter().copied().fold(0.0, f64::max);
-    let limit = TABLE_MAX_ZENITH_DEG.to_radians();
-    let (mut all, mut inside) = (0.0_f64, 0.0_f64);
-    for ((v, r), a) in values.iter().zip(reference).zip(angles) {
-        if *r > floor {
-            let e = ((v - r) / r).abs();
-            all = all.max(e);
-            if a[0] <= limit && a[1] <= limit {
-                inside = inside.max(e);
-            }
-        }
-    }
-    (all, inside)
 }
 
 /// Runs the numpy peer; `None` (with the reason printed) when python3 or numpy is missing.
@@ -187,16 +131,11 @@ fn eval() -> Result<()> {
     );
     let mut rows = bench::<f64>("f64")?;
     rows.extend(bench::<f32>("f32")?);
-    rows.extend(bench_tables()?);
-    let reference_sum = rows[0].sum;
-    for r in &rows {
-        let rel = ((r.sum - reference_sum) / reference_sum).abs();
-        if rel > 1e-3 {
-            bail!(
-                "{}: checksum {} differs from the f64 reference {reference_sum}",
-                r.name,
-                r.sum
-            );
+    let reference_sum = rows[0].2;
+    for (name, _, sum) in &rows {
+        let rel = ((sum - reference_sum) / reference_sum).abs();
+        if rel > 1e-5 {
+            bail!("{name}: checksum {sum} differs from the f64 reference {reference_sum}");
         }
     }
     let peer = numpy_peer();
@@ -206,30 +145,16 @@ fn eval() -> Result<()> {
             bail!("numpy checksum {sum} differs from the f64 reference {reference_sum} (rel {rel:e})");
         }
     }
-    let angles = grid::<f64>().angles;
-    let reference = rows[0].values.clone();
-    println!(
-        "{:<26} {:>8} {:>13} {:>14} {:>16}",
-        "path",
-        "ns/eval",
-        "numpy / this",
-        "max rel error",
-        format!("to {TABLE_MAX_ZENITH_DEG} deg")
-    );
-    for r in &rows {
-        let ratio = peer.map_or("-".to_owned(), |(np, _)| format!("{:.1}x", np / r.ns));
-        let (all, inside) = max_errors(&r.values, &reference, &angles);
-        println!(
-            "{:<26} {:>8.2} {ratio:>13} {all:>14.1e} {inside:>16.1e}",
-            r.name, r.ns
-        );
+    println!("{:<24} {:>10} {:>14}", "path", "ns/eval", "numpy / this");
+    for (name, ns, _) in &rows {
+        let ratio = peer.map_or("-".to_owned(), |(np, _)| format!("{:.1}x", np / ns));
+        println!("{name:<24} {ns:>10.2} {ratio:>14}");
     }
-    println!("(errors against f64 from angles on the same grid, where f >= {F32_FLOOR_OF_MAX:e} of its maximum; the grid reaches 89.55 deg)");
     if let Some((np, _)) = peer {
-        println!("{:<26} {np:>8.2} {:>13}", "numpy f64 (vectorised)", "1.0x");
+        println!("{:<24} {np:>10.2} {:>14}", "numpy f64 (vectorised)", "1.0x");
         println!(
             "goal: f64 from angles at least 10x faster than numpy: {:.1}x",
-            np / rows[0].ns
+            np / rows[0].1
         );
     }
     Ok(())
