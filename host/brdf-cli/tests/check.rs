@@ -15,23 +15,7 @@ fn brdf(args: &[&str]) -> std::process::Output {
 }
 
 fn firmware_built() -> bool {
-    let qemu = Command::new("qemu-system-arm").arg("--version").output().is_ok();
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../firmware");
-    let built = qemu
-        && Command::new(env!("CARGO"))
-            .args(["build", "--release", "-p", "brdf-fw"])
-            .current_dir(dir)
-            .status()
-            .is_ok_and(|s| s.success());
-    if !built {
-        assert_eq!(
-            std::env::var("BRDF_SKIP_QEMU").as_deref(),
-            Ok("1"),
-            "qemu-system-arm or the firmware build is missing (set BRDF_SKIP_QEMU=1 to skip)"
-        );
-        eprintln!("SKIPPED: brdf check --qemu (BRDF_SKIP_QEMU=1)");
-    }
-    built
+    brdf_tests::qemu::firmware().is_some()
 }
 
 #[test]
