@@ -124,12 +124,13 @@ impl FastSix {
     /// Validates the parameters and precomputes the per-material constants.
     pub fn new(p: SixParams<f32>) -> Result<Self, ParamError> {
         p.validate()?;
+        let (spec_scale, kr2, diffuse_scale) = p.scales();
         Ok(FastSix {
-            spec_scale: p.kb / (core::f32::consts::PI * LN_2),
-            kr2: p.kr * p.kr,
+            spec_scale,
+            kr2,
             abs_b_log2e: p.b.abs() * core::f32::consts::LOG2_E,
             a: p.a,
-            diffuse_scale: p.kd * core::f32::consts::FRAC_1_PI,
+            diffuse_scale,
             c: p.c,
         })
     }

@@ -206,11 +206,12 @@ impl<'t> SixTable<'t> {
         if !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&nodes) {
             return Err(TableError::Nodes(nodes));
         }
+        let (spec_scale, kr2, diffuse_scale) = params.scales();
         let c = TableConsts {
             params,
-            spec_scale: params.kb / (core::f32::consts::PI * core::f32::consts::LN_2),
-            kr2: params.kr * params.kr,
-            diffuse_scale: params.kd * core::f32::consts::FRAC_1_PI,
+            spec_scale,
+            kr2,
+            diffuse_scale,
             scale: (nodes - 1) as f32,
             nodes,
         };

@@ -63,6 +63,16 @@ impl<T: Float> SixParams<T> {
         [self.kb, self.kr, self.b, self.a, self.kd, self.c]
     }
 
+    /// The per-material constants every six-parameter evaluation path uses:
+    /// `(kb/(pi ln 2), kr^2, kd/pi)`.
+    pub(crate) fn scales(&self) -> (T, T, T) {
+        (
+            self.kb / (T::PI * T::LN_2),
+            self.kr * self.kr,
+            self.kd * T::FRAC_1_PI,
+        )
+    }
+
     pub(crate) fn from_slice(values: &[T]) -> Result<Self, ParamError> {
         check_count(values.len(), 6)?;
         let p = SixParams {
@@ -106,12 +116,13 @@ impl<T: Float> SixParam<T> {
     /// Validates `params` and precomputes the per-material constants.
     pub fn new(params: SixParams<T>) -> Result<Self, ParamError> {
         params.validate()?;
+        let (spec_scale, kr2, diffuse_scale) = params.scales();
         Ok(SixParam {
             params,
-            spec_scale: params.kb / (T::PI * T::LN_2),
-            kr2: params.kr * params.kr,
+            spec_scale,
+            kr2,
             lobe: Lobe::new(params.b, params.a),
-            diffuse_scale: params.kd * T::FRAC_1_PI,
+            diffuse_scale,
         })
     }
 
