@@ -1,5 +1,5 @@
 //! Shared fixtures for the cross-checks: the paper's Table 1, the 50-digit reference values
-//! of MODEL.md, a deterministic generator and dense direction grids.
+//! of docs/model.md, a deterministic generator and dense direction grids.
 
 use brdf_core::SixParams;
 
@@ -10,7 +10,7 @@ pub const TABLE1: [(&str, [f64; 6]); 3] = [
     ("white", [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415]),
 ];
 
-/// MODEL.md reference values of the six-parameter model (50-digit evaluation rounded to 15
+/// docs/model.md reference values of the six-parameter model (50-digit evaluation rounded to 15
 /// significant digits): (theta_i, theta_r, phi in degrees, [khaki, yellow, white]).
 pub const SIX_REFERENCE: [(f64, f64, f64, [f64; 3]); 7] = [
     (
@@ -57,7 +57,7 @@ pub const SIX_REFERENCE: [(f64, f64, f64, [f64; 3]); 7] = [
     ),
 ];
 
-/// MODEL.md reference values of the five-parameter model with khaki's kb, kr, b, a, kd and
+/// docs/model.md reference values of the five-parameter model with khaki's kb, kr, b, a, kd and
 /// the V-groove G: (theta_i, theta_r, phi in degrees, value). The first is given to 7 digits.
 pub const FIVE_REFERENCE: [(f64, f64, f64, f64); 6] = [
     (0.0, 0.0, 0.0, 0.3480542),
@@ -283,33 +283,60 @@ pub mod table_error {
     }
 }
 
+/// A file of the bundled third-party measurements, `data/measured/<path>` (see
+/// `data/README.md`). Tests read only data inside the repository.
+pub fn measured(path: &str) -> std::path::PathBuf {
+    std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../data/measured")
+        .join(path)
+}
+
 /// The firmware under QEMU, for the tests that run it.
 pub mod qemu {
     use std::path::PathBuf;
     use std::process::Command;
 
-    fn build() -> Option<PathBuf> {
+    fn build(package: &str, bin: &str) -> Option<PathBuf> {
         let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware");
         let status = Command::new(env!("CARGO"))
-            .args(["build", "--release", "-p", "brdf-fw", "--bin", "brdf-fw"])
+            .args(["build", "--release", "-p", package, "--bin", bin])
             .current_dir(&dir)
             .status()
             .ok()?;
         status
             .success()
-            .then(|| dir.join("target/thumbv7em-none-eabihf/release/brdf-fw"))
+            .then(|| dir.join("target/thumbv7em-none-eabihf/release").join(bin))
     }
 
     /// Builds the firmware and returns its ELF. Without `qemu-system-arm` or the cross target
-    /// this fails the calling test, unless `BRDF_SKIP_QEMU=1` is set (`.ci/run` sets it after
-    /// printing a `SKIPPED:` line when it cannot install them): then `None`.
+    /// this fails the calling test with the command that installs them (`cargo xtask test`
+    /// installs both), unless the user opted out with `BRDF_SKIP_QEMU=1`: then it prints a
+    /// `SKIPPED:` line and returns `None`.
     pub fn firmware() -> Option<PathBuf> {
+        program("brdf-fw", "brdf-fw")
+    }
+
+    /// Builds binary `bin` of the firmware workspace's package `package` for QEMU, with the
+    /// same rules as [`firmware`].
+    pub fn program(package: &str, bin: &str) -> Option<PathBuf> {
+        let skip = std::env::var("BRDF_SKIP_QEMU").as_deref() == Ok("1");
         let qemu = Command::new("qemu-system-arm").arg("--version").output().is_ok();
-        let elf = if qemu { build() } else { None };
+        if !qemu {
+            assert!(
+                skip,
+                "qemu-system-arm is not installed: run `cargo xtask test`, which installs it, or \
+                 `sudo apt-get install qemu-system-arm`; or skip the firmware tests with BRDF_SKIP_QEMU=1"
+            );
+            eprintln!("SKIPPED: firmware QEMU test (BRDF_SKIP_QEMU=1)");
+            return None;
+        }
+        let elf = build(package, bin);
         if elf.is_none() {
             assert!(
-                std::env::var("BRDF_SKIP_QEMU").as_deref() == Ok("1"),
-                "qemu-system-arm or the thumbv7em-none-eabihf build is missing (set BRDF_SKIP_QEMU=1 to skip)"
+                skip,
+                "the firmware did not build for thumbv7em-none-eabihf: run `cargo xtask test`, \
+                 which adds the target, or `rustup target add thumbv7em-none-eabihf`; or skip the \
+                 firmware tests with BRDF_SKIP_QEMU=1"
             );
             eprintln!("SKIPPED: firmware QEMU test (BRDF_SKIP_QEMU=1)");
         }

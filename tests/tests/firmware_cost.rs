@@ -1,26 +1,15 @@
 //! The device cost figures `brdf select` ranks by (`brdf_core::cost`) against a fresh count
 //! under QEMU (`firmware/brdf-fw/src/bin/cost.rs`, `-icount shift=0`: exact and repeatable).
 
-use std::path::PathBuf;
-use std::process::Command;
-
 use brdf_core::cost::{exact_instructions, COST_DRIFT, FAST_SIX_INSTRUCTIONS, TABLE_INSTRUCTIONS};
 use brdf_core::ModelKind;
 
 #[test]
 fn device_cost_constants_match_a_fresh_count() {
-    if brdf_tests::qemu::firmware().is_none() {
+    let Some(cost) = brdf_tests::qemu::program("brdf-fw", "cost") else {
         return;
-    }
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware");
-    let built = Command::new(env!("CARGO"))
-        .args(["build", "--release", "-p", "brdf-fw", "--bin", "cost"])
-        .current_dir(&dir)
-        .status()
-        .unwrap();
-    assert!(built.success());
-    let counts =
-        brdf_link::instruction_counts(&dir.join("target/thumbv7em-none-eabihf/release/cost")).unwrap();
+    };
+    let counts = brdf_link::instruction_counts(&cost).unwrap();
     let measured = |name: &str| -> f64 {
         counts
             .iter()

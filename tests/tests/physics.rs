@@ -1,7 +1,7 @@
 //! Physical properties: reciprocity, energy bound, albedo quadrature accuracy.
 
 use brdf_core::checks::{albedo, energy_check, reciprocity_pair, AlbedoRule};
-use brdf_core::tolerance::{ALBEDO_DEFAULT_REL, MODEL_MD_ALBEDO_ABS, RECIPROCITY_ULPS};
+use brdf_core::tolerance::{ALBEDO_DEFAULT_REL, MODEL_DOC_ALBEDO_ABS, RECIPROCITY_ULPS};
 use brdf_core::{AnyModel, FiveParam, Model, ModelKind, SixParam};
 use brdf_tests::{rad, random_six, rel_err, six_params, ulps, SplitMix, TABLE1};
 use proptest::prelude::*;
@@ -78,10 +78,10 @@ fn energy_khaki_and_yellow_conserve_white_violates() {
             );
         }
     }
-    // MODEL.md: khaki at normal incidence has an albedo of about 0.247.
+    // docs/model.md: khaki at normal incidence has an albedo of about 0.247.
     let khaki = SixParam::new(six_params(TABLE1[0].1)).unwrap();
     let a0 = energy_check(&khaki, 0.0).albedo;
-    assert!((a0 - 0.247).abs() < MODEL_MD_ALBEDO_ABS, "{a0}");
+    assert!((a0 - 0.247).abs() < MODEL_DOC_ALBEDO_ABS, "{a0}");
 }
 
 #[test]

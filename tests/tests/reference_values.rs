@@ -1,4 +1,4 @@
-//! f64 evaluation against the 50-digit reference values of MODEL.md.
+//! f64 evaluation against the 50-digit reference values of docs/model.md.
 
 use brdf_core::tolerance::{F64_REFERENCE_REL, SEVEN_DIGIT_REFERENCE_REL};
 use brdf_core::{Brdf, FiveParam, Model, SixParam};
@@ -32,7 +32,7 @@ fn six_parameter_reproduces_every_reference_value() {
             }
         }
     }
-    println!("six-parameter f64: worst relative error against MODEL.md references {worst:.2e}");
+    println!("six-parameter f64: worst relative error against docs/model.md references {worst:.2e}");
 }
 
 #[test]

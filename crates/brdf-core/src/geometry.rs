@@ -1,7 +1,7 @@
-//! Scattering geometry: the facet angles `alpha` and `gamma` of MODEL.md, computed so that
+//! Scattering geometry: the facet angles `alpha` and `gamma` of docs/model.md, computed so that
 //! they stay accurate in f32 near the retro and mirror directions and at grazing angles.
 //!
-//! Convention (MODEL.md): directions point away from the surface; `phi = phi_r - phi_i`;
+//! Convention (docs/model.md): directions point away from the surface; `phi = phi_r - phi_i`;
 //! the mirror direction is `theta_r = theta_i, phi = pi`, the retro direction
 //! `theta_r = theta_i, phi = 0`. With unit vectors `wi` (to the source) and `wr` (to the
 //! receiver) and the half vector `h = (wi + wr) / |wi + wr|`:

@@ -7,7 +7,7 @@
 //! (reciprocity, energy bound, albedo by quadrature). All math goes through `libm`, so
 //! the host runs exactly the arithmetic the Cortex-M4F firmware runs.
 //!
-//! Angles are in radians in the canonical convention of `MODEL.md`: directions point away
+//! Angles are in radians in the canonical convention of `docs/model.md`: directions point away
 //! from the surface, `phi = phi_r - phi_i`, mirror at `(theta_r = theta_i, phi = pi)`, retro
 //! at `(theta_r = theta_i, phi = 0)`. BRDF values are in 1/sr.
 //!
@@ -50,3 +50,8 @@ pub use models::{
     FiveParam, FiveParams, Lambert, LambertParams, Minnaert, MinnaertParams, SixParam, SixParamCos2,
     SixParams,
 };
+
+/// The README's example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -1,7 +1,7 @@
 //! Tabulated six-parameter evaluation: the device's fast path for repeated lookups of one
 //! material.
 //!
-//! The model factorises over the scattering geometry (MODEL.md, eq. 3):
+//! The model factorises over the scattering geometry (docs/model.md, eq. 3):
 //!
 //! ```text
 //! f_r = kb/(pi ln 2) * F(alpha) * L(gamma) * ln(1 + cos ti cos tr) + kd/pi * cos(ti)^c * cos(tr)^c

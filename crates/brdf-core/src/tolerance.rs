@@ -1,7 +1,7 @@
 //! Every accuracy figure the project promises, in one place, each with its justification.
 //! Tests across the workspace compare against these constants and nothing else.
 
-/// f64 evaluation against the 50-digit reference values of MODEL.md (relative).
+/// f64 evaluation against the 50-digit reference values of docs/model.md (relative).
 ///
 /// f64 has eps = 2.2e-16; one evaluation takes about 25 roundings and libm calls of at most
 /// 1 ulp, and the lobe `exp(-|b| x^a)` multiplies the relative error of its argument by
@@ -10,7 +10,7 @@
 /// at 1e-4 or worse).
 pub const F64_REFERENCE_REL: f64 = 1e-12;
 
-/// A reference value published with 7 significant digits (MODEL.md's five-parameter value
+/// A reference value published with 7 significant digits (docs/model.md's five-parameter value
 /// at normal incidence, 0.3480542): half a unit in the 7th digit, relative.
 pub const SEVEN_DIGIT_REFERENCE_REL: f64 = 1.5e-7;
 
@@ -28,7 +28,7 @@ pub const SEVEN_DIGIT_REFERENCE_REL: f64 = 1.5e-7;
 /// with `|b| <= 60`, `a <= 2`, `c <= 2` 2 of 150 sets reach 3.5e-6, and over the fitter's
 /// whole search box (`a` to 4, `|b|` to 200, `c` to 5) 60 of 150 exceed it, up to 8e-6.
 /// The textbook forms of `1 - cos(gamma)` and of `1 + (kr^2 - 1) cos(alpha)` miss it by two
-/// to three orders of magnitude (MODEL.md); the firmware cross-check holds the device to the
+/// to three orders of magnitude (docs/model.md); the firmware cross-check holds the device to the
 /// same figure.
 pub const F32_MAX_REL: f64 = 2e-6;
 
@@ -61,9 +61,9 @@ pub const F64_REFORMULATION_REL: f64 = 1e-12;
 /// 1e-6 (measured); 1e-5 leaves a factor of a few.
 pub const MINNAERT_QUADRATURE_REL: f64 = 1e-5;
 
-/// MODEL.md gives khaki's albedo at normal incidence as "about 0.247": three significant
+/// docs/model.md gives khaki's albedo at normal incidence as "about 0.247": three significant
 /// digits, so half a unit in the third digit.
-pub const MODEL_MD_ALBEDO_ABS: f64 = 5e-4;
+pub const MODEL_DOC_ALBEDO_ABS: f64 = 5e-4;
 
 /// Angles written with 8 or 9 significant digits in test fixtures (e.g. 3.14159265 for pi)
 /// come back within this many degrees.

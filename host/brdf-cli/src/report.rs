@@ -1,4 +1,4 @@
-//! `brdf report`: the model-comparison report over the shared measured datasets.
+//! `brdf report`: the model-comparison report over the bundled measured datasets (data/measured).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -22,9 +22,9 @@ use crate::select::LADDER;
 /// the output is the same bit for bit on every run.
 #[derive(Debug, Args)]
 pub struct ReportCmd {
-    /// Folder holding the third-party datasets.
-    #[arg(long, default_value = "../shared/data")]
-    shared: PathBuf,
+    /// Folder holding the bundled third-party measurements (`data/measured` in the repository).
+    #[arg(long, default_value = "data/measured")]
+    data: PathBuf,
     /// Output folder.
     #[arg(long, short = 'o', default_value = "docs/comparison")]
     out: PathBuf,
@@ -35,7 +35,7 @@ pub struct ReportCmd {
     engine: EngineArgs,
 }
 
-/// The datasets of the report: (slug, title, format, file under `shared`, channel).
+/// The datasets of the report: (slug, title, format, file under `data`, channel).
 const SOURCES: [(&str, &str, Format, &str, Channel); 3] = [
     (
         "garnet-red",
@@ -87,7 +87,7 @@ impl ReportCmd {
             .with_context(|| format!("cannot create {}", self.out.display()))?;
         let mut entries = Vec::new();
         for (slug, title, format, file, channel) in SOURCES {
-            let path = self.shared.join(file);
+            let path = self.data.join(file);
             let imp = import_reporting(&path, format, channel)?;
             let many = imp.datasets.len() > 1;
             for d in imp.datasets.iter() {

@@ -1,5 +1,5 @@
 //! `brdf check --qemu`: the firmware under QEMU agrees with the host f64 model for every
-//! Table 1 material and for a material freshly fitted from ../shared/data.
+//! Table 1 material and for a material freshly fitted from the bundled measurements.
 //!
 //! Needs `qemu-system-arm` and the cross target; fails without them unless `BRDF_SKIP_QEMU=1`
 //! (set by `.ci/run` after printing a `SKIPPED:` line).
@@ -68,13 +68,11 @@ fn check_qemu_passes_for_table1_and_a_fresh_fit() {
             > 0.0
     );
 
-    let shared = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
     let fit = brdf(&[
         "fit",
         "--format",
         "cornell",
-        shared
-            .join("cornell-medium-gloss-paints/garnet_red_RGB.astm")
+        brdf_tests::measured("cornell-medium-gloss-paints/garnet_red_RGB.astm")
             .to_str()
             .unwrap(),
         "--json",

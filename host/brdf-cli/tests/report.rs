@@ -9,8 +9,8 @@ fn report_regenerates_bit_for_bit() {
     let committed = root.join("docs/comparison");
     let dir = tempfile::tempdir().unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_brdf"))
-        .args(["report", "--shared"])
-        .arg(root.join("../shared/data"))
+        .args(["report", "--data"])
+        .arg(root.join("data/measured"))
         .arg("--out")
         .arg(dir.path())
         .output()

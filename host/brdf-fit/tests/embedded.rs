@@ -2,19 +2,11 @@
 //! error must be within 10% of the host optimum's, on Table 1 synthetic data and on the
 //! forward in-plane rows (at most 256) of every measured dataset.
 
-use std::path::PathBuf;
-
 use brdf_core::ModelKind;
 use brdf_fit::embedded::{fit_embedded, DEFAULT_BUDGET};
 use brdf_fit::import::{import, Channel, Format};
 use brdf_fit::report::metrics;
 use brdf_fit::{fit, synth, Dataset, FitOptions, Problem, Residual};
-
-fn shared(path: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(path)
-}
 
 /// Forward-side in-plane rows (phi = 180 deg, theta_r > 0), every k-th so that at most 256.
 fn forward_in_plane(d: &Dataset) -> Dataset {
@@ -65,7 +57,7 @@ fn embedded_within_10_percent_of_host() {
         ("ptfe-germer-nist/PTFE.data.csv", Format::Nist),
         ("merl-aluminium-inplane/aluminum_brdf.csv", Format::MerlInPlane),
     ] {
-        let imp = import(&shared(file), format, Channel::R).unwrap();
+        let imp = import(&brdf_tests::measured(file), format, Channel::R).unwrap();
         sets.extend(imp.datasets.iter().map(forward_in_plane));
     }
     for d in &sets {

@@ -6,8 +6,8 @@
 //! board with UART0 connected to a TCP port this process listens on, in a working directory
 //! that holds the device's flash image, with the firmware's defmt log captured from its
 //! semihosting output, decoded by [`decode_defmt`]); a serial port ([`serial::Serial`]); a
-//! debug probe's RTT channels ([`probe::ProbeRtt`]). [`flash`] writes parameter blobs into
-//! a device's flash slots through a probe.
+//! debug probe's RTT channels ([`probe::ProbeRtt`], with the `probe` feature). [`flash`]
+//! writes parameter blobs into a device's flash slots through a probe.
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -17,6 +17,10 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 pub mod flash;
+#[cfg(feature = "probe")]
+pub mod probe;
+#[cfg(not(feature = "probe"))]
+#[path = "probe_unavailable.rs"]
 pub mod probe;
 pub mod serial;
 

@@ -33,7 +33,7 @@ pub struct FiveParams<T> {
 /// G = min(1, 2 cos(alpha) cos(tr) / cos(gamma), 2 cos(alpha) cos(ti) / cos(gamma))
 /// ```
 ///
-/// `G` is the V-groove Torrance–Sparrow shadowing/masking factor (MODEL.md default). The
+/// `G` is the V-groove Torrance–Sparrow shadowing/masking factor (docs/model.md default). The
 /// model is **not reciprocal** (`kd / cos ti`) and **diverges at grazing incidence** like
 /// `1 / cos ti`; it has no energy bound. Kept as the baseline the six-parameter model
 /// improved on, and so that those failures can be shown.

@@ -15,7 +15,7 @@ use crate::model::{Brdf, Model, ModelKind, MAX_PARAMS};
 ///     + kd/pi * (cos ti cos tr)^c
 /// ```
 ///
-/// A named variant, never the default (MODEL.md, open point 1): for `kr > sqrt(2)` the facet
+/// A named variant, never the default (docs/model.md, open point 1): for `kr > sqrt(2)` the facet
 /// term exceeds 1 off the mirror direction and the `kb + kd` energy bound no longer holds,
 /// so [`Model::energy_bound`] returns `None` there.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,15 +1,7 @@
-//! The importers on the real files in ../shared/data: every row kept or reported, and the
+//! The importers on the bundled measured files (data/measured): every row kept or reported, and the
 //! mapping to the canonical convention checked by where each material's peak lies.
 
-use std::path::PathBuf;
-
 use brdf_fit::import::{import, Channel, Format, Imported};
-
-fn shared(path: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(path)
-}
 
 /// The largest value at each incidence (from `min_theta_i` degrees up) must lie on the
 /// forward side (within 30 degrees of phi = 180) and within `max_offset` degrees of the
@@ -68,7 +60,7 @@ fn peaks_forward(imp: &Imported, min_theta_i: f64, max_offset: f64) -> usize {
 #[test]
 fn cornell_garnet_red_every_row_accounted_for() {
     let imp = import(
-        &shared("cornell-medium-gloss-paints/garnet_red_RGB.astm"),
+        &brdf_tests::measured("cornell-medium-gloss-paints/garnet_red_RGB.astm"),
         Format::Cornell,
         Channel::R,
     )
@@ -82,7 +74,7 @@ fn cornell_garnet_red_every_row_accounted_for() {
     // Broad gloss lobe, off-specular towards grazing at large incidence.
     assert_eq!(peaks_forward(&imp, 0.0, 25.0), 8);
     let b = import(
-        &shared("cornell-medium-gloss-paints/garnet_red_RGB.astm"),
+        &brdf_tests::measured("cornell-medium-gloss-paints/garnet_red_RGB.astm"),
         Format::Cornell,
         Channel::G,
     )
@@ -97,7 +89,7 @@ fn cornell_garnet_red_every_row_accounted_for() {
 #[test]
 fn nist_ptfe_every_row_accounted_for() {
     let imp = import(
-        &shared("ptfe-germer-nist/PTFE.data.csv"),
+        &brdf_tests::measured("ptfe-germer-nist/PTFE.data.csv"),
         Format::Nist,
         Channel::R,
     )
@@ -113,7 +105,7 @@ fn nist_ptfe_every_row_accounted_for() {
 #[test]
 fn merl_aluminium_every_row_accounted_for() {
     let imp = import(
-        &shared("merl-aluminium-inplane/aluminum_brdf.csv"),
+        &brdf_tests::measured("merl-aluminium-inplane/aluminum_brdf.csv"),
         Format::MerlInPlane,
         Channel::R,
     )
