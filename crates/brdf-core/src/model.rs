@@ -235,6 +235,19 @@ pub(crate) fn non_negative<T: Float>(name: &'static str, v: T) -> Result<T, Para
     }
 }
 
+pub(crate) fn above_minus_one<T: Float>(name: &'static str, v: T) -> Result<T, ParamError> {
+    let v = finite(name, v)?;
+    if v > -T::ONE {
+        Ok(v)
+    } else {
+        Err(ParamError::OutOfRange {
+            name,
+            value: v.to_f64(),
+            range: "> -1",
+        })
+    }
+}
+
 pub(crate) fn positive<T: Float>(name: &'static str, v: T) -> Result<T, ParamError> {
     let v = finite(name, v)?;
     if v > T::ZERO {

@@ -86,6 +86,20 @@ impl core::fmt::Display for TableError {
 
 impl core::error::Error for TableError {}
 
+/// Parameters a table can hold: valid, and `c >= 0` (for `c < 0` the node `mu^c` at the
+/// horizon is infinite).
+fn table_params<T: Float>(p: &SixParams<T>) -> Result<(), TableError> {
+    p.validate().map_err(TableError::Params)?;
+    if p.c < T::ZERO {
+        return Err(TableError::Params(ParamError::OutOfRange {
+            name: "c",
+            value: p.c.to_f64(),
+            range: ">= 0 in a table (mu^c is unbounded at the horizon for c < 0)",
+        }));
+    }
+    Ok(())
+}
+
 /// Node `k` of each of the three tables, in `T`: `(exp(-|b| (u^8)^a), ln(1 + u), u^c)` at
 /// `u = k/(n-1)`.
 fn node_values<T: Float>(p: &SixParams<T>, k: usize, nodes: usize) -> (T, T, T) {
@@ -102,7 +116,7 @@ pub fn fill_six_table<T: Float>(
     nodes: usize,
     out: &mut [u8],
 ) -> Result<(), TableError> {
-    params.validate().map_err(TableError::Params)?;
+    table_params(params)?;
     if !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&nodes) {
         return Err(TableError::Nodes(nodes));
     }
@@ -198,7 +212,7 @@ impl<'t> SixTable<'t> {
     /// from bytes it has verified once. Until [`SixTable::verify`] has passed on these bytes
     /// the values are only as good as the bytes.
     pub fn new(params: SixParams<f32>, bytes: &'t [u8]) -> Result<Self, TableError> {
-        params.validate().map_err(TableError::Params)?;
+        table_params(&params)?;
         if !bytes.len().is_multiple_of(12) {
             return Err(TableError::Length(bytes.len()));
         }

@@ -24,7 +24,7 @@ pub fn run(path: &str) -> Result<()> {
             ..FitOptions::default()
         };
         let out = fit(&problem, &opts);
-        let r = report(data, &problem, &out, seed);
+        let r = report(data, &problem, &out, &opts);
         times.push(out.seconds);
         worst_err = worst_err.max(r.metrics.rms_rel);
         best_err = best_err.min(r.metrics.rms_rel);

@@ -10,11 +10,9 @@ use brdf_core::fast::FastSix;
 use brdf_core::table::{fill_six_table, table_len, SixTable, TABLE_SIZES};
 use brdf_core::tolerance::F32_FLOOR_OF_MAX;
 use brdf_core::{AnyModel, Brdf, ModelKind, SixParam, SixParams};
-use brdf_fit::{Dataset, FitOptions, Point, Residual};
+use brdf_fit::{Dataset, Point};
 use brdf_plot::{pareto_front, tradeoff, TradePoint};
 use clap::{Args, Subcommand};
-
-use crate::fit::fit_all;
 
 /// Benchmarks that chart cost against accuracy.
 #[derive(Debug, Args)]
@@ -115,7 +113,7 @@ fn stand_in(kind: ModelKind, points: &[Point]) -> Result<AnyModel<f32>> {
         name: "six-parameter model".into(),
         points: points.to_vec(),
     };
-    let r = fit_all(kind, Residual::Relative, FitOptions::default(), &[d])
+    let r = brdf_fit::fit_all(&brdf_fit::FitSettings::new(kind), &[d])
         .pop()
         .ok_or_else(|| anyhow!("no fit"))?;
     let p: Vec<f32> = r.params.0.iter().map(|(_, v)| *v as f32).collect();

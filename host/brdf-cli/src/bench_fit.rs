@@ -7,7 +7,6 @@ use anyhow::{anyhow, Context, Result};
 use brdf_core::ModelKind;
 use brdf_fit::anneal::AnnealOptions;
 use brdf_fit::embedded::fit_embedded;
-use brdf_fit::report::report;
 use brdf_fit::{fit, load_csv, FitOptions, LoadOptions, Problem, Residual};
 use brdf_plot::{pareto_front, TradePoint};
 use clap::Args;
@@ -94,7 +93,7 @@ impl FitBench {
                 let opts = FitOptions { seed, ..base };
                 let out = fit(&problem, &opts);
                 m.seconds.push(out.seconds);
-                m.errors.push(report(data, &problem, &out, seed).metrics.rms_rel);
+                m.errors.push(rms_rel(data, &problem, &out.q));
             }
             methods.push(m);
         }
@@ -107,7 +106,7 @@ impl FitBench {
         for seed in 0..self.seeds {
             let out = fit_embedded(ModelKind::Six, data, &problem, budget, seed)?;
             m.seconds.push(out.seconds);
-            m.errors.push(report(data, &problem, &out, seed).metrics.rms_rel);
+            m.errors.push(rms_rel(data, &problem, &out.q));
         }
         methods.push(m);
         if !self.no_scipy {
@@ -233,4 +232,10 @@ fn scipy(data: &Path) -> Vec<Method> {
         })
     })
     .collect()
+}
+
+/// RMS relative error of the fit with internal parameters `q` over the data.
+fn rms_rel(data: &brdf_fit::Dataset, problem: &Problem, q: &[f64]) -> f64 {
+    let y: Vec<f64> = data.points.iter().map(|p| p.brdf).collect();
+    brdf_fit::report::metrics(&problem.values(q), &y).rms_rel
 }

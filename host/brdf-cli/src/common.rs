@@ -3,8 +3,9 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
+use brdf_core::ModelKind;
 use brdf_fit::anneal::AnnealOptions;
-use brdf_fit::{load_csv, Dataset, FitOptions, LoadOptions, Residual};
+use brdf_fit::{load_csv, Dataset, FitOptions, FitSettings, LoadOptions, Loss, LossKind, Residual};
 use clap::{Args, ValueEnum};
 
 use crate::import::{import_reporting, ChannelArg, FormatArg};
@@ -30,6 +31,30 @@ impl From<ResidualArg> for Residual {
     }
 }
 
+/// Robust loss on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum LossArg {
+    /// Least squares.
+    Linear,
+    /// Quadratic within the scale, linear beyond.
+    Huber,
+    /// Smooth Huber: 2 (sqrt(1 + z) - 1).
+    SoftL1,
+    /// ln(1 + z): far outliers barely count.
+    Cauchy,
+}
+
+impl From<LossArg> for LossKind {
+    fn from(l: LossArg) -> Self {
+        match l {
+            LossArg::Linear => LossKind::Linear,
+            LossArg::Huber => LossKind::Huber,
+            LossArg::SoftL1 => LossKind::SoftL1,
+            LossArg::Cauchy => LossKind::Cauchy,
+        }
+    }
+}
+
 /// Options of the fitting engine.
 #[derive(Clone, Debug, Args)]
 pub struct EngineArgs {
@@ -48,6 +73,18 @@ pub struct EngineArgs {
     /// Cost evaluations per annealing chain.
     #[arg(long, default_value_t = brdf_fit::anneal::AnnealOptions::default().evals)]
     pub anneal_evals: usize,
+    /// Robust loss (as scipy's least_squares): linear (least squares), huber, soft-l1 or
+    /// cauchy. Residuals beyond --loss-scale count less than squared.
+    #[arg(long, value_enum, default_value_t = LossArg::Linear)]
+    pub loss: LossArg,
+    /// Scale C of the robust loss, in the residual's units (0.1 = a 10% relative error).
+    #[arg(long, value_parser = parse_positive, default_value = "0.1")]
+    pub loss_scale: f64,
+    /// Let the six-parameter diffuse term brighten towards grazing: search c down to -0.99
+    /// (Minnaert's k - 1) instead of 0. The kb + kd energy bound then no longer applies;
+    /// the albedo is still checked by quadrature.
+    #[arg(long)]
+    pub brightening: bool,
     /// Skip invalid rows (each is listed on standard error) instead of stopping.
     #[arg(long)]
     pub skip_invalid: bool,
@@ -77,6 +114,20 @@ impl EngineArgs {
                 ..AnnealOptions::default()
             },
             ..FitOptions::default()
+        }
+    }
+
+    /// Everything that defines a fit of `kind` with these options (full engine).
+    pub fn settings(&self, kind: ModelKind) -> FitSettings {
+        FitSettings {
+            residual: self.residual.into(),
+            loss: Loss {
+                kind: self.loss.into(),
+                scale: self.loss_scale,
+            },
+            brightening: self.brightening,
+            options: self.fit_options(),
+            ..FitSettings::new(kind)
         }
     }
 
@@ -119,6 +170,14 @@ pub fn parse_fraction(text: &str) -> Result<f64, String> {
         return Err(format!("`{text}` must be a non-negative fraction"));
     }
     Ok(v)
+}
+
+/// Parses a finite number greater than zero.
+pub fn parse_positive(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("`{text}` is not a finite number greater than 0")),
+    }
 }
 
 /// Parses `K/N` (0 <= K < N) for `--shard`.

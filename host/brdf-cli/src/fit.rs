@@ -5,12 +5,10 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use brdf_core::ModelKind;
-use brdf_fit::embedded::fit_embedded;
-use brdf_fit::report::{report, FitReport};
-use brdf_fit::{fit, Dataset, FitOptions, Problem, Residual};
+use brdf_fit::report::FitReport;
+use brdf_fit::Engine;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rayon::prelude::*;
 
 use crate::common::{parse_shard, EngineArgs};
 use crate::params::parse_kind;
@@ -56,29 +54,12 @@ pub enum EngineKind {
     Embedded,
 }
 
-/// Fits every dataset in parallel, in input order, with a progress bar on a terminal.
-pub fn fit_all(
-    kind: ModelKind,
-    residual: Residual,
-    opts: FitOptions,
-    datasets: &[Dataset],
-) -> Vec<FitReport> {
-    fit_all_with(kind, residual, opts, datasets, None).expect("the full engine does not fail")
-}
-
-/// [`fit_all`], with the embedded engine when `embedded_budget` is given.
-pub fn fit_all_with(
-    kind: ModelKind,
-    residual: Residual,
-    opts: FitOptions,
-    datasets: &[Dataset],
-    embedded_budget: Option<u32>,
-) -> Result<Vec<FitReport>> {
+/// A progress bar on standard error when it is a terminal (whatever standard output is),
+/// for batches of more than one dataset.
+pub fn progress(len: usize) -> ProgressBar {
     use std::io::IsTerminal;
-    // Only for a person watching: not when results are piped or redirected.
-    let watched = std::io::stderr().is_terminal() && std::io::stdout().is_terminal();
-    let bar = if datasets.len() > 1 && watched {
-        ProgressBar::with_draw_target(Some(datasets.len() as u64), ProgressDrawTarget::stderr())
+    let bar = if len > 1 && std::io::stderr().is_terminal() {
+        ProgressBar::with_draw_target(Some(len as u64), ProgressDrawTarget::stderr())
     } else {
         ProgressBar::hidden()
     };
@@ -86,21 +67,7 @@ pub fn fit_all_with(
         ProgressStyle::with_template("{bar:40} {pos}/{len} datasets, {elapsed} elapsed, eta {eta}")
             .expect("static template"),
     );
-    let out: Result<Vec<FitReport>> = datasets
-        .par_iter()
-        .map(|d| {
-            let problem = Problem::from_dataset(kind, residual, d);
-            let outcome = match embedded_budget {
-                None => fit(&problem, &opts),
-                Some(budget) => fit_embedded(kind, d, &problem, budget, opts.seed)?,
-            };
-            let r = report(d, &problem, &outcome, opts.seed);
-            bar.inc(1);
-            Ok(r)
-        })
-        .collect();
-    bar.finish_and_clear();
-    out
+    bar
 }
 
 impl FitCmd {
@@ -127,69 +94,115 @@ impl FitCmd {
                 );
             }
         }
-        let embedded = match self.engine_kind {
-            EngineKind::Full => None,
-            EngineKind::Embedded => {
-                if self.engine.residual != crate::common::ResidualArg::Relative {
-                    bail!("the embedded engine fits relative residuals only");
-                }
-                Some(self.budget_evals)
+        let mut settings = self.engine.settings(self.model);
+        if self.engine_kind == EngineKind::Embedded {
+            if self.engine.residual != crate::common::ResidualArg::Relative {
+                bail!("the embedded engine fits relative residuals only");
             }
-        };
-        let reports = fit_all_with(
-            self.model,
-            self.engine.residual.into(),
-            self.engine.fit_options(),
-            &datasets,
-            embedded,
-        )?;
-        if let Some(path) = &self.output {
-            write_csv(path, &reports).with_context(|| format!("cannot write {}", path.display()))?;
-        }
-        let stdout = std::io::stdout();
-        let mut out = stdout.lock();
-        if self.json {
-            let text = if reports.len() == 1 {
-                serde_json::to_string_pretty(&reports[0])?
-            } else {
-                serde_json::to_string_pretty(&reports)?
+            settings.engine = Engine::Embedded {
+                budget: self.budget_evals,
             };
-            writeln!(out, "{text}")?;
-        } else {
-            for r in &reports {
-                write_text(&mut out, r)?;
+        }
+        let mut csv = match &self.output {
+            Some(path) => {
+                Some(ResultsCsv::create(path).with_context(|| format!("cannot write {}", path.display()))?)
             }
+            None => None,
+        };
+        let bar = progress(datasets.len());
+        let stdout = std::io::stdout();
+        let many = datasets.len() > 1;
+        let mut failure: Option<anyhow::Error> = None;
+        let mut write_one =
+            |i: usize, r: &Result<FitReport, brdf_fit::embedded::EmbeddedError>| -> Result<()> {
+                bar.inc(1);
+                let r = match r {
+                    Ok(r) => r,
+                    Err(e) => bail!("{e}"),
+                };
+                if let (Some(w), Some(path)) = (csv.as_mut(), &self.output) {
+                    w.row(r)
+                        .with_context(|| format!("cannot write {}", path.display()))?;
+                }
+                let mut out = stdout.lock();
+                if self.json {
+                    let text = serde_json::to_string_pretty(r)?;
+                    match (many, i) {
+                        (false, _) => writeln!(out, "{text}")?,
+                        (true, 0) => write!(out, "[\n{text}")?,
+                        (true, _) => write!(out, ",\n{text}")?,
+                    }
+                } else {
+                    write_text(&mut out, r)?;
+                }
+                out.flush()?;
+                Ok(())
+            };
+        brdf_fit::fit_streamed(&settings, &datasets, |i, r| {
+            if failure.is_none() {
+                if let Err(e) = write_one(i, r) {
+                    failure = Some(e);
+                }
+            }
+        });
+        bar.finish_and_clear();
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        if self.json && many {
+            writeln!(stdout.lock(), "\n]")?;
         }
         Ok(())
     }
 }
 
-/// One row per dataset: parameters, metrics and the undetermined parameters.
-fn write_csv(path: &PathBuf, reports: &[FitReport]) -> Result<()> {
-    let mut w = csv::Writer::from_path(path)?;
-    let max_k = reports.iter().map(|r| r.k).max().unwrap_or(0);
-    let mut header = vec!["dataset".to_owned(), "model".to_owned(), "n".to_owned()];
-    for j in 0..max_k {
-        header.push(format!("p{j}_name"));
-        header.push(format!("p{j}"));
+/// `-o results.csv`: one row per dataset, written as each fit finishes.
+struct ResultsCsv {
+    w: csv::Writer<std::fs::File>,
+    header_done: bool,
+}
+
+impl ResultsCsv {
+    fn create(path: &std::path::Path) -> Result<Self> {
+        Ok(ResultsCsv {
+            w: csv::Writer::from_path(path)?,
+            header_done: false,
+        })
     }
-    for m in [
-        "rmse",
-        "mse",
-        "rms_rel",
-        "max_rel",
-        "log_rmse",
-        "aic",
-        "bic",
-        "seconds",
-        "undetermined",
-    ] {
-        header.push(m.to_owned());
-    }
-    w.write_record(&header)?;
-    for r in reports {
+
+    /// Parameters, metrics, cost, convergence, the energy check and the flagged parameters.
+    fn row(&mut self, r: &FitReport) -> Result<()> {
+        if !self.header_done {
+            let mut header = vec!["dataset".to_owned(), "model".to_owned(), "n".to_owned()];
+            for j in 0..6 {
+                header.push(format!("p{j}_name"));
+                header.push(format!("p{j}"));
+            }
+            for m in [
+                "rmse",
+                "mse",
+                "rms_rel",
+                "max_rel",
+                "log_rmse",
+                "aic",
+                "bic",
+                "cost",
+                "converged",
+                "energy_bound",
+                "max_albedo",
+                "albedo_conserves",
+                "dominant_point_line",
+                "seconds",
+                "undetermined",
+                "flags",
+            ] {
+                header.push(m.to_owned());
+            }
+            self.w.write_record(&header)?;
+            self.header_done = true;
+        }
         let mut row = vec![r.dataset.clone(), r.model.to_owned(), r.n.to_string()];
-        for j in 0..max_k {
+        for j in 0..6 {
             match r.params.0.get(j) {
                 Some((name, v)) => {
                     row.push(name.clone());
@@ -200,30 +213,72 @@ fn write_csv(path: &PathBuf, reports: &[FitReport]) -> Result<()> {
         }
         let m = r.metrics;
         for v in [
-            m.rmse, m.mse, m.rms_rel, m.max_rel, m.log_rmse, r.aic, r.bic, r.seconds,
+            m.rmse, m.mse, m.rms_rel, m.max_rel, m.log_rmse, r.aic, r.bic, r.cost,
         ] {
             row.push(format!("{v:.10e}"));
         }
-        let undetermined = r.undetermined();
-        row.push(undetermined.join(" "));
-        w.write_record(&row)?;
+        row.push(r.converged.to_string());
+        row.push(r.energy.bound.map_or(String::new(), |b| format!("{b:.10e}")));
+        let max_albedo = r.energy.albedo.iter().map(|a| a.albedo).fold(f64::NAN, f64::max);
+        row.push(format!("{max_albedo:.10e}"));
+        row.push(r.energy.albedo_conserves.to_string());
+        row.push(
+            r.influence
+                .dominant
+                .then(|| r.influence.points[0].line.to_string())
+                .unwrap_or_default(),
+        );
+        row.push(format!("{:.10e}", r.seconds));
+        row.push(r.undetermined().join(" "));
+        let flags: Vec<String> = r
+            .uncertainty
+            .params
+            .0
+            .iter()
+            .filter_map(|(n, u)| u.note.as_ref().map(|note| format!("{n}: {note}")))
+            .collect();
+        row.push(flags.join("; "));
+        self.w.write_record(&row)?;
+        self.w.flush()?;
+        Ok(())
     }
-    w.flush()?;
-    Ok(())
 }
 
 /// The readable form of a report.
 pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
+    let loss = if r.loss.is_linear() {
+        String::new()
+    } else {
+        format!(", {} loss at scale {}", r.loss.kind.name(), r.loss.scale)
+    };
     writeln!(
         out,
-        "{}: model {}, {} points, {} residuals, seed {}, {:.1} ms",
+        "{}: model {}{}, {} points, {} residuals{loss}, seed {}, {:.1} ms",
         r.dataset,
         r.model,
+        if r.brightening {
+            " (brightening: c down to -0.99)"
+        } else {
+            ""
+        },
         r.n,
         r.residual,
         r.seed,
         r.seconds * 1e3
     )?;
+    let s = &r.search;
+    match &s.not_converged {
+        None => writeln!(
+            out,
+            "  converged: true ({} of {} searches reached the best cost; {} chains, {} lobe-on probes, {} basin hops)",
+            s.agreeing,
+            s.chains + s.hops,
+            s.chains,
+            s.lobe_probes,
+            s.hops
+        )?,
+        Some(why) => writeln!(out, "  converged: false: {why}")?,
+    }
     writeln!(
         out,
         "  {:<6} {:>14} {:>12}  determined by the data?",
@@ -285,6 +340,35 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
             "VIOLATES energy conservation"
         }
     )?;
+    let inf = &r.influence;
+    for (k, p) in inf.points.iter().enumerate() {
+        writeln!(
+            out,
+            "  {} line {} (theta_i {}, theta_r {}, phi {}; measured {:.4e}, fitted {:.4e}): removing it \
+             lowers the cost by {:.1}% (RMS relative error of the rest {:.3}%){}",
+            if k == 0 {
+                "most influential point:"
+            } else {
+                "                    next:"
+            },
+            p.line,
+            p.theta_i,
+            p.theta_r,
+            p.phi,
+            p.brdf,
+            p.model,
+            100.0 * p.cost_drop,
+            100.0 * p.rms_rel_without,
+            if k == 0 && inf.dominant {
+                format!(
+                    " -- DOMINANT: one point moves the cost by more than {:.1}%; check that reading",
+                    100.0 * inf.dominant_above
+                )
+            } else {
+                String::new()
+            }
+        )?;
+    }
     writeln!(out, "  AIC {:.2}, BIC {:.2}", r.aic, r.bic)?;
     Ok(())
 }

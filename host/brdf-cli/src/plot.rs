@@ -10,7 +10,6 @@ use brdf_plot::Fitted;
 use clap::{Args, ValueEnum};
 
 use crate::common::EngineArgs;
-use crate::fit::fit_all;
 use crate::params::parse_kind;
 
 /// What to draw.
@@ -70,14 +69,9 @@ pub fn fit_models(
 ) -> Result<Vec<(FitReport, Fitted)>> {
     let mut out = Vec::new();
     for &m in models {
-        let r = fit_all(
-            m,
-            engine.residual.into(),
-            engine.fit_options(),
-            std::slice::from_ref(data),
-        )
-        .pop()
-        .context("one report")?;
+        let r = brdf_fit::fit_all(&engine.settings(m), std::slice::from_ref(data))
+            .pop()
+            .context("one report")?;
         let f = fitted(&r)?;
         out.push((r, f));
     }

@@ -11,7 +11,6 @@ use brdf_fit::Dataset;
 use clap::Args;
 
 use crate::common::{parse_fraction, EngineArgs};
-use crate::fit::fit_all;
 use crate::import::import_reporting;
 use crate::plot::fitted;
 use crate::select::LADDER;
@@ -145,14 +144,7 @@ impl ReportCmd {
         // ladder[m][d]: model m fitted to dataset d.
         let ladder: Vec<Vec<FitReport>> = LADDER
             .iter()
-            .map(|&k| {
-                fit_all(
-                    k,
-                    self.engine.residual.into(),
-                    self.engine.fit_options(),
-                    &datasets,
-                )
-            })
+            .map(|&k| brdf_fit::fit_all(&self.engine.settings(k), &datasets))
             .collect();
         let mut md = String::new();
         let mut json = Vec::new();

@@ -14,7 +14,6 @@ use clap::Args;
 use serde::Serialize;
 
 use crate::common::{parse_fraction, EngineArgs};
-use crate::fit::fit_all;
 use crate::pack::{add_tables, write_blob};
 
 /// The model ladder, simplest first: Lambert (1 parameter), Minnaert (2), five-parameter
@@ -129,11 +128,9 @@ impl SelectCmd {
                 domain.points.len(),
             );
         }
-        let residual = self.engine.residual.into();
-        let opts = self.engine.fit_options();
         let reports: Vec<FitReport> = LADDER
             .iter()
-            .flat_map(|&k| fit_all(k, residual, opts, std::slice::from_ref(&domain)))
+            .flat_map(|&k| brdf_fit::fit_all(&self.engine.settings(k), std::slice::from_ref(&domain)))
             .collect();
         let chosen = reports
             .iter()

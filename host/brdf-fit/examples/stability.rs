@@ -24,8 +24,9 @@ fn data(p: &[f64; 6], inc: &[f64], noise: f64, seed: u64) -> Dataset {
 
 fn fit_report(d: &Dataset, residual: Residual, opts: &FitOptions, seed: u64) -> FitReport {
     let problem = Problem::from_dataset(ModelKind::Six, residual, d);
-    let out = fit(&problem, &FitOptions { seed, ..*opts });
-    report(d, &problem, &out, seed)
+    let opts = FitOptions { seed, ..*opts };
+    let out = fit(&problem, &opts);
+    report(d, &problem, &out, &opts)
 }
 
 fn lm_only() -> FitOptions {

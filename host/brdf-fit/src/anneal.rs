@@ -12,7 +12,7 @@ use brdf_core::{ModelKind, MAX_PARAMS};
 use rand_core::RngCore;
 
 use crate::kernel::{assemble, factors};
-use crate::problem::{bounds, nonlinear_indices, Problem, ProjectionSums};
+use crate::problem::{nonlinear_indices, Problem, ProjectionSums};
 
 /// Schedule of one annealing chain.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -29,6 +29,10 @@ pub struct AnnealOptions {
     pub step_start: f64,
     /// Final proposal standard deviation.
     pub step_end: f64,
+    /// Explore only points where the projection keeps the specular lobe on (`kb > 0`): a
+    /// probe for a lobe-on optimum when the best fit has the lobe off (six-parameter models;
+    /// ignored for the others).
+    pub lobe_on: bool,
 }
 
 impl Default for AnnealOptions {
@@ -40,6 +44,7 @@ impl Default for AnnealOptions {
             t_end: 1e-3,
             step_start: 0.3,
             step_end: 0.003,
+            lobe_on: false,
         }
     }
 }
@@ -219,7 +224,7 @@ fn run<R: RngCore, L: Landscape>(
 ) -> AnnealResult {
     let kind = problem.kind();
     let idx = nonlinear_indices(kind);
-    let (lo, hi) = bounds(kind);
+    let (lo, hi) = problem.bounds();
     let d = idx.len();
     let to_nl = |u: &[f64; 4]| -> [f64; 4] {
         let mut nl = [0.0; 4];
@@ -228,20 +233,37 @@ fn run<R: RngCore, L: Landscape>(
         }
         nl
     };
+    // A lobe-on probe treats every point where the projection switches the lobe off as
+    // infinitely costly.
+    let lobe_on = opts.lobe_on && matches!(kind, ModelKind::Six | ModelKind::SixCos2);
+    let admissible = |lin: &[f64; 2], cost: f64| {
+        if lobe_on && lin[0] <= 0.0 {
+            f64::INFINITY
+        } else {
+            cost
+        }
+    };
     let energy = |cost: f64| (cost + 1e-300).ln();
-    // Start from the best of a few random points.
+    // Start from the best of a few random points (a probe screens up to ten times as many
+    // until one keeps the lobe on).
     let screen = opts.screen.clamp(1, opts.evals.max(1));
     let mut start: Option<([f64; 4], [f64; 2], f64)> = None;
-    for _ in 0..screen {
+    let mut screened = 0;
+    while screened < screen
+        || (lobe_on && screened < 10 * screen && start.as_ref().is_none_or(|s| s.2.is_infinite()))
+    {
+        screened += 1;
         let mut u = [0.0; 4];
         for v in u.iter_mut().take(d) {
             *v = unit(rng);
         }
         let (lin, cost) = land.reset(&to_nl(&u));
+        let cost = admissible(&lin, cost);
         if start.as_ref().is_none_or(|s| cost < s.2) {
             start = Some((u, lin, cost));
         }
     }
+    let screen = screened;
     let (mut u, lin, mut cost) = start.expect("screen >= 1");
     let mut best = (u, lin, cost);
     let mut evals = screen;
@@ -262,6 +284,7 @@ fn run<R: RngCore, L: Landscape>(
             let nl = to_nl(&u);
             let value = lo[idx[j]] + (hi[idx[j]] - lo[idx[j]]) * x;
             let (lin2, cost2) = land.propose(&nl, j, value);
+            let cost2 = admissible(&lin2, cost2);
             evals += 1;
             let de = energy(cost2) - energy(cost);
             if de <= 0.0 || unit(rng) < (-de / t).exp() {

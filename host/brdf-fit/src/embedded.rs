@@ -122,6 +122,15 @@ pub fn fit_embedded(
         chain_costs: Vec::new(),
         evals: budget as usize,
         converged: false,
+        search: crate::fit::SearchSummary {
+            chains: 1,
+            lobe_probes: 0,
+            hops: 0,
+            agreeing: 1,
+            not_converged: Some(
+                "the embedded annealer runs a fixed budget with no convergence test".to_owned(),
+            ),
+        },
         seconds: started.elapsed().as_secs_f64(),
     })
 }

@@ -14,6 +14,7 @@
 //! ```
 
 pub mod anneal;
+pub mod batch;
 pub mod data;
 pub mod embedded;
 pub mod fit;
@@ -24,6 +25,7 @@ pub mod problem;
 pub mod report;
 pub mod synth;
 
+pub use batch::{fit_all, fit_streamed, Engine, FitSettings};
 pub use data::{load_csv, DataError, Dataset, LoadOptions, Loaded, Point, Skipped};
 pub use fit::{fit, FitOptions, FitOutcome};
-pub use problem::{Problem, Residual};
+pub use problem::{Loss, LossKind, Problem, Residual};

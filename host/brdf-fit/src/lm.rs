@@ -31,7 +31,9 @@ pub struct LmOptions {
     pub max_iterations: usize,
     /// Stop when an accepted step lowers the cost by less than this fraction.
     pub cost_tolerance: f64,
-    /// Stop when the step is smaller than this, relative to the parameters.
+    /// Stop when no parameter's step changes the residual vector by more than this fraction
+    /// of its norm (`|step_j| sqrt((J^T J)_jj) <= tol * |r|`): free of the data's units, the
+    /// weights' scale and each parameter's own units.
     pub step_tolerance: f64,
 }
 
@@ -114,19 +116,22 @@ pub fn minimise(
             converged: false,
         };
     }
-    let max_diag = (0..n).map(|j| jtj[j][j]).fold(0.0, f64::max);
-    let mut lambda = 1e-3 * max_diag.max(1e-300);
+    // Marquardt damping `J^T J + lambda diag(J^T J)`: lambda is dimensionless, so neither the
+    // data's units nor the weights' size nor a parameter's own units change the path.
+    let mut lambda = 1e-3;
     let mut nu = 2.0;
     let mut converged = false;
     let mut iterations = 0;
     while iterations < opts.max_iterations {
         iterations += 1;
-        // Active set: at a bound with the descent direction pointing outside.
+        // Active set: at a bound with the descent direction pointing outside. A parameter
+        // with no effect on the residuals (a zero column: the lobe's shape when kb = 0) is
+        // held too: no step can be computed for it.
         let mut free = [false; MAX_PARAMS];
         for j in 0..n {
             let at_lo = q[j] <= lo[j] && jtr[j] > 0.0;
             let at_hi = q[j] >= hi[j] && jtr[j] < 0.0;
-            free[j] = !(at_lo || at_hi);
+            free[j] = !(at_lo || at_hi) && jtj[j][j] > 0.0;
         }
         let mut a = [[0.0; MAX_PARAMS]; MAX_PARAMS];
         let mut b = [0.0; MAX_PARAMS];
@@ -134,8 +139,7 @@ pub fn minimise(
             for j in 0..n {
                 a[i][j] = if free[i] && free[j] { jtj[i][j] } else { 0.0 };
             }
-            let d = jtj[i][i].max(1e-12 * max_diag).max(1e-300);
-            a[i][i] = if free[i] { jtj[i][i] + lambda * d } else { 1.0 };
+            a[i][i] = if free[i] { jtj[i][i] * (1.0 + lambda) } else { 1.0 };
             b[i] = if free[i] { -jtr[i] } else { 0.0 };
         }
         let Some(step) = cholesky_solve(&a, &b, n) else {
@@ -144,14 +148,12 @@ pub fn minimise(
             continue;
         };
         let mut trial = q;
-        let mut step_norm = 0.0_f64;
-        let mut q_norm = 0.0_f64;
+        let mut step_effect = 0.0_f64;
         for j in 0..n {
             trial[j] = (q[j] + step[j]).clamp(lo[j], hi[j]);
-            step_norm = step_norm.max((trial[j] - q[j]).abs());
-            q_norm = q_norm.max(q[j].abs());
+            step_effect = step_effect.max((trial[j] - q[j]).abs() * jtj[j][j].sqrt());
         }
-        if step_norm <= opts.step_tolerance * (q_norm + opts.step_tolerance) {
+        if step_effect <= opts.step_tolerance * (2.0 * cost).sqrt() {
             converged = true;
             break;
         }
@@ -191,7 +193,7 @@ pub fn minimise(
         } else {
             lambda *= nu;
             nu *= 2.0;
-            if lambda > 1e30 * max_diag.max(1.0) {
+            if lambda > 1e30 {
                 // No downhill step at any damping: stalled, not a passed convergence test.
                 break;
             }

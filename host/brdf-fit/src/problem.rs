@@ -30,23 +30,114 @@ impl Residual {
     }
 }
 
-/// Search box of the internal parameters (see [`crate::kernel`]): `kb` in [0, 1e4] (a metal's
-/// mirror peak of ~2000 1/sr needs kb in the thousands), `ln kr`
-/// in [ln 0.01, ln 1000], `beta = |b|` in [0, 200], `a` in [0.05, 4], `kd` in [0, 10],
-/// `c` in [0, 5]; Minnaert `rho0` in [0, 100], `k` in [0.01, 1]; Lambert `rho0` in [0, 100].
+/// Robust loss applied to the residuals, as scipy's `least_squares` defines them: the cost
+/// is `0.5 * sum C^2 rho(r_i^2 / C^2)` with `C` the loss scale (`f_scale`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum LossKind {
+    /// `rho(z) = z`: ordinary least squares (default).
+    #[default]
+    Linear,
+    /// `rho(z) = z` for `z <= 1`, `2 sqrt(z) - 1` beyond: quadratic near zero, linear tails.
+    Huber,
+    /// `rho(z) = 2 (sqrt(1 + z) - 1)`: a smooth Huber.
+    SoftL1,
+    /// `rho(z) = ln(1 + z)`: a residual far beyond `C` barely counts.
+    Cauchy,
+}
+
+impl LossKind {
+    /// Name on the command line and in results.
+    pub fn name(self) -> &'static str {
+        match self {
+            LossKind::Linear => "linear",
+            LossKind::Huber => "huber",
+            LossKind::SoftL1 => "soft-l1",
+            LossKind::Cauchy => "cauchy",
+        }
+    }
+}
+
+/// A loss and its scale `C` (in the residual's units: a relative error for relative
+/// residuals, so `C = 0.1` lets residuals beyond 10% count less than squared).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Loss {
+    /// The function.
+    pub kind: LossKind,
+    /// Its scale `C > 0`.
+    pub scale: f64,
+}
+
+impl Default for Loss {
+    fn default() -> Self {
+        Loss {
+            kind: LossKind::Linear,
+            scale: 1.0,
+        }
+    }
+}
+
+impl Loss {
+    /// For `r^2`: `C^2 rho(z)`, `rho'(z)` and `rho''(z) / C^2` with `z = r^2 / C^2` (scipy's
+    /// convention, so that `sum` of the first is twice the cost).
+    #[inline]
+    pub fn eval(self, r2: f64) -> (f64, f64, f64) {
+        let c2 = self.scale * self.scale;
+        let z = r2 / c2;
+        let (rho, d1, d2) = match self.kind {
+            LossKind::Linear => return (r2, 1.0, 0.0),
+            LossKind::Huber => {
+                if z <= 1.0 {
+                    (z, 1.0, 0.0)
+                } else {
+                    let s = z.sqrt();
+                    (2.0 * s - 1.0, 1.0 / s, -0.5 / (z * s))
+                }
+            }
+            LossKind::SoftL1 => {
+                let t = 1.0 + z;
+                let s = t.sqrt();
+                (2.0 * (s - 1.0), 1.0 / s, -0.5 / (t * s))
+            }
+            LossKind::Cauchy => {
+                let t = 1.0 + z;
+                (t.ln(), 1.0 / t, -1.0 / (t * t))
+            }
+        };
+        (c2 * rho, d1, d2 / c2)
+    }
+
+    /// True for the ordinary least-squares loss.
+    pub fn is_linear(self) -> bool {
+        self.kind == LossKind::Linear
+    }
+}
+
+/// Lowest six-parameter `c` searched with brightening: Minnaert's `k - 1` for the smallest `k`
+/// the fitter searches (0.01), so the diffuse term can brighten towards grazing as much as
+/// Minnaert's. The core accepts any `c > -1`.
+pub const BRIGHTENING_C_MIN: f64 = -0.99;
+
+/// Search box of the internal parameters (see [`crate::kernel`]): `ln kr` in
+/// [ln 0.01, ln 1000], `beta = |b|` in [0, 200], `a` in [0.05, 4], `c` in [0, 5], the
+/// five-parameter `kd` in [0, 10], Minnaert `k` in [0.01, 1]. The weights the model is
+/// linear in (`kb`, the six-parameter `kd`, `rho0`) are only non-negative: they carry the
+/// data's units, so any upper bound would make the fit depend on them (data in other units
+/// must give the same relative fit).
 pub fn bounds(kind: ModelKind) -> ([f64; MAX_PARAMS], [f64; MAX_PARAMS]) {
     let lkr = (0.01_f64.ln(), 1000.0_f64.ln());
+    let inf = f64::INFINITY;
     match kind {
         ModelKind::Six | ModelKind::SixCos2 => (
             [0.0, lkr.0, 0.0, 0.05, 0.0, 0.0],
-            [1.0e4, lkr.1, 200.0, 4.0, 10.0, 5.0],
+            [inf, lkr.1, 200.0, 4.0, inf, 5.0],
         ),
         ModelKind::Five => (
             [0.0, lkr.0, 0.0, 0.05, 0.0, 0.0],
-            [1.0e4, lkr.1, 200.0, 4.0, 10.0, 0.0],
+            [inf, lkr.1, 200.0, 4.0, 10.0, 0.0],
         ),
-        ModelKind::Minnaert => ([0.0, 0.01, 0.0, 0.0, 0.0, 0.0], [100.0, 1.0, 0.0, 0.0, 0.0, 0.0]),
-        ModelKind::Lambert => ([0.0; MAX_PARAMS], [100.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        ModelKind::Minnaert => ([0.0, 0.01, 0.0, 0.0, 0.0, 0.0], [inf, 1.0, 0.0, 0.0, 0.0, 0.0]),
+        ModelKind::Lambert => ([0.0; MAX_PARAMS], [inf, 0.0, 0.0, 0.0, 0.0, 0.0]),
     }
 }
 
@@ -69,6 +160,13 @@ pub struct Problem {
     y: Vec<f64>,
     /// Per-point factor of the residual's weight (sqrt(weight) or from sigma).
     w: Vec<f64>,
+    /// Robust loss of the cost.
+    loss: Loss,
+    /// Six-parameter models: search `c` down to [`BRIGHTENING_C_MIN`] instead of 0.
+    brightening: bool,
+    /// Iteratively reweighted least squares: the robust loss's `rho'` at a current point,
+    /// per point, used by the projection (the global search solves linear least squares).
+    irls: Vec<f64>,
 }
 
 impl Problem {
@@ -91,7 +189,76 @@ impl Problem {
             pts: points.iter().map(Prepared::from_point).collect(),
             y: points.iter().map(|p| p.brdf).collect(),
             w,
+            loss: Loss::default(),
+            brightening: false,
+            irls: vec![1.0; points.len()],
         }
+    }
+
+    /// The same problem with the six-parameter diffuse exponent `c` searched down to
+    /// [`BRIGHTENING_C_MIN`], so that the diffuse term can brighten towards grazing (as
+    /// Minnaert's `k - 1` does); other models are unaffected.
+    pub fn with_brightening(mut self, on: bool) -> Self {
+        self.brightening = on;
+        self
+    }
+
+    /// True when `c` may be negative (see [`Problem::with_brightening`]).
+    pub fn brightening(&self) -> bool {
+        self.brightening && matches!(self.kind, ModelKind::Six | ModelKind::SixCos2)
+    }
+
+    /// The search box of this problem: [`bounds`], with `c` down to [`BRIGHTENING_C_MIN`]
+    /// under [`Problem::with_brightening`].
+    pub fn bounds(&self) -> ([f64; MAX_PARAMS], [f64; MAX_PARAMS]) {
+        let (mut lo, hi) = bounds(self.kind);
+        if self.brightening() {
+            lo[5] = BRIGHTENING_C_MIN;
+        }
+        (lo, hi)
+    }
+
+    /// The same problem with a robust loss.
+    pub fn with_loss(mut self, loss: Loss) -> Self {
+        self.loss = loss;
+        self
+    }
+
+    /// The robust loss.
+    pub fn loss(&self) -> Loss {
+        self.loss
+    }
+
+    /// Sets the projection's per-point IRLS weights to the loss's `rho'` at `q` (all 1 for
+    /// the linear loss).
+    pub fn reweight(&mut self, q: &[f64]) {
+        if self.loss.is_linear() {
+            return;
+        }
+        let q = &q[..self.dim()];
+        for i in 0..self.pts.len() {
+            let r = self.residual_at(i, eval(self.kind, q, &self.pts[i], None));
+            self.irls[i] = if r.is_finite() {
+                self.loss.eval(r * r).1
+            } else {
+                0.0
+            };
+        }
+    }
+
+    /// A copy without point `i` (influence analysis).
+    pub fn without(&self, i: usize) -> Problem {
+        let mut p = self.clone();
+        p.pts.remove(i);
+        p.y.remove(i);
+        p.w.remove(i);
+        p.irls.remove(i);
+        p
+    }
+
+    /// Residual `r_i` (weighted, in the residual form) of model value `f` at point `i`.
+    pub fn residual_of(&self, i: usize, f: f64) -> f64 {
+        self.residual_at(i, f)
     }
 
     /// From a whole dataset.
@@ -140,14 +307,14 @@ impl Problem {
         }
     }
 
-    /// `0.5 * sum r_i^2` at internal parameters `q` (infinite where a log residual sees
-    /// `f <= 0`).
+    /// `0.5 * sum C^2 rho(r_i^2 / C^2)` (`0.5 * sum r_i^2` for the linear loss) at internal
+    /// parameters `q`; infinite where a log residual sees `f <= 0`.
     pub fn cost(&self, q: &[f64]) -> f64 {
         let q = &q[..self.dim()];
         let mut s = 0.0;
         for (i, pt) in self.pts.iter().enumerate() {
             let r = self.residual_at(i, eval(self.kind, q, pt, None));
-            s += r * r;
+            s += self.loss.eval(r * r).0;
         }
         0.5 * s
     }
@@ -174,12 +341,16 @@ impl Problem {
                 Residual::Absolute => w,
                 Residual::Log => w / f,
             };
-            cost += r * r;
+            // Robust loss: scipy's scaling of the residual and the Jacobian row, so that
+            // Gauss-Newton sees the loss's curvature (exact for the linear loss).
+            let (rho, d1, d2) = self.loss.eval(r * r);
+            cost += rho;
+            let curvature = (d1 + 2.0 * d2 * r * r).max(f64::EPSILON);
             for a in 0..n {
                 let ja = scale * g[a];
-                jtr[a] += ja * r;
+                jtr[a] += ja * r * d1;
                 for b in 0..=a {
-                    jtj[a][b] += ja * scale * g[b];
+                    jtj[a][b] += ja * scale * g[b] * curvature;
                 }
             }
         }
@@ -191,18 +362,28 @@ impl Problem {
         0.5 * cost
     }
 
-    /// Jacobian of the residuals with respect to the internal parameters, row per point.
+    /// Jacobian of the residuals with respect to the internal parameters, row per point
+    /// (under a robust loss, each row scaled by the square root of the loss's curvature
+    /// there, as the polish sees it).
     pub fn jacobian(&self, q: &[f64]) -> Vec<[f64; MAX_PARAMS]> {
         let n = self.dim();
         let mut out = Vec::with_capacity(self.len());
         for (i, pt) in self.pts.iter().enumerate() {
             let mut g = [0.0; MAX_PARAMS];
             let f = eval(self.kind, &q[..n], pt, Some(&mut g[..n]));
-            let scale = match self.residual {
-                Residual::Relative => self.w[i] / self.y[i],
-                Residual::Absolute => self.w[i],
-                Residual::Log => self.w[i] / f,
+            let robust = if self.loss.is_linear() {
+                1.0
+            } else {
+                let r = self.residual_at(i, f);
+                let (_, d1, d2) = self.loss.eval(r * r);
+                (d1 + 2.0 * d2 * r * r).max(f64::EPSILON).sqrt()
             };
+            let scale = robust
+                * match self.residual {
+                    Residual::Relative => self.w[i] / self.y[i],
+                    Residual::Absolute => self.w[i],
+                    Residual::Log => self.w[i] / f,
+                };
             for v in g.iter_mut() {
                 *v *= scale;
             }
@@ -228,10 +409,11 @@ impl Problem {
     /// `min || s (B lin - y) ||^2`: relative scaling also for log residuals.
     #[inline]
     pub fn projection_scale(&self, i: usize) -> f64 {
-        match self.residual {
+        let s = match self.residual {
             Residual::Absolute => self.w[i],
             Residual::Relative | Residual::Log => self.w[i] / self.y[i],
-        }
+        };
+        s * self.irls[i].sqrt()
     }
 
     /// Measurement `y_i`.

@@ -7,10 +7,9 @@ use serde::ser::SerializeMap;
 use serde::{Serialize, Serializer};
 
 use crate::data::Dataset;
-use crate::fit::FitOutcome;
+use crate::fit::{FitOptions, FitOutcome, SearchSummary};
 use crate::kernel::natural_per_internal;
-use crate::lm::cholesky_solve;
-use crate::problem::{bounds, Problem};
+use crate::problem::{Loss, Problem};
 
 /// A name-to-value map that keeps its order in JSON.
 #[derive(Clone, Debug, PartialEq)]
@@ -121,7 +120,7 @@ pub const PROFILE_DELTA_CHI2: f64 = 3.84;
 /// possible.
 fn profile_rise(problem: &Problem, outcome: &FitOutcome, j: usize, s2: f64) -> Option<f64> {
     let kind = outcome.kind;
-    let (lo, hi) = bounds(kind);
+    let (lo, hi) = problem.bounds();
     let log_param = matches!(kind, ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five) && j == 1;
     let q0 = outcome.q[j];
     // Half, twice, and both ends of the search box: a profile still flat at a bound means
@@ -142,7 +141,7 @@ fn profile_rise(problem: &Problem, outcome: &FitOutcome, j: usize, s2: f64) -> O
     let mut rise: Option<f64> = None;
     for target in moves {
         let v = target.clamp(lo[j], hi[j]);
-        if (v - q0).abs() <= 1e-12 * (1.0 + q0.abs()) {
+        if !v.is_finite() || (v - q0).abs() <= 1e-12 * (1.0 + q0.abs()) {
             continue;
         }
         let (mut flo, mut fhi) = (lo, hi);
@@ -157,13 +156,99 @@ fn profile_rise(problem: &Problem, outcome: &FitOutcome, j: usize, s2: f64) -> O
     rise
 }
 
+/// The bound `q` sits on: within 1e-7 of the box's width of a finite bound, exactly on the
+/// lower bound of a half-open range (the non-negative weights, which the projection and the
+/// polish set to exactly 0).
+fn on_bound(q: f64, lo: f64, hi: f64) -> Option<f64> {
+    let tol = if (hi - lo).is_finite() {
+        1e-7 * (hi - lo)
+    } else {
+        0.0
+    };
+    if q <= lo + tol {
+        Some(lo)
+    } else if q >= hi - tol {
+        Some(hi)
+    } else {
+        None
+    }
+}
+
+/// Eigen-decomposition of a symmetric `n x n` matrix by cyclic Jacobi rotations:
+/// eigenvalues and eigenvectors (column `k` of the second result belongs to value `k`).
+fn symmetric_eigen(
+    mut a: [[f64; MAX_PARAMS]; MAX_PARAMS],
+    n: usize,
+) -> ([f64; MAX_PARAMS], [[f64; MAX_PARAMS]; MAX_PARAMS]) {
+    let mut v = [[0.0; MAX_PARAMS]; MAX_PARAMS];
+    for (i, row) in v.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    for _sweep in 0..64 {
+        let off: f64 = (0..n)
+            .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
+            .map(|(i, j)| a[i][j] * a[i][j])
+            .sum();
+        let diag: f64 = (0..n).map(|i| a[i][i] * a[i][i]).sum();
+        if off <= 1e-30 * diag || off == 0.0 {
+            break;
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                if a[p][q] == 0.0 {
+                    continue;
+                }
+                let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for k in 0..n {
+                    let (akp, akq) = (a[k][p], a[k][q]);
+                    a[k][p] = c * akp - s * akq;
+                    a[k][q] = s * akp + c * akq;
+                }
+                for k in 0..n {
+                    let (apk, aqk) = (a[p][k], a[q][k]);
+                    a[p][k] = c * apk - s * aqk;
+                    a[q][k] = s * apk + c * aqk;
+                }
+                for row in v.iter_mut().take(n) {
+                    let (vp, vq) = (row[p], row[q]);
+                    row[p] = c * vp - s * vq;
+                    row[q] = s * vp + c * vq;
+                }
+            }
+        }
+    }
+    let mut values = [0.0; MAX_PARAMS];
+    for i in 0..n {
+        values[i] = a[i][i];
+    }
+    (values, v)
+}
+
+/// An eigenvalue of the unit-diagonal `J^T J` below this fraction of the largest marks a
+/// direction the data do not constrain: its variance would exceed the best-determined
+/// direction's by a factor of 1e10, i.e. a standard error 1e5 times larger.
+pub const SINGULAR_EIGEN_REL: f64 = 1e-10;
+
+/// A parameter whose share of such a direction (squared component of the unit eigenvector)
+/// exceeds this is reported as confounded with the others in it.
+const CONFOUNDED_SHARE: f64 = 0.01;
+
 /// Standard errors and correlations from `J^T J` at the optimum, scaled by the residual
-/// variance `2 cost / (n - p)`. Parameters at a search bound are held fixed there.
+/// variance `2 cost / (n - p)`.
+///
+/// Parameters on a search bound are held there; parameters with no effect on the model at
+/// the optimum (the lobe's `kr`, `b`, `a` when `kb = 0`) are reported as such; directions in
+/// which `J^T J` is singular name the parameters that share them, and only those. Every
+/// other parameter gets its standard error and the profile test.
 pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
     let kind = outcome.kind;
     let p = kind.param_count();
     let names = kind.param_names();
-    let (lo, hi) = bounds(kind);
+    let (lo, hi) = problem.bounds();
     let jac = problem.jacobian(&outcome.q);
     let mut jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
     for row in &jac {
@@ -173,70 +258,111 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
             }
         }
     }
-    let at_bound: Vec<bool> = (0..p)
-        .map(|j| {
-            let tol = 1e-7 * (hi[j] - lo[j]);
-            outcome.q[j] <= lo[j] + tol || outcome.q[j] >= hi[j] - tol
-        })
-        .collect();
-    let free: Vec<usize> = (0..p).filter(|&j| !at_bound[j]).collect();
+    let lobe_model = matches!(kind, ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five);
+    let lobe_off = lobe_model && outcome.q[0] == 0.0;
+    let mut note: Vec<Option<String>> = vec![None; p];
+    for j in 0..p {
+        if let Some(bound) = on_bound(outcome.q[j], lo[j], hi[j]) {
+            let shown = crate::kernel::to_natural(kind, &{
+                let mut q = outcome.q;
+                q[j] = bound;
+                q
+            })[j];
+            note[j] = Some(if lobe_off && j == 0 {
+                "kb = 0 (on its bound): the fit has no specular lobe".to_owned()
+            } else {
+                format!("at the search bound {shown}: held there, not estimated")
+            });
+        } else if lobe_off && (1..=3).contains(&j) {
+            note[j] = Some("lobe off (kb = 0): kr, b, a have no effect".to_owned());
+        } else if jtj[j][j] == 0.0 || !jtj[j][j].is_finite() {
+            note[j] = Some(format!("{} has no effect on the model at the optimum", names[j]));
+        }
+    }
+    let free: Vec<usize> = (0..p).filter(|&j| note[j].is_none()).collect();
     let dof = problem.len().saturating_sub(free.len());
     let s2 = if dof > 0 {
         2.0 * outcome.cost / dof as f64
     } else {
         f64::NAN
     };
-    // Inverse of J^T J on the free parameters, column by column; scaled by the
-    // diagonal first so that parameters of very different size do not defeat Cholesky.
+    // Scaled to unit diagonal so that parameters of very different size compare, then
+    // decomposed: small eigenvalues are the directions the data leave free.
     let m = free.len();
-    let scale: Vec<f64> = free.iter().map(|&j| jtj[j][j].sqrt().max(1e-300)).collect();
+    let scale: Vec<f64> = free.iter().map(|&j| jtj[j][j].sqrt()).collect();
     let mut a = [[0.0; MAX_PARAMS]; MAX_PARAMS];
     for (x, &i) in free.iter().enumerate() {
         for (y, &j) in free.iter().enumerate() {
             a[x][y] = jtj[i][j] / (scale[x] * scale[y]);
         }
     }
+    let (values, vectors) = symmetric_eigen(a, m);
+    let largest = values[..m].iter().copied().fold(0.0, f64::max);
+    let mut confounded = [false; MAX_PARAMS];
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for k in 0..m {
+        if values[k] > SINGULAR_EIGEN_REL * largest {
+            continue;
+        }
+        let group: Vec<usize> = (0..m)
+            .filter(|&x| vectors[x][k] * vectors[x][k] > CONFOUNDED_SHARE)
+            .collect();
+        for &x in &group {
+            confounded[x] = true;
+        }
+        groups.push(group);
+    }
+    for (x, &j) in free.iter().enumerate() {
+        if !confounded[x] {
+            continue;
+        }
+        let mut others: Vec<&str> = groups
+            .iter()
+            .filter(|g| g.contains(&x))
+            .flatten()
+            .filter(|&&y| y != x)
+            .map(|&y| names[free[y]])
+            .collect();
+        others.sort_unstable();
+        others.dedup();
+        note[j] = Some(if others.is_empty() {
+            format!("J^T J is singular in {}: the data do not constrain it", names[j])
+        } else {
+            format!(
+                "J^T J is singular in {} with {}: the data do not separate them",
+                names[j],
+                others.join(", ")
+            )
+        });
+    }
+    // Covariance from the directions the data do constrain (a pseudo-inverse).
     let mut cov = [[f64::NAN; MAX_PARAMS]; MAX_PARAMS];
-    let mut singular = false;
     for x in 0..m {
-        let mut e = [0.0; MAX_PARAMS];
-        e[x] = 1.0;
-        match cholesky_solve(&a, &e, m) {
-            Some(col) => {
-                for y in 0..m {
-                    cov[free[y]][free[x]] = s2 * col[y] / (scale[x] * scale[y]);
+        for y in 0..m {
+            if confounded[x] || confounded[y] {
+                continue;
+            }
+            let mut s = 0.0;
+            for k in 0..m {
+                if values[k] > SINGULAR_EIGEN_REL * largest {
+                    s += vectors[x][k] * vectors[y][k] / values[k];
                 }
             }
-            None => singular = true,
+            cov[free[x]][free[y]] = s2 * s / (scale[x] * scale[y]);
         }
     }
     let d = natural_per_internal(kind, &outcome.q);
     let mut params = Vec::with_capacity(p);
     for j in 0..p {
         let value = outcome.params[j];
-        let (se, rel_se, determined, note) = if at_bound[j] {
-            let bound = if outcome.q[j] <= lo[j] + 1e-7 * (hi[j] - lo[j]) {
-                lo[j]
-            } else {
-                hi[j]
-            };
-            let shown = crate::kernel::to_natural(kind, &{
-                let mut q = outcome.q;
-                q[j] = bound;
-                q
-            })[j];
+        let (se, rel_se, determined, note) = if let Some(n) = note[j].take() {
+            (None, None, false, Some(n))
+        } else if !cov[j][j].is_finite() || cov[j][j] < 0.0 {
             (
                 None,
                 None,
                 false,
-                Some(format!("at the search bound {shown}: held there, not estimated")),
-            )
-        } else if singular || !cov[j][j].is_finite() || cov[j][j] < 0.0 {
-            (
-                None,
-                None,
-                false,
-                Some("J^T J is singular: the data do not constrain it".to_owned()),
+                Some("its variance is not defined (fewer points than parameters)".to_owned()),
             )
         } else {
             let se = cov[j][j].sqrt() * d[j].abs();
@@ -336,6 +462,182 @@ pub fn energy(model: &AnyModel<f64>, incidences: &[f64]) -> Energy {
     }
 }
 
+/// One point's pull on the fit.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PointInfluence {
+    /// 1-based line of the point in its source file.
+    pub line: u64,
+    /// Incidence zenith, degrees.
+    pub theta_i: f64,
+    /// Viewing zenith, degrees.
+    pub theta_r: f64,
+    /// Relative azimuth, degrees.
+    pub phi: f64,
+    /// Measured value, 1/sr.
+    pub brdf: f64,
+    /// Fitted value there, 1/sr.
+    pub model: f64,
+    /// Residual in the fitted form (a relative error for relative residuals, weighted).
+    pub residual: f64,
+    /// Residual over its standard deviation, `r / (s sqrt(1 - h))`.
+    pub standardized: f64,
+    /// Leverage `h`: the diagonal of the hat matrix at the optimum.
+    pub leverage: f64,
+    /// Fraction of the cost that refitting without this point removes.
+    pub cost_drop: f64,
+    /// RMS relative error of that refit over the remaining points.
+    pub rms_rel_without: f64,
+}
+
+/// The points whose removal changes the fit most.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Influence {
+    /// Most influential first (at most [`INFLUENCE_SHOWN`]).
+    pub points: Vec<PointInfluence>,
+    /// Cost drop above which one point is called dominant for this many points
+    /// ([`dominant_fraction`]).
+    pub dominant_above: f64,
+    /// One point alone moves the cost by more than `dominant_above`: the fit rests on it.
+    pub dominant: bool,
+}
+
+/// Points listed in [`Influence::points`].
+pub const INFLUENCE_SHOWN: usize = 3;
+
+/// Candidates (by the linearised leave-one-out cost drop) refitted exactly.
+const INFLUENCE_CANDIDATES: usize = 5;
+
+/// Cost fraction one point of `n` may remove before it is called dominant:
+/// `max(10%, (2 ln n + 14) / n)`. For `n` residuals from one normal distribution the largest
+/// squared standardised one exceeds `2 ln n + 14` with probability below 0.1% (union bound on
+/// the chi-square tail `exp(-x/2)`), so a larger share is not noise; the 10% floor keeps large
+/// datasets from flagging points that matter little.
+pub fn dominant_fraction(n: usize) -> f64 {
+    let n = n.max(1) as f64;
+    ((2.0 * n.ln() + 14.0) / n).max(0.1)
+}
+
+/// Leave-one-out influence: the linearised cost drop `0.5 r^2 / (1 - h)` ranks the points,
+/// the top [`INFLUENCE_CANDIDATES`] are refitted without the point (a local polish from the
+/// optimum, and the whole global search where that already removes more than the dominant
+/// fraction, since one point can hold the fit in another basin).
+pub fn influence(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: &FitOptions) -> Influence {
+    let n = problem.len();
+    let dominant_above = dominant_fraction(n);
+    let kind = outcome.kind;
+    let p = kind.param_count();
+    if n <= p + 1 || outcome.cost <= 0.0 || !outcome.cost.is_finite() {
+        return Influence {
+            points: Vec::new(),
+            dominant_above,
+            dominant: false,
+        };
+    }
+    let (lo, hi) = problem.bounds();
+    let jac = problem.jacobian(&outcome.q);
+    let free: Vec<usize> = (0..p)
+        .filter(|&j| on_bound(outcome.q[j], lo[j], hi[j]).is_none() && jac.iter().any(|r| r[j] != 0.0))
+        .collect();
+    let pinv = pseudo_inverse(&jac, &free);
+    let values = problem.values(&outcome.q);
+    let s2 = 2.0 * outcome.cost / (n - free.len()).max(1) as f64;
+    let hat = |i: usize| -> f64 {
+        let mut h = 0.0;
+        for (x, &a) in free.iter().enumerate() {
+            for (y, &b) in free.iter().enumerate() {
+                h += jac[i][a] * pinv[x][y] * jac[i][b];
+            }
+        }
+        h.clamp(0.0, 1.0 - 1e-12)
+    };
+    let mut ranked: Vec<(usize, f64, f64)> = (0..n)
+        .map(|i| {
+            let r = problem.residual_of(i, values[i]);
+            let h = hat(i);
+            (i, 0.5 * problem.loss().eval(r * r).0 / (1.0 - h), h)
+        })
+        .collect();
+    ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let mut points: Vec<PointInfluence> = ranked
+        .iter()
+        .take(INFLUENCE_CANDIDATES)
+        .map(|&(i, _, h)| {
+            let without = problem.without(i);
+            let local = crate::lm::minimise(&without, &outcome.q, &lo, &hi, opts.lm);
+            let (mut q, mut cost) = (local.q, local.cost);
+            if (outcome.cost - cost) / outcome.cost > dominant_above {
+                let global = crate::fit::fit(&without, opts);
+                if global.cost < cost {
+                    (q, cost) = (global.q, global.cost);
+                }
+            }
+            let f = without.values(&q);
+            let rel2: f64 = (0..without.len())
+                .map(|k| ((f[k] - without.target(k)) / without.target(k)).powi(2))
+                .sum();
+            let pt = &dataset.points[i];
+            let r = problem.residual_of(i, values[i]);
+            PointInfluence {
+                line: pt.line,
+                theta_i: degrees(pt.theta_i),
+                theta_r: degrees(pt.theta_r),
+                phi: degrees(pt.phi),
+                brdf: pt.brdf,
+                model: values[i],
+                residual: r,
+                standardized: r / (s2 * (1.0 - h)).sqrt(),
+                leverage: h,
+                cost_drop: ((outcome.cost - cost) / outcome.cost).max(0.0),
+                rms_rel_without: (rel2 / without.len().max(1) as f64).sqrt(),
+            }
+        })
+        .collect();
+    points.sort_by(|a, b| b.cost_drop.total_cmp(&a.cost_drop));
+    points.truncate(INFLUENCE_SHOWN);
+    let dominant = points.first().is_some_and(|p| p.cost_drop > dominant_above);
+    Influence {
+        points,
+        dominant_above,
+        dominant,
+    }
+}
+
+/// Pseudo-inverse of `J^T J` restricted to the parameters `free` (rows and columns in the
+/// order of `free`), dropping directions below [`SINGULAR_EIGEN_REL`].
+fn pseudo_inverse(jac: &[[f64; MAX_PARAMS]], free: &[usize]) -> [[f64; MAX_PARAMS]; MAX_PARAMS] {
+    let m = free.len();
+    let mut jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
+    for row in jac {
+        for (x, &a) in free.iter().enumerate() {
+            for (y, &b) in free.iter().enumerate() {
+                jtj[x][y] += row[a] * row[b];
+            }
+        }
+    }
+    let scale: Vec<f64> = (0..m).map(|x| jtj[x][x].sqrt().max(f64::MIN_POSITIVE)).collect();
+    let mut a = [[0.0; MAX_PARAMS]; MAX_PARAMS];
+    for x in 0..m {
+        for y in 0..m {
+            a[x][y] = jtj[x][y] / (scale[x] * scale[y]);
+        }
+    }
+    let (values, vectors) = symmetric_eigen(a, m);
+    let largest = values[..m].iter().copied().fold(0.0, f64::max);
+    let mut out = [[0.0; MAX_PARAMS]; MAX_PARAMS];
+    for x in 0..m {
+        for y in 0..m {
+            let mut s = 0.0;
+            for k in 0..m {
+                if values[k] > SINGULAR_EIGEN_REL * largest {
+                    s += vectors[x][k] * vectors[y][k] / values[k];
+                }
+            }
+            out[x][y] = s / (scale[x] * scale[y]);
+        }
+    }
+    out
+}
+
 /// Everything `brdf fit --json` prints for one dataset.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FitReport {
@@ -367,8 +669,17 @@ pub struct FitReport {
     pub cost: f64,
     /// Passes over the data.
     pub evals: usize,
-    /// The local polish met its convergence test.
+    /// The global search met every convergence test (see `brdf_fit::fit`); when false,
+    /// `search.not_converged` says why.
     pub converged: bool,
+    /// How the global search went.
+    pub search: SearchSummary,
+    /// Robust loss of the fit.
+    pub loss: Loss,
+    /// The six-parameter `c` was searched below 0 (`--brightening`).
+    pub brightening: bool,
+    /// The points whose removal changes the fit most.
+    pub influence: Influence,
     /// Parameter uncertainty and undetermined-parameter flags.
     pub uncertainty: Uncertainty,
     /// Energy check.
@@ -389,7 +700,7 @@ impl FitReport {
 }
 
 /// Builds the report of a finished fit.
-pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, seed: u64) -> FitReport {
+pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: &FitOptions) -> FitReport {
     let kind: ModelKind = outcome.kind;
     let values = problem.values(&outcome.q);
     let y: Vec<f64> = dataset.points.iter().map(|p| p.brdf).collect();
@@ -436,10 +747,14 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, seed: 
         bic: ll + k as f64 * nf.ln(),
         seconds: outcome.seconds,
         residual: problem.residual().name(),
-        seed,
+        seed: opts.seed,
         cost: outcome.cost,
         evals: outcome.evals,
         converged: outcome.converged,
+        search: outcome.search.clone(),
+        loss: problem.loss(),
+        brightening: problem.brightening(),
+        influence: influence(dataset, problem, outcome, opts),
         uncertainty: uncertainty(problem, outcome),
         energy: energy(&model, &incidences),
     }

@@ -5,8 +5,8 @@ use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;
 use crate::model::{
-    check_count, finite, kr_in_range, non_negative, params_array, positive, Brdf, Model, ModelKind,
-    MAX_PARAMS,
+    above_minus_one, check_count, finite, kr_in_range, non_negative, params_array, positive, Brdf, Model,
+    ModelKind, MAX_PARAMS,
 };
 
 /// Parameters of the six-parameter model, named as in the paper.
@@ -23,7 +23,9 @@ pub struct SixParams<T> {
     pub a: T,
     /// Diffuse weight, `>= 0`.
     pub kd: T,
-    /// Diffuse (Minnaert-like) exponent, `>= 0`.
+    /// Diffuse (Minnaert-like) exponent, `> -1`. With `c >= 0` the diffuse term darkens
+    /// towards grazing and `kb + kd` bounds the albedo; with `-1 < c < 0` it brightens
+    /// towards grazing as Minnaert's `k - 1` does, and only quadrature can check energy.
     pub c: T,
 }
 
@@ -42,7 +44,7 @@ impl<T: Float> SixParams<T> {
         finite("b", self.b)?;
         positive("a", self.a)?;
         non_negative("kd", self.kd)?;
-        non_negative("c", self.c)?;
+        above_minus_one("c", self.c)?;
         Ok(())
     }
 
@@ -175,8 +177,9 @@ impl<T: Float> Model<T> for SixParam<T> {
         self.params.to_array()
     }
 
+    /// `kb + kd` when `c >= 0` (eq. 5 needs `(cos ti cos tr)^c <= 1`); none for `c < 0`.
     fn energy_bound(&self) -> Option<T> {
-        Some(self.params.kb + self.params.kd)
+        (self.params.c >= T::ZERO).then_some(self.params.kb + self.params.kd)
     }
 }
 
@@ -194,7 +197,7 @@ mod tests {
             (2, f64::NAN, "b"),
             (3, 0.0, "a"),
             (4, -1.0, "kd"),
-            (5, -0.5, "c"),
+            (5, -1.0, "c"),
         ];
         for (i, v, name) in cases {
             let mut p = good;
@@ -207,6 +210,13 @@ mod tests {
                 other => panic!("unexpected {other:?}"),
             }
         }
+        // -1 < c < 0 brightens towards grazing: valid, but without the kb + kd bound.
+        let mut bright = good;
+        bright[5] = -0.5;
+        let m = SixParam::from_params(&bright).unwrap();
+        assert_eq!(m.energy_bound(), None);
+        let diffuse = |t: f64| m.diffuse(&Geometry::from_angles(t, t, 1.0));
+        assert!(diffuse(1.5) > diffuse(0.1));
         assert_eq!(
             SixParam::<f32>::from_params(&[1.0; 5]).unwrap_err(),
             ParamError::WrongCount { expected: 6, got: 5 }

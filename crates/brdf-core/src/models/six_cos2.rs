@@ -76,7 +76,7 @@ impl<T: Float> Model<T> for SixParamCos2<T> {
     /// `kb + kd` while `kr <= sqrt(2)` (the facet term then peaks at the mirror direction
     /// with value 1); no bound otherwise.
     fn energy_bound(&self) -> Option<T> {
-        if self.kr2 <= T::TWO {
+        if self.kr2 <= T::TWO && self.params.c >= T::ZERO {
             Some(self.params.kb + self.params.kd)
         } else {
             None

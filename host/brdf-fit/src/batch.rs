@@ -1,0 +1,115 @@
+//! Fitting many datasets: in parallel on all cores, each result handed on as soon as it and
+//! every result before it are done (input order, streamed), so a long batch shows results
+//! while it runs.
+
+use std::sync::mpsc;
+
+use brdf_core::ModelKind;
+use rayon::prelude::*;
+
+use crate::embedded::{fit_embedded, EmbeddedError};
+use crate::problem::{Loss, Problem, Residual};
+use crate::report::{report, FitReport};
+use crate::{fit, Dataset, FitOptions};
+
+/// Which fitting engine.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Engine {
+    /// Host engine: annealing chains polished by Levenberg–Marquardt, f64.
+    Full,
+    /// The on-sensor f32 annealer of brdf-core with this evaluation budget.
+    Embedded {
+        /// Cost evaluations.
+        budget: u32,
+    },
+}
+
+/// Everything that defines one fit besides the data.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FitSettings {
+    /// The model.
+    pub kind: ModelKind,
+    /// Residual form.
+    pub residual: Residual,
+    /// Robust loss.
+    pub loss: Loss,
+    /// Six-parameter `c` searched below 0 (see [`Problem::with_brightening`]).
+    pub brightening: bool,
+    /// Search settings of the full engine (its seed also seeds the embedded one).
+    pub options: FitOptions,
+    /// The engine.
+    pub engine: Engine,
+}
+
+impl FitSettings {
+    /// Default settings for `kind`: relative residuals, least squares, the full engine.
+    pub fn new(kind: ModelKind) -> Self {
+        FitSettings {
+            kind,
+            residual: Residual::Relative,
+            loss: Loss::default(),
+            brightening: false,
+            options: FitOptions::default(),
+            engine: Engine::Full,
+        }
+    }
+
+    /// The least-squares problem these settings pose on `d`.
+    pub fn problem(&self, d: &Dataset) -> Problem {
+        Problem::from_dataset(self.kind, self.residual, d)
+            .with_loss(self.loss)
+            .with_brightening(self.brightening)
+    }
+
+    /// Fits one dataset and builds its report.
+    pub fn fit(&self, d: &Dataset) -> Result<FitReport, EmbeddedError> {
+        let problem = self.problem(d);
+        let outcome = match self.engine {
+            Engine::Full => fit(&problem, &self.options),
+            Engine::Embedded { budget } => fit_embedded(self.kind, d, &problem, budget, self.options.seed)?,
+        };
+        Ok(report(d, &problem, &outcome, &self.options))
+    }
+}
+
+/// Fits every dataset in parallel and calls `each(index, result)` in input order, each as
+/// soon as it and all before it are done. Returns every result in input order.
+pub fn fit_streamed(
+    settings: &FitSettings,
+    datasets: &[Dataset],
+    mut each: impl FnMut(usize, &Result<FitReport, EmbeddedError>),
+) -> Vec<Result<FitReport, EmbeddedError>> {
+    let (tx, rx) = mpsc::channel();
+    let mut done: Vec<Option<Result<FitReport, EmbeddedError>>> = (0..datasets.len()).map(|_| None).collect();
+    let mut next = 0;
+    std::thread::scope(|scope| {
+        scope.spawn(move || {
+            datasets.par_iter().enumerate().for_each_with(tx, |tx, (i, d)| {
+                // The receiver lives until every result is in.
+                let _ = tx.send((i, settings.fit(d)));
+            });
+        });
+        for (i, r) in rx {
+            done[i] = Some(r);
+            while let Some(Some(r)) = done.get(next) {
+                each(next, r);
+                next += 1;
+            }
+        }
+    });
+    done.into_iter()
+        .map(|r| r.expect("every dataset was fitted"))
+        .collect()
+}
+
+/// Fits every dataset with the full engine (which cannot fail), in input order.
+pub fn fit_all(settings: &FitSettings, datasets: &[Dataset]) -> Vec<FitReport> {
+    let full = FitSettings {
+        engine: Engine::Full,
+        ..*settings
+    };
+    fit_streamed(&full, datasets, |_, _| {})
+        .into_iter()
+        .map(|r| r.expect("the full engine does not fail"))
+        .collect()
+}
