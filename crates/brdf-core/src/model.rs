@@ -190,6 +190,25 @@ impl<T: Float> AnyModel<T> {
         dispatch!(self, m => m.to_params())
     }
 
+    /// Helmholtz reciprocity: `f(i, r) = f(r, i)` for every pair of directions. Every member
+    /// but the five-parameter model (its `kd / cos ti` term) is reciprocal.
+    pub fn reciprocal(&self) -> bool {
+        !matches!(self, AnyModel::Five(_))
+    }
+
+    /// `f_r` stays bounded as either direction approaches the horizon. Not so for the
+    /// five-parameter model (`1 / (cos ti cos tr)`), Minnaert with `k < 1` and the
+    /// six-parameter models with `c < 0` (`(cos ti cos tr)^c`).
+    pub fn bounded_at_grazing(&self) -> bool {
+        let p = self.to_params();
+        match self {
+            AnyModel::Five(_) => false,
+            AnyModel::Minnaert(_) => p[1] >= T::ONE,
+            AnyModel::Six(_) | AnyModel::SixCos2(_) => p[5] >= T::ZERO,
+            AnyModel::Lambert(_) => true,
+        }
+    }
+
     /// See [`Model::energy_bound`].
     pub fn energy_bound(&self) -> Option<T> {
         dispatch!(self, m => m.energy_bound())

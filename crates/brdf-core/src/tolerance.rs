@@ -99,3 +99,8 @@ pub const TABLE_MAX_REL: [(usize, f64); 3] = [(64, 2.5e-2), (256, 1.5e-3), (1024
 /// libm's 0.5 ulp, and the lobe amplifies both alike. 4e-6
 /// leaves a factor 2.4 over the worst set measured; most sets stay within [`F32_MAX_REL`].
 pub const FAST_MAX_REL: f64 = 4e-6;
+
+/// Angular filters (`brdf select --max-theta-i 40`) keep points within this many degrees
+/// beyond the limit: importers convert radians to degrees (the Cornell 40 deg incidence comes
+/// out as 40.000017 deg), and a limit written as 40 means the 40 deg measurements.
+pub const ANGLE_FILTER_DEG: f64 = 1e-4;

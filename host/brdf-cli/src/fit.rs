@@ -341,16 +341,11 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
         }
     )?;
     let inf = &r.influence;
-    for (k, p) in inf.points.iter().enumerate() {
+    if let Some(p) = inf.points.first() {
         writeln!(
             out,
-            "  {} line {} (theta_i {}, theta_r {}, phi {}; measured {:.4e}, fitted {:.4e}): removing it \
-             lowers the cost by {:.1}% (RMS relative error of the rest {:.3}%){}",
-            if k == 0 {
-                "most influential point:"
-            } else {
-                "                    next:"
-            },
+            "  most influential point: line {} (theta_i {:.2}, theta_r {:.2}, phi {:.2}; measured {:.4e}, fitted {:.4e}): \
+             refitting without it lowers the cost by {:.1}% (RMS relative error of the rest {:.3}%){}",
             p.line,
             p.theta_i,
             p.theta_r,
@@ -359,7 +354,7 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
             p.model,
             100.0 * p.cost_drop,
             100.0 * p.rms_rel_without,
-            if k == 0 && inf.dominant {
+            if inf.dominant {
                 format!(
                     " -- DOMINANT: one point moves the cost by more than {:.1}%; check that reading",
                     100.0 * inf.dominant_above

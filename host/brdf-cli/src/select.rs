@@ -57,6 +57,11 @@ pub struct SelectCmd {
     /// Print JSON instead of the table.
     #[arg(long)]
     json: bool,
+    /// Also choose models that are not reciprocal or whose BRDF is unbounded at grazing (the
+    /// five-parameter model, Minnaert with k < 1, six-parameter with c < 0); they are always
+    /// listed, and marked.
+    #[arg(long)]
+    allow_nonphysical: bool,
     /// Data file (one dataset; use `brdf fit` for batches).
     data: PathBuf,
 }
@@ -68,8 +73,11 @@ struct Selection<'a> {
     max_theta_i: f64,
     max_theta_r: f64,
     n: usize,
-    chosen: Option<&'static str>,
-    chosen_representation: Option<String>,
+    allow_nonphysical: bool,
+    /// The representation chosen, if any meets the budget.
+    chosen: Option<String>,
+    /// Why it was chosen, or why nothing was.
+    reason: String,
     candidates: &'a [FitReport],
     representations: &'a [Representation],
 }
@@ -94,6 +102,26 @@ struct Representation {
     /// Blob bytes; false `fits_blob` when over a slot's 4,096.
     blob_bytes: usize,
     fits_blob: bool,
+    /// `f(i, r) = f(r, i)` (the five-parameter model is not reciprocal).
+    reciprocal: bool,
+    /// `f` stays bounded towards the horizon (not so for the five-parameter model, Minnaert
+    /// with `k < 1`, the six-parameter models with `c < 0`).
+    bounded: bool,
+}
+
+impl Representation {
+    fn physical(&self) -> bool {
+        self.reciprocal && self.bounded
+    }
+
+    fn caveat(&self) -> String {
+        match (self.reciprocal, self.bounded) {
+            (true, true) => String::new(),
+            (false, true) => "not reciprocal".into(),
+            (true, false) => "unbounded at grazing".into(),
+            (false, false) => "not reciprocal, unbounded at grazing".into(),
+        }
+    }
 }
 
 impl SelectCmd {
@@ -110,7 +138,8 @@ impl SelectCmd {
             self.max_theta_i.unwrap_or(self.max_theta),
             self.max_theta_r.unwrap_or(self.max_theta),
         );
-        let (limit_i, limit_r) = (max_i.to_radians() + 1e-12, max_r.to_radians() + 1e-12);
+        let tol = brdf_core::tolerance::ANGLE_FILTER_DEG;
+        let (limit_i, limit_r) = ((max_i + tol).to_radians(), (max_r + tol).to_radians());
         let d = &datasets[0];
         let domain = Dataset {
             name: d.name.clone(),
@@ -121,6 +150,17 @@ impl SelectCmd {
                 .copied()
                 .collect(),
         };
+        let beyond_i = d.points.iter().filter(|p| p.theta_i > limit_i).count();
+        let beyond_r = d.points.iter().filter(|p| p.theta_i <= limit_i && p.theta_r > limit_r).count();
+        if beyond_i + beyond_r > 0 {
+            eprintln!(
+                "{}: left out {} of {} points: {beyond_i} with theta_i > {max_i} deg, {beyond_r} more with \
+                 theta_r > {max_r} deg (limits kept within {tol} deg)",
+                d.name,
+                beyond_i + beyond_r,
+                d.points.len()
+            );
+        }
         if domain.points.len() < 7 {
             bail!(
                 "{}: only {} points with theta_i <= {max_i} and theta_r <= {max_r} deg; too few to compare models",
@@ -132,15 +172,12 @@ impl SelectCmd {
             .iter()
             .flat_map(|&k| brdf_fit::fit_all(&self.engine.settings(k), std::slice::from_ref(&domain)))
             .collect();
-        let chosen = reports
-            .iter()
-            .find(|r| r.metrics.rms_rel <= self.budget)
-            .map(|r| r.model);
         let (reprs, materials) = representations(&reports, &domain)?;
+        let eligible = |r: &Representation| r.fits_blob && (self.allow_nonphysical || r.physical());
         let best = reprs
             .iter()
             .enumerate()
-            .filter(|(_, r)| r.rms_rel <= self.budget && r.fits_blob)
+            .filter(|(_, r)| r.rms_rel <= self.budget && eligible(r))
             // Cheapest per lookup, then smallest in flash, then most accurate.
             .min_by(|a, b| {
                 (a.1.device_instructions, a.1.blob_bytes, a.1.rms_rel)
@@ -148,6 +185,43 @@ impl SelectCmd {
                     .unwrap_or(std::cmp::Ordering::Equal)
             })
             .map(|(i, _)| i);
+        let reason = match best {
+            Some(i) => format!(
+                "the cheapest representation on the device ({} Cortex-M4F instructions per lookup) whose RMS \
+                 relative error over the domain, {:.3}%, meets the {:.2}% budget{}",
+                reprs[i].device_instructions,
+                100.0 * reprs[i].rms_rel,
+                100.0 * self.budget,
+                if self.allow_nonphysical { "" } else { ", among reciprocal models bounded at grazing" }
+            ),
+            None => {
+                let closest = reprs
+                    .iter()
+                    .filter(|r| eligible(r))
+                    .min_by(|a, b| a.rms_rel.total_cmp(&b.rms_rel));
+                let excluded = reprs
+                    .iter()
+                    .filter(|r| r.rms_rel <= self.budget && r.fits_blob && !r.physical())
+                    .map(|r| format!("{} ({})", r.name, r.caveat()))
+                    .collect::<Vec<_>>();
+                let mut why = match closest {
+                    Some(c) => format!(
+                        "nothing meets the {:.2}% budget; the closest is {} at {:.3}%",
+                        100.0 * self.budget,
+                        c.name,
+                        100.0 * c.rms_rel
+                    ),
+                    None => "no representation fits a flash slot".to_owned(),
+                };
+                if !self.allow_nonphysical && !excluded.is_empty() {
+                    why.push_str(&format!(
+                        "; within budget but not chosen without --allow-nonphysical: {}",
+                        excluded.join(", ")
+                    ));
+                }
+                why
+            }
+        };
         if let (Some(path), Some(i)) = (&self.output, best) {
             let (m, table) = materials[i].clone();
             let mut v = heapless::Vec::new();
@@ -165,8 +239,9 @@ impl SelectCmd {
                 max_theta_i: max_i,
                 max_theta_r: max_r,
                 n: domain.points.len(),
-                chosen,
-                chosen_representation: best.map(|i| reprs[i].name.clone()),
+                allow_nonphysical: self.allow_nonphysical,
+                chosen: best.map(|i| reprs[i].name.clone()),
+                reason: reason.clone(),
                 candidates: &reports,
                 representations: &reprs,
             };
@@ -205,31 +280,16 @@ impl SelectCmd {
                 }
             )?;
         }
-        match chosen {
-            Some(m) => writeln!(out, "simplest model within budget: {m}")?,
-            None => {
-                let best = reports
-                    .iter()
-                    .min_by(|a, b| a.metrics.rms_rel.total_cmp(&b.metrics.rms_rel))
-                    .expect("ladder is not empty");
-                writeln!(
-                    out,
-                    "no model meets the budget; the closest is {} at {:.3}%",
-                    best.model,
-                    100.0 * best.metrics.rms_rel
-                )?
-            }
-        }
         writeln!(out)?;
         writeln!(
             out,
-            "{:<16} {:>10} {:>10} {:>13} {:>12} {:>8} {:>7}",
+            "{:<16} {:>10} {:>10} {:>13} {:>12} {:>8} {:>7}  caveat",
             "representation", "rms rel %", "max rel %", "table vs exact", "M4F instr", "host ns", "bytes"
         )?;
         for r in &reprs {
             writeln!(
                 out,
-                "{:<16} {:>10.3} {:>10.3} {:>13} {:>12} {:>8.1} {:>7}{}",
+                "{:<16} {:>10.3} {:>10.3} {:>13} {:>12} {:>8.1} {:>7}  {}{}",
                 r.name,
                 100.0 * r.rms_rel,
                 100.0 * r.max_rel,
@@ -237,22 +297,20 @@ impl SelectCmd {
                 r.device_instructions,
                 r.host_ns,
                 r.blob_bytes,
-                if r.fits_blob { "" } else { "  (over a slot)" }
+                r.caveat(),
+                if r.fits_blob { "" } else { " (over a slot)" }
             )?;
         }
         match best {
             Some(i) => writeln!(
                 out,
-                "cheapest representation within budget: {} ({} instructions per lookup on the Cortex-M4F, \
-                 RMS relative error {:.3}%){}",
+                "chosen: {}: {reason}{}",
                 reprs[i].name,
-                reprs[i].device_instructions,
-                100.0 * reprs[i].rms_rel,
                 self.output
                     .as_ref()
                     .map_or(String::new(), |p| format!("; written to {}", p.display()))
             )?,
-            None => writeln!(out, "no representation meets the budget")?,
+            None => writeln!(out, "chosen: none: {reason}")?,
         }
         Ok(())
     }
@@ -311,6 +369,7 @@ fn representations(
         let json = serde_json::to_value(r)?;
         let material = crate::pack::material(&r.dataset, 0, &json, false)?;
         let exact = material.model().map_err(|e| anyhow!("{}: {e}", r.model))?;
+        let (reciprocal, bounded) = (exact.reciprocal(), exact.bounded_at_grazing());
         let (rms, max) = errors(&|c| f64::from(exact.eval_cosines(c[0], c[1], c[2])));
         let blob_bytes = blob_len(material);
         reprs.push(Representation {
@@ -324,9 +383,12 @@ fn representations(
             table_vs_exact: None,
             blob_bytes,
             fits_blob: blob_bytes <= MAX_BLOB_LEN,
+            reciprocal,
+            bounded,
         });
         materials.push((material, None));
-        if kind != ModelKind::Six {
+        // Tables hold mu^c, unbounded at the horizon for c < 0.
+        if kind != ModelKind::Six || !bounded {
             continue;
         }
         for nodes in TABLE_SIZES {
@@ -349,6 +411,8 @@ fn representations(
                 table_vs_exact: Some(vs_exact),
                 blob_bytes,
                 fits_blob: blob_bytes <= MAX_BLOB_LEN,
+                reciprocal,
+                bounded,
             });
             materials.push((m, Some(bytes)));
         }

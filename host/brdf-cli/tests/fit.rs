@@ -194,7 +194,7 @@ fn skip_invalid_lists_every_skipped_line() {
 }
 
 #[test]
-fn select_picks_the_simplest_model_within_budget() {
+fn select_chooses_a_nonphysical_model_only_when_asked() {
     let dir = tempfile::tempdir().unwrap();
     // Minnaert data: Lambert cannot meet 2%, Minnaert can.
     let text = ok(&[
@@ -210,15 +210,13 @@ fn select_picks_the_simplest_model_within_budget() {
     ]);
     let path = dir.path().join("m.csv");
     std::fs::write(&path, text).unwrap();
-    let v: serde_json::Value = serde_json::from_str(&ok(&[
-        "select",
-        path.to_str().unwrap(),
-        "--budget",
-        "2%",
-        "--json",
-    ]))
-    .unwrap();
-    assert_eq!(v["chosen"], "minnaert");
+    let select = |extra: &[&str]| -> serde_json::Value {
+        let mut args = vec!["select", path.to_str().unwrap(), "--budget", "2%", "--json"];
+        args.extend_from_slice(extra);
+        serde_json::from_str(&ok(&args)).unwrap()
+    };
+    // Minnaert with k = 0.7 is unbounded at grazing: listed and marked, never chosen unasked.
+    let v = select(&[]);
     let models: Vec<&str> = v["candidates"]
         .as_array()
         .unwrap()
@@ -226,11 +224,25 @@ fn select_picks_the_simplest_model_within_budget() {
         .map(|c| c["model"].as_str().unwrap())
         .collect();
     assert_eq!(models, ["lambert", "minnaert", "five", "six", "six-cos2"]);
-    let table = ok(&["select", path.to_str().unwrap(), "--max-theta", "40"]);
+    let minnaert = v["representations"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["name"] == "minnaert exact")
+        .unwrap();
+    assert_eq!(minnaert["bounded"], false);
+    assert_ne!(v["chosen"], "minnaert exact");
+    let reason = v["reason"].as_str().unwrap();
     assert!(
-        table.contains("simplest model within budget: minnaert"),
-        "{table}"
+        v["chosen"].is_string() || reason.contains("not chosen without --allow-nonphysical: minnaert exact"),
+        "{reason}"
     );
+    let v = select(&["--allow-nonphysical"]);
+    assert_eq!(v["chosen"], "minnaert exact", "{}", v["reason"]);
+    // One decision, one reason in the text output.
+    let table = ok(&["select", path.to_str().unwrap(), "--max-theta", "40", "--allow-nonphysical"]);
+    assert_eq!(table.matches("chosen:").count(), 1, "{table}");
+    assert!(table.contains("chosen: minnaert exact: the cheapest"), "{table}");
 }
 
 #[test]
@@ -254,8 +266,7 @@ fn select_names_the_cheapest_representation_and_writes_its_blob() {
         blob.to_str().unwrap(),
     ]))
     .unwrap();
-    assert_eq!(v["chosen"], "six");
-    assert_eq!(v["chosen_representation"], "six table 64");
+    assert_eq!(v["chosen"], "six table 64");
     let reprs = v["representations"].as_array().unwrap();
     let names: Vec<&str> = reprs.iter().map(|r| r["name"].as_str().unwrap()).collect();
     assert!(
@@ -279,7 +290,7 @@ fn select_names_the_cheapest_representation_and_writes_its_blob() {
         "--json",
     ]))
     .unwrap();
-    assert_eq!(v["chosen_representation"], "lambert exact");
+    assert_eq!(v["chosen"], "lambert exact");
     // A budget nothing meets writes nothing and says so.
     let none = brdf(&["select", &data, "--budget", "0.01%", "-o", blob.to_str().unwrap()]);
     assert!(!none.status.success());
@@ -327,4 +338,30 @@ fn pack_builds_a_blob_the_firmware_format_reads_and_refuses_bad_parameters() {
     assert!(!r.status.success());
     let msg = String::from_utf8_lossy(&r.stderr);
     assert!(msg.contains("bad.json") && msg.contains("kb"), "{msg}");
+}
+
+#[test]
+fn angular_limits_keep_points_at_the_limit_and_say_what_they_drop() {
+    // The Cornell importer stores the 40 deg incidence as 40.000017 deg (radians in the file).
+    let garnet = brdf_tests::measured("cornell-medium-gloss-paints/garnet_red_RGB.astm");
+    let n = |limit: &str| -> (u64, String) {
+        let out = brdf(&[
+            "select",
+            "--format",
+            "cornell",
+            garnet.to_str().unwrap(),
+            "--max-theta-i",
+            limit,
+            "--budget",
+            "90%",
+            "--json",
+        ]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        (v["n"].as_u64().unwrap(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (at, said) = n("40");
+    let (below, _) = n("39.99");
+    assert!(at > below + 100, "40 deg keeps the 40 deg incidence: {at} against {below}");
+    assert!(said.contains("left out") && said.contains("theta_i > 40 deg"), "{said}");
 }

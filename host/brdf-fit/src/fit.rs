@@ -32,6 +32,7 @@ use rand_pcg::Pcg64Mcg;
 use serde::Serialize;
 
 use crate::anneal::{anneal, unit, AnnealOptions};
+use crate::grid::{grid_starts, GRID_STARTS};
 use crate::kernel::{assemble, to_natural};
 use crate::lm::{minimise, LmOptions, LmResult};
 use crate::problem::{nonlinear_indices, Problem};
@@ -49,6 +50,9 @@ pub struct FitOptions {
     pub agree: usize,
     /// Basin-hopping moves from the best point that must all fail to improve it.
     pub hops: usize,
+    /// Starting points taken from the fixed grid over the nonlinear parameters (see
+    /// [`crate::grid`]), polished before the chains run.
+    pub grid_starts: usize,
     /// Lobe-on probe chains run when the best fit has its lobe off (six-parameter models).
     pub lobe_probes: usize,
     /// Schedule of each chain.
@@ -67,6 +71,7 @@ impl Default for FitOptions {
             min_chains: 3,
             agree: 3,
             hops: 4,
+            grid_starts: GRID_STARTS,
             lobe_probes: 2,
             anneal: AnnealOptions::default(),
             lm: LmOptions::default(),
@@ -85,6 +90,7 @@ impl FitOptions {
             min_chains: 2,
             agree: 2,
             hops: 0,
+            grid_starts: 0,
             lobe_probes: 0,
             ..FitOptions::default()
         }
@@ -201,6 +207,12 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
     let probes_done = |best: &LmResult, probes: usize| {
         !probes_apply || !lobe_off(kind, &best.q) || probes >= opts.lobe_probes
     };
+    // The seed-independent part: polish the best nodes of the fixed grid.
+    for start in grid_starts(problem, opts.grid_starts) {
+        let r = minimise(problem, &start, &lo, &hi, opts.lm);
+        evals += r.evals + 1;
+        found.push(r);
+    }
     loop {
         if !hopping {
             if chains >= max_chains {

@@ -450,6 +450,19 @@ pub struct ProjectionSums {
 }
 
 impl ProjectionSums {
+    /// From sums accumulated elsewhere: `sum u^2`, `sum u v`, `sum v^2`, `sum u t`,
+    /// `sum v t`, `sum t^2` with `u`, `v` the scaled bases and `t` the scaled targets.
+    pub fn from_sums(a00: f64, a01: f64, a11: f64, b0: f64, b1: f64, yy: f64) -> Self {
+        ProjectionSums {
+            a00,
+            a01,
+            a11,
+            b0,
+            b1,
+            yy,
+        }
+    }
+
     /// Adds one point with scale `s`, basis values and target `y`.
     #[inline]
     pub fn add(&mut self, s: f64, basis: [f64; 2], y: f64) {

@@ -156,6 +156,16 @@ fn profile_rise(problem: &Problem, outcome: &FitOutcome, j: usize, s2: f64) -> O
     rise
 }
 
+/// `x` with six significant digits and no trailing zeros (1000, not 999.9999999999998).
+fn short(x: f64) -> String {
+    let s = format!("{:.*}", (5 - x.abs().log10().floor() as i32).clamp(0, 12) as usize, x);
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_owned()
+    } else {
+        s
+    }
+}
+
 /// The bound `q` sits on: within 1e-7 of the box's width of a finite bound, exactly on the
 /// lower bound of a half-open range (the non-negative weights, which the projection and the
 /// polish set to exactly 0).
@@ -271,7 +281,7 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
             note[j] = Some(if lobe_off && j == 0 {
                 "kb = 0 (on its bound): the fit has no specular lobe".to_owned()
             } else {
-                format!("at the search bound {shown}: held there, not estimated")
+                format!("at the search bound {}: held there, not estimated", short(shown))
             });
         } else if lobe_off && (1..=3).contains(&j) {
             note[j] = Some("lobe off (kb = 0): kr, b, a have no effect".to_owned());
