@@ -20,6 +20,7 @@ pub mod fit;
 pub mod import;
 pub mod kernel;
 pub mod lm;
+pub mod params;
 pub mod problem;
 pub mod report;
 pub mod synth;
