@@ -268,7 +268,7 @@ pub struct TargetSpec {
 
 impl TargetSpec {
     /// The target in `data/scenes/`: a 4 m hull of 0.5 m radius, 48 x 16 facets, fin cells
-    /// of 0.1 m (2,120 facets).
+    /// of 0.1 m (2,188 facets).
     pub const BUNDLED: TargetSpec = TargetSpec {
         length: 4.0,
         radius: 0.5,
