@@ -213,6 +213,11 @@ fn regions(n: usize, edge: usize, seed: u64) -> Vec<(&'static str, Vec<[f32; 3]>
 
 impl CheckCmd {
     pub fn run(self) -> Result<()> {
+        // A directions file is read (and every row checked) before the device is opened.
+        let (random_n, file) = match &self.directions {
+            Directions::Count(n) => (*n, None),
+            Directions::File(p) => (0, Some((p.clone(), brdf_scene::domain::read_directions(p)?))),
+        };
         let (mut link, loaded) = self.device.connect()?;
         // Without --blob the device must run the built-in Table 1, the only set the host
         // then knows.
@@ -233,10 +238,9 @@ impl CheckCmd {
                  ({expected_crc:#010x}): pass the blob it runs with --blob"
             );
         }
-        let (random, file) = match &self.directions {
-            Directions::Count(n) => (regions(*n, self.edge, self.seed), None),
-            Directions::File(p) => {
-                let rows = brdf_scene::domain::read_directions(p)?;
+        let (random, file) = match file {
+            None => (regions(random_n, self.edge, self.seed), None),
+            Some((p, rows)) => {
                 let n = blob.materials.len();
                 if let Some(r) = rows.iter().find(|r| r.material.is_some_and(|k| k >= n)) {
                     bail!(

@@ -176,7 +176,7 @@ pub struct Facet {
 }
 
 /// A checked triangle mesh.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct Mesh {
     /// Mesh file (or a label for meshes built in memory).
     pub file: PathBuf,
@@ -188,6 +188,17 @@ pub struct Mesh {
     pub parts: Vec<String>,
     /// Where each facet came from (OBJ line or facet number).
     pub origins: Vec<Origin>,
+}
+
+impl fmt::Debug for Mesh {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Mesh")
+            .field("file", &self.file)
+            .field("vertices", &self.vertices.len())
+            .field("facets", &self.facets.len())
+            .field("parts", &self.parts)
+            .finish()
+    }
 }
 
 /// Vector helpers (f64, 3-D).

@@ -136,7 +136,7 @@ pub struct SceneMaterial {
     pub model: AnyModel<f64>,
     /// Where the parameters came from.
     pub source: Source,
-    /// Line of the entry in the scene file (0 for scenes built in memory).
+    /// Line of the entry's `part` in the scene file (0 for scenes built in memory).
     pub line: u64,
 }
 
@@ -224,7 +224,6 @@ impl Sensor {
 }
 
 /// A target, its materials and a sensor, ready to trace.
-#[derive(Debug)]
 pub struct Scene {
     /// Scene file (or a label).
     pub file: PathBuf,
@@ -238,6 +237,18 @@ pub struct Scene {
     pub sensor: Sensor,
     /// The BVH for occlusion rays.
     pub occluder: Occluder,
+}
+
+impl std::fmt::Debug for Scene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Scene")
+            .field("file", &self.file)
+            .field("mesh", &self.mesh)
+            .field("materials", &self.materials)
+            .field("mode", &self.sensor.mode)
+            .field("aspects", &self.aspects().len())
+            .finish()
+    }
 }
 
 /// 1-based line of byte offset `at` in `text`.
@@ -333,8 +344,8 @@ impl Scene {
         };
         let mut materials = Vec::new();
         for entry in &parsed.materials {
-            let line = line_of(&text, entry.span().start);
             let e = entry.get_ref();
+            let line = line_of(&text, e.part.span().start);
             let (model, source) = resolve_material(e, dir, &field)?;
             materials.push(SceneMaterial {
                 part: e.part.get_ref().clone(),

@@ -152,7 +152,8 @@ impl SceneSelection {
     pub fn write_report(&self, out: &mut dyn std::io::Write) -> std::io::Result<()> {
         writeln!(
             out,
-            "{}: {} aspects, {} queries; budget: |sigma - sigma_exact| <= {:.2}% of sigma_exact at every aspect, per material",
+            "{}: {} aspects, {} queries; budget: |sigma - sigma_exact| <= {:.2}% of sigma_exact at every aspect, per material \
+             (errors below are relative)",
             self.scene,
             self.aspects,
             self.queries,
@@ -167,15 +168,15 @@ impl SceneSelection {
             )?;
             writeln!(
                 out,
-                "  {:<22} {:>14} {:>18} {:>10} {:>7}",
-                "representation", "worst sigma %", "at (az, el) deg", "M4F instr", "bytes"
+                "  {:<22} {:>15} {:>18} {:>10} {:>7}",
+                "representation", "worst sigma err", "at (az, el) deg", "M4F instr", "bytes"
             )?;
             for c in &m.candidates {
                 writeln!(
                     out,
-                    "  {:<22} {:>14} {:>18} {:>10} {:>7}{}{}",
+                    "  {:<22} {:>15} {:>18} {:>10} {:>7}{}{}",
                     c.name,
-                    format!("{:.4}", 100.0 * c.worst_sigma_error),
+                    format!("{:.2e}", c.worst_sigma_error),
                     c.worst_at
                         .map_or("-".to_owned(), |[a, e]| format!("({a}, {e})")),
                     c.device_instructions,
@@ -192,10 +193,10 @@ impl SceneSelection {
                     let c = &m.candidates[i];
                     writeln!(
                         out,
-                        "  chosen: {} ({} instructions per lookup, worst sigma error {:.4}%)",
+                        "  chosen: {} ({} instructions per lookup, worst sigma error {:.2e})",
                         c.name,
                         c.device_instructions,
-                        100.0 * c.worst_sigma_error
+                        c.worst_sigma_error
                     )?;
                 }
                 None => writeln!(out, "  no representation meets the budget")?,
@@ -203,7 +204,7 @@ impl SceneSelection {
         }
         writeln!(out)?;
         if let Some(e) = self.scene_worst_sigma_error {
-            writeln!(out, "whole scene with the chosen set: worst sigma error {:.4}%", 100.0 * e)?;
+            writeln!(out, "whole scene with the chosen set: worst sigma error {e:.2e}")?;
         }
         match (self.blob_bytes, &self.blob_note) {
             (Some(n), _) => writeln!(out, "blob: {} materials, {n} bytes", self.materials.len())?,

@@ -277,16 +277,43 @@ impl TargetSpec {
         fin_cells_per_m: 10.0,
     };
 
-    /// A finer version with at least `facets` facets, for timing.
+    /// The bundled target refined evenly (hull rings and segments, fin cells) to the first
+    /// resolution with at least `facets` facets, for timing.
     pub fn with_facets(facets: usize) -> TargetSpec {
-        let mut s = Self::BUNDLED;
-        // Side facets dominate: 2 * segments * rings, with rings = segments / 3.
-        let seg = ((3.0 * facets as f64 / 2.0).sqrt()).ceil() as usize;
-        s.segments = seg.max(8);
-        s.rings = (seg / 3).max(1);
-        s.fin_cells_per_m = 10.0 * (seg as f64 / 48.0).max(1.0);
-        s
+        let b = Self::BUNDLED;
+        let mut k = 1.0f64;
+        loop {
+            let s = TargetSpec {
+                segments: (b.segments as f64 * k).round() as usize,
+                rings: (b.rings as f64 * k).round() as usize,
+                fin_cells_per_m: b.fin_cells_per_m * k,
+                ..b
+            };
+            if s.facets() >= facets {
+                return s;
+            }
+            k *= 1.01;
+        }
     }
+
+    /// Facets of [`target`] at this resolution.
+    pub fn facets(&self) -> usize {
+        let (lo, hi) = fin_box(self);
+        let c = fin_cells(self, lo, hi);
+        2 * self.segments * self.rings + 2 * self.segments + 4 * (c[0] * c[1] + c[1] * c[2] + c[0] * c[2])
+    }
+}
+
+/// The fin's box: 1.2 m long (x from -1.8 to -0.6), 0.08 m thick, 0.8 m above the hull's
+/// top, its base inside the hull.
+fn fin_box(spec: &TargetSpec) -> ([f64; 3], [f64; 3]) {
+    let r = spec.radius;
+    let base = r * (std::f64::consts::PI / spec.segments as f64).cos() * 0.9;
+    ([-1.8, -0.04, base], [-0.6, 0.04, r + 0.8])
+}
+
+fn fin_cells(spec: &TargetSpec, lo: [f64; 3], hi: [f64; 3]) -> [usize; 3] {
+    [0, 1, 2].map(|k| (((hi[k] - lo[k]) * spec.fin_cells_per_m).ceil() as usize).max(1))
 }
 
 /// The bundled target: a cylindrical hull along `x` (part `hull`), flat end caps (`caps`)
@@ -294,12 +321,26 @@ impl TargetSpec {
 /// hull). The fin shadows the hull and the hull the fin, so occlusion matters at most aspects.
 pub fn target(spec: TargetSpec) -> MeshBuilder {
     let mut b = MeshBuilder::new();
-    let (l, r) = (spec.length, spec.radius);
-    b.cylinder((-l / 2.0, l / 2.0), r, (spec.segments, spec.rings), "hull", "caps");
-    // Fin: 1.2 m long (x from -1.8 to -0.6), 0.08 m thick, 0.8 m tall above the hull's top.
-    let base = r * (std::f64::consts::PI / spec.segments as f64).cos() * 0.9;
-    let (lo, hi) = ([-1.8, -0.04, base], [-0.6, 0.04, r + 0.8]);
-    let cells = [0, 1, 2].map(|k| (((hi[k] - lo[k]) * spec.fin_cells_per_m).ceil() as usize).max(1));
+    let l = spec.length;
+    b.cylinder((-l / 2.0, l / 2.0), spec.radius, (spec.segments, spec.rings), "hull", "caps");
+    let (lo, hi) = fin_box(&spec);
+    let cells = fin_cells(&spec, lo, hi);
     b.cuboid(lo, hi, cells, "fin");
     b
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_facet_count_formula_matches_the_built_target() {
+        for spec in [TargetSpec::BUNDLED, TargetSpec::with_facets(5_000)] {
+            let m = target(spec).build("target").unwrap();
+            assert_eq!(m.facets.len(), spec.facets(), "{spec:?}");
+        }
+        assert_eq!(TargetSpec::BUNDLED.facets(), 2188);
+        assert!(TargetSpec::with_facets(100_000).facets() >= 100_000);
+        assert!(TargetSpec::with_facets(100_000).facets() < 103_000);
+    }
 }
