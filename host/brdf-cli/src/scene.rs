@@ -107,7 +107,9 @@ impl LrcsCmd {
         let (lo, hi) = result
             .aspects
             .iter()
-            .fold((f64::INFINITY, 0.0f64), |(lo, hi), a| (lo.min(a.lrcs), hi.max(a.lrcs)));
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), a| {
+                (lo.min(a.lrcs), hi.max(a.lrcs))
+            });
         eprintln!(
             "{}: {} facets, {} aspects in {:.2} s; sigma from {lo:.4e} to {hi:.4e} m^2",
             self.scene.display(),

@@ -273,7 +273,10 @@ impl SelectCmd {
     /// `--scene`: the selection is `brdf_scene::select`; this prints it and writes the blob.
     fn run_scene(&self) -> Result<()> {
         use brdf_scene::select::{select, SelectOptions};
-        let path = self.scene.as_ref().ok_or_else(|| anyhow!("give a data file or --scene"))?;
+        let path = self
+            .scene
+            .as_ref()
+            .ok_or_else(|| anyhow!("give a data file or --scene"))?;
         let scene = brdf_scene::scene::Scene::load(path)
             .map_err(|e| anyhow!(e).context(format!("cannot use scene {}", path.display())))?;
         let bar = brdf_scene::progress::terminal_bar(scene.aspects().len(), "aspects");
@@ -293,11 +296,20 @@ impl SelectCmd {
             s.write_report(&mut out)?;
         }
         if let Some(o) = &self.output {
-            let blob = s
-                .blob()
-                .ok_or_else(|| anyhow!("nothing written to {}: {}", o.display(), s.blob_note.clone().unwrap_or_default()))?;
+            let blob = s.blob().ok_or_else(|| {
+                anyhow!(
+                    "nothing written to {}: {}",
+                    o.display(),
+                    s.blob_note.clone().unwrap_or_default()
+                )
+            })?;
             std::fs::write(o, blob).with_context(|| format!("cannot write {}", o.display()))?;
-            eprintln!("wrote {} ({} bytes, {} materials in scene order)", o.display(), blob.len(), s.materials.len());
+            eprintln!(
+                "wrote {} ({} bytes, {} materials in scene order)",
+                o.display(),
+                blob.len(),
+                s.materials.len()
+            );
         }
         Ok(())
     }

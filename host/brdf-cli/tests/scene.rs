@@ -8,7 +8,10 @@ use brdf_core::tolerance::F64_REFORMULATION_REL;
 use brdf_core::{AnyModel, Brdf, ModelKind};
 
 fn brdf(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_brdf")).args(args).output().unwrap()
+    Command::new(env!("CARGO_BIN_EXE_brdf"))
+        .args(args)
+        .output()
+        .unwrap()
 }
 
 fn scene() -> String {
@@ -37,7 +40,13 @@ fn models() -> [AnyModel<f64>; 3] {
 fn lrcs_is_the_weighted_sum_of_the_domain_rows_and_draws_its_plot() {
     let dir = tempfile::tempdir().unwrap();
     let plot = dir.path().join("lrcs.svg");
-    let csv = ok(&brdf(&["scene", "lrcs", &scene(), "--plot", plot.to_str().unwrap()]));
+    let csv = ok(&brdf(&[
+        "scene",
+        "lrcs",
+        &scene(),
+        "--plot",
+        plot.to_str().unwrap(),
+    ]));
     let rows: Vec<(f64, f64, f64)> = csv
         .lines()
         .skip(1)
@@ -54,7 +63,13 @@ fn lrcs_is_the_weighted_sum_of_the_domain_rows_and_draws_its_plot() {
 
     // sigma at each aspect = sum over its domain rows of weight * f(theta_i, theta_r, phi).
     let queries = dir.path().join("q.csv");
-    ok(&brdf(&["scene", "domain", &scene(), "-o", queries.to_str().unwrap()]));
+    ok(&brdf(&[
+        "scene",
+        "domain",
+        &scene(),
+        "-o",
+        queries.to_str().unwrap(),
+    ]));
     let text = std::fs::read_to_string(&queries).unwrap();
     let mut lines = text.lines();
     assert_eq!(
@@ -74,10 +89,17 @@ fn lrcs_is_the_weighted_sum_of_the_domain_rows_and_draws_its_plot() {
     }
     for (r, s) in rows.iter().zip(&sums) {
         let rel = (r.2 - s).abs() / r.2;
-        assert!(rel <= F64_REFORMULATION_REL, "({}, {}): {} against {s}", r.0, r.1, r.2);
+        assert!(
+            rel <= F64_REFORMULATION_REL,
+            "({}, {}): {} against {s}",
+            r.0,
+            r.1,
+            r.2
+        );
     }
 
-    let json: serde_json::Value = serde_json::from_str(&ok(&brdf(&["scene", "lrcs", &scene(), "--json"]))).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&brdf(&["scene", "lrcs", &scene(), "--json"]))).unwrap();
     assert_eq!(json["aspects"].as_array().unwrap().len(), 216);
     assert_eq!(json["aspects"][0]["lrcs"].as_f64(), Some(rows[0].2));
 }
@@ -86,11 +108,28 @@ fn lrcs_is_the_weighted_sum_of_the_domain_rows_and_draws_its_plot() {
 fn select_scene_picks_within_budget_and_says_why() {
     let dir = tempfile::tempdir().unwrap();
     let blob = dir.path().join("scene.bin");
-    let text = ok(&brdf(&["select", "--scene", &scene(), "--budget", "1%", "-o", blob.to_str().unwrap()]));
+    let text = ok(&brdf(&[
+        "select",
+        "--scene",
+        &scene(),
+        "--budget",
+        "1%",
+        "-o",
+        blob.to_str().unwrap(),
+    ]));
     println!("{text}");
     assert_eq!(text.matches("  chosen: ").count(), 3, "one choice per material");
-    for name in ["lambert fitted", "minnaert fitted", "six exact", "six table 64", "six table 256"] {
-        let rows = text.lines().filter(|l| l.starts_with(&format!("  {name} "))).count();
+    for name in [
+        "lambert fitted",
+        "minnaert fitted",
+        "six exact",
+        "six table 64",
+        "six table 256",
+    ] {
+        let rows = text
+            .lines()
+            .filter(|l| l.starts_with(&format!("  {name} ")))
+            .count();
         assert_eq!(rows, 3, "{name} is a candidate for every material");
     }
     let bytes = std::fs::read(&blob).unwrap();
@@ -98,7 +137,12 @@ fn select_scene_picks_within_budget_and_says_why() {
     assert_eq!(b.materials.len(), 3);
 
     let json: serde_json::Value = serde_json::from_str(&ok(&brdf(&[
-        "select", "--scene", &scene(), "--budget", "1%", "--json",
+        "select",
+        "--scene",
+        &scene(),
+        "--budget",
+        "1%",
+        "--json",
     ])))
     .unwrap();
     for m in json["materials"].as_array().unwrap() {
@@ -117,7 +161,15 @@ fn select_scene_picks_within_budget_and_says_why() {
     assert!(json["scene_worst_sigma_error"].as_f64().unwrap() <= 0.01);
 
     // A budget nothing meets writes nothing and says so.
-    let none = brdf(&["select", "--scene", &scene(), "--budget", "0", "-o", blob.to_str().unwrap()]);
+    let none = brdf(&[
+        "select",
+        "--scene",
+        &scene(),
+        "--budget",
+        "0",
+        "-o",
+        blob.to_str().unwrap(),
+    ]);
     assert!(!none.status.success());
     assert!(String::from_utf8_lossy(&none.stderr).contains("nothing written"));
 }
@@ -133,11 +185,28 @@ fn check_runs_the_device_on_exactly_the_scenes_directions() {
     if brdf_tests::qemu::firmware().is_none() {
         return;
     }
-    assert!(err.contains("bad.csv: line 2: column theta_r: zenith 95"), "{err}");
+    assert!(
+        err.contains("bad.csv: line 2: column theta_r: zenith 95"),
+        "{err}"
+    );
     let queries = dir.path().join("q.csv");
     let blob = dir.path().join("scene.bin");
-    ok(&brdf(&["scene", "domain", &scene(), "-o", queries.to_str().unwrap()]));
-    ok(&brdf(&["select", "--scene", &scene(), "--budget", "1%", "-o", blob.to_str().unwrap()]));
+    ok(&brdf(&[
+        "scene",
+        "domain",
+        &scene(),
+        "-o",
+        queries.to_str().unwrap(),
+    ]));
+    ok(&brdf(&[
+        "select",
+        "--scene",
+        &scene(),
+        "--budget",
+        "1%",
+        "-o",
+        blob.to_str().unwrap(),
+    ]));
     let text = ok(&brdf(&[
         "check",
         "--qemu",
@@ -147,7 +216,10 @@ fn check_runs_the_device_on_exactly_the_scenes_directions() {
         queries.to_str().unwrap(),
     ]));
     println!("{text}");
-    let judged: Vec<&str> = text.lines().filter(|l| l.contains("scene directions [")).collect();
+    let judged: Vec<&str> = text
+        .lines()
+        .filter(|l| l.contains("scene directions ["))
+        .collect();
     assert_eq!(judged.len(), 3, "one judged region per material");
     assert!(judged.iter().all(|l| l.ends_with("ok")));
 }

@@ -868,7 +868,10 @@ pub fn polar(path: &Path, title: &str, unit: &str, curves: &[PolarCurve]) -> Res
         for k in 0..12 {
             let a = f64::from(k) * 30f64.to_radians();
             chart
-                .draw_series(LineSeries::new(vec![(0.0, 0.0), (a.cos(), a.sin())], grey.stroke_width(1)))
+                .draw_series(LineSeries::new(
+                    vec![(0.0, 0.0), (a.cos(), a.sin())],
+                    grey.stroke_width(1),
+                ))
                 .map_err(err)?;
             chart
                 .draw_series(std::iter::once(Text::new(

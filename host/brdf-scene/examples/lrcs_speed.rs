@@ -27,9 +27,14 @@ fn cpu_seconds() -> Option<f64> {
 }
 
 fn main() {
-    let facets: usize = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(100_000);
+    let facets: usize = std::env::args()
+        .nth(1)
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(100_000);
     let t = Instant::now();
-    let mesh = target(TargetSpec::with_facets(facets)).build("target").expect("a valid mesh");
+    let mesh = target(TargetSpec::with_facets(facets))
+        .build("target")
+        .expect("a valid mesh");
     let n = mesh.facets.len();
     let build_mesh = t.elapsed().as_secs_f64();
     let six = |p: [f64; 6]| AnyModel::new(ModelKind::Six, &p).expect("Table 1 parameters");
@@ -39,7 +44,9 @@ fn main() {
         SceneMaterial::new("fin", six([49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415])),
     ];
     let cores = rayon::current_num_threads();
-    println!("target: {n} facets (mesh built and checked in {build_mesh:.2} s); 72 x 3 aspects; {cores} cores");
+    println!(
+        "target: {n} facets (mesh built and checked in {build_mesh:.2} s); 72 x 3 aspects; {cores} cores"
+    );
     println!(
         "{:<11} {:>6} {:>12} {:>9} {:>9} {:>10} {:>9} {:>11} {:>10}",
         "mode", "cores", "BVH build s", "sigma s", "CPU s", "queries", "rays", "CPU ns/ray", "eval share"
@@ -72,7 +79,11 @@ fn main() {
             }
             // Split: the queries (geometry and rays) against the BRDF evaluation of them.
             let d = pool.install(|| domain(&scene, &|| {}));
-            let models: Vec<Evaluator> = scene.materials.iter().map(|m| Evaluator::Exact(m.model)).collect();
+            let models: Vec<Evaluator> = scene
+                .materials
+                .iter()
+                .map(|m| Evaluator::Exact(m.model))
+                .collect();
             let t = Instant::now();
             let mut scratch = Vec::new();
             let mut total = 0.0;
@@ -93,16 +104,25 @@ fn main() {
                         .facets
                         .iter()
                         .filter(|f| {
-                            let d = |x: [f64; 3]| f.normal[0] * x[0] + f.normal[1] * x[1] + f.normal[2] * x[2];
+                            let d =
+                                |x: [f64; 3]| f.normal[0] * x[0] + f.normal[1] * x[1] + f.normal[2] * x[2];
                             d(s) > 0.0 && d(v) > 0.0
                         })
                         .count()
                 })
                 .sum();
-            let rays = if mode == Mode::Monostatic { facing } else { 2 * facing };
+            let rays = if mode == Mode::Monostatic {
+                facing
+            } else {
+                2 * facing
+            };
             println!(
                 "{:<11} {:>6} {:>12.3} {:>9.2} {:>9} {:>10} {:>9} {:>11} {:>9.1}%",
-                if mode == Mode::Monostatic { "monostatic" } else { "bistatic" },
+                if mode == Mode::Monostatic {
+                    "monostatic"
+                } else {
+                    "bistatic"
+                },
                 threads,
                 build,
                 r.seconds,

@@ -6,9 +6,9 @@
 use brdf_scene::shapes::{target, TargetSpec};
 
 fn main() -> std::io::Result<()> {
-    let out = std::env::args().nth(1).unwrap_or_else(|| {
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/scenes/target.obj").to_owned()
-    });
+    let out = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/scenes/target.obj").to_owned());
     let b = target(TargetSpec::BUNDLED);
     let file = std::fs::File::create(&out)?;
     b.write_obj(

@@ -25,7 +25,15 @@ fn deg(c: f64) -> f64 {
 pub fn write_csv<W: Write>(scene: &Scene, domain: &Domain, out: W) -> Result<(), csv::Error> {
     let mut w = csv::Writer::from_writer(out);
     w.write_record([
-        "azimuth", "elevation", "material", "part", "facet", "theta_i", "theta_r", "phi", "weight",
+        "azimuth",
+        "elevation",
+        "material",
+        "part",
+        "facet",
+        "theta_i",
+        "theta_r",
+        "phi",
+        "weight",
     ])?;
     for (a, per) in domain.aspects.iter().zip(&domain.batches) {
         for (m, b) in per.iter().enumerate() {
@@ -155,7 +163,9 @@ pub fn read_directions(path: &Path) -> Result<Vec<Direction>, DirectionsError> {
         };
         let num = |i: usize, column: &'static str| -> Result<f64, DirectionsError> {
             let t = rec.get(i).unwrap_or("").trim();
-            let v: f64 = t.parse().map_err(|_| bad(column, format!("`{t}` is not a number")))?;
+            let v: f64 = t
+                .parse()
+                .map_err(|_| bad(column, format!("`{t}` is not a number")))?;
             if !v.is_finite() {
                 return Err(bad(column, format!("`{t}` is not finite")));
             }

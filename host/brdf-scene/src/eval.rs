@@ -30,8 +30,14 @@ pub enum Evaluator {
 /// `f_r` (1/sr) at each query: `out[k] = f(cos_theta_i[k], cos_theta_r[k], cos_phi[k])`.
 /// All four slices have the same length.
 pub fn eval_batch(e: &Evaluator, cos_theta_i: &[f64], cos_theta_r: &[f64], cos_phi: &[f64], out: &mut [f64]) {
-    debug_assert!(cos_theta_i.len() == out.len() && cos_theta_r.len() == out.len() && cos_phi.len() == out.len());
-    let q = cos_theta_i.iter().zip(cos_theta_r).zip(cos_phi).zip(out.iter_mut());
+    debug_assert!(
+        cos_theta_i.len() == out.len() && cos_theta_r.len() == out.len() && cos_phi.len() == out.len()
+    );
+    let q = cos_theta_i
+        .iter()
+        .zip(cos_theta_r)
+        .zip(cos_phi)
+        .zip(out.iter_mut());
     match e {
         Evaluator::Exact(m) => {
             for (((&i, &r), &p), o) in q {

@@ -121,7 +121,11 @@ pub struct AspectSigma {
 /// σ at every aspect with each material's exact model (f64), in parallel over aspects;
 /// `progress` is called once per aspect done.
 pub fn lrcs(scene: &Scene, progress: &(dyn Fn() + Sync)) -> Lrcs {
-    let models: Vec<Evaluator> = scene.materials.iter().map(|m| Evaluator::Exact(m.model)).collect();
+    let models: Vec<Evaluator> = scene
+        .materials
+        .iter()
+        .map(|m| Evaluator::Exact(m.model))
+        .collect();
     lrcs_with(scene, &models, progress)
 }
 
@@ -182,7 +186,10 @@ impl Domain {
         self.batches
             .par_iter()
             .map_init(Vec::new, |scratch, per| {
-                per.iter().zip(models).map(|(b, m)| sigma(m, b, scratch)).collect()
+                per.iter()
+                    .zip(models)
+                    .map(|(b, m)| sigma(m, b, scratch))
+                    .collect()
             })
             .collect()
     }

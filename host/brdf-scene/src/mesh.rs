@@ -281,20 +281,16 @@ impl Mesh {
             }
             let c = v3::cross(v3::sub(p[1], p[0]), v3::sub(p[2], p[0]));
             let twice_area = v3::norm(c);
-            let longest = [
-                v3::sub(p[1], p[0]),
-                v3::sub(p[2], p[1]),
-                v3::sub(p[0], p[2]),
-            ]
-            .iter()
-            .map(|e| v3::dot(*e, *e))
-            .fold(0.0, f64::max);
-            let sine = if longest > 0.0 {
-                twice_area / longest
-            } else {
-                0.0
-            };
-            if !(twice_area > 0.0 && sine >= DEGENERATE_SINE) || ids[0] == ids[1] || ids[1] == ids[2] || ids[0] == ids[2] {
+            let longest = [v3::sub(p[1], p[0]), v3::sub(p[2], p[1]), v3::sub(p[0], p[2])]
+                .iter()
+                .map(|e| v3::dot(*e, *e))
+                .fold(0.0, f64::max);
+            let sine = if longest > 0.0 { twice_area / longest } else { 0.0 };
+            if !(twice_area > 0.0 && sine >= DEGENERATE_SINE)
+                || ids[0] == ids[1]
+                || ids[1] == ids[2]
+                || ids[0] == ids[2]
+            {
                 return Err(MeshError::Degenerate {
                     file: name,
                     at,
@@ -434,14 +430,15 @@ impl Mesh {
             single_index: false,
             ignore_points: true,
             ignore_lines: true,
-            ..Default::default()
         };
         // Materials (`mtllib`) carry colours for renderers; the scene file gives the BRDFs.
-        let (models, _) = tobj::load_obj_buf(&mut reader, &options, |_| Ok(Default::default()))
-            .map_err(|e| MeshError::Parse {
-                file: file.clone(),
-                at: Origin::Line(reader.line()),
-                message: format!("the OBJ reader refused it: {e}"),
+        let (models, _) =
+            tobj::load_obj_buf(&mut reader, &options, |_| Ok(Default::default())).map_err(|e| {
+                MeshError::Parse {
+                    file: file.clone(),
+                    at: Origin::Line(reader.line()),
+                    message: format!("the OBJ reader refused it: {e}"),
+                }
             })?;
         let mut vertices: Vec<[f64; 3]> = Vec::new();
         let mut triangles = Vec::new();
@@ -654,17 +651,26 @@ mod tests {
             .replace("f 2 3 4", "f 2 4 3")
             .replace("f 1 4 3", "f 1 3 4");
         let e = obj(&inward).unwrap_err().to_string();
-        assert!(e.contains("t.obj") && e.contains("line 6") && e.contains("negative volume"), "{e}");
+        assert!(
+            e.contains("t.obj") && e.contains("line 6") && e.contains("negative volume"),
+            "{e}"
+        );
         let flipped = TETRA.replace("f 2 3 4", "f 2 4 3");
         let e = obj(&flipped).unwrap_err().to_string();
         assert!(e.contains("inconsistent winding") && e.contains("line 8"), "{e}");
-        let e = obj(&format!("{TETRA}v 2 0 0\nf 1 2 5\n")).unwrap_err().to_string();
+        let e = obj(&format!("{TETRA}v 2 0 0\nf 1 2 5\n"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("line 11") && e.contains("degenerate"), "{e}");
         let e = obj("v 0 0 0\nv 1 0 0\nf 1 2\n").unwrap_err().to_string();
         assert!(e.contains("line 3") && e.contains("at least 3"), "{e}");
-        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n").unwrap_err().to_string();
+        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("line 4") && e.contains("refused"), "{e}");
-        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0.2 0.2 0\nf 2 4 3 1\n").unwrap_err().to_string();
+        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0.2 0.2 0\nf 2 4 3 1\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("line 5") && e.contains("not convex"), "{e}");
     }
 

@@ -363,41 +363,41 @@ impl Scene {
             });
         }
         let s = parsed.sensor.get_ref();
-        let mode = match (s.mode.get_ref().as_str(), &s.separation_deg) {
-            ("monostatic", None) => Mode::Monostatic,
-            ("monostatic", Some(sep)) => {
-                return Err(field(
+        let mode =
+            match (s.mode.get_ref().as_str(), &s.separation_deg) {
+                ("monostatic", None) => Mode::Monostatic,
+                ("monostatic", Some(sep)) => return Err(field(
                     sep.span(),
                     "separation_deg",
-                    "given for a monostatic sensor (source and receiver coincide); use mode = \"bistatic\"".into(),
-                ))
-            }
-            ("bistatic", Some(sep)) => {
-                let v = *sep.get_ref();
-                if !v.is_finite() {
-                    return Err(field(sep.span(), "separation_deg", format!("{v} is not finite")));
+                    "given for a monostatic sensor (source and receiver coincide); use mode = \"bistatic\""
+                        .into(),
+                )),
+                ("bistatic", Some(sep)) => {
+                    let v = *sep.get_ref();
+                    if !v.is_finite() {
+                        return Err(field(sep.span(), "separation_deg", format!("{v} is not finite")));
+                    }
+                    Mode::Bistatic { separation_deg: v }
                 }
-                Mode::Bistatic { separation_deg: v }
-            }
-            ("bistatic", None) => {
-                return Err(field(
-                    parsed.sensor.span(),
-                    "separation_deg",
-                    "missing: a bistatic sensor needs the angle between source and receiver".into(),
-                ))
-            }
-            (other, _) => {
-                return Err(field(
-                    s.mode.span(),
-                    "mode",
-                    format!("`{other}`: expected \"monostatic\" or \"bistatic\""),
-                ))
-            }
-        };
+                ("bistatic", None) => {
+                    return Err(field(
+                        parsed.sensor.span(),
+                        "separation_deg",
+                        "missing: a bistatic sensor needs the angle between source and receiver".into(),
+                    ))
+                }
+                (other, _) => {
+                    return Err(field(
+                        s.mode.span(),
+                        "mode",
+                        format!("`{other}`: expected \"monostatic\" or \"bistatic\""),
+                    ))
+                }
+            };
         let azimuth_deg = sweep(&s.azimuth_deg, -f64::INFINITY, f64::INFINITY)
             .map_err(|m| field(s.azimuth_deg.span(), "azimuth_deg", m))?;
-        let elevation_deg =
-            sweep(&s.elevation_deg, -90.0, 90.0).map_err(|m| field(s.elevation_deg.span(), "elevation_deg", m))?;
+        let elevation_deg = sweep(&s.elevation_deg, -90.0, 90.0)
+            .map_err(|m| field(s.elevation_deg.span(), "elevation_deg", m))?;
         if azimuth_deg.len() * elevation_deg.len() > MAX_ASPECTS {
             return Err(field(
                 parsed.sensor.span(),
@@ -453,7 +453,9 @@ fn sweep(v: &Spanned<Vec<f64>>, lo: f64, hi: f64) -> Result<Vec<f64>, String> {
         return Err(format!("step {step} must be positive"));
     }
     if stop <= start {
-        return Err(format!("stop {stop} must exceed start {start} (stop is exclusive)"));
+        return Err(format!(
+            "stop {stop} must exceed start {start} (stop is exclusive)"
+        ));
     }
     let n = ((stop - start) / step).ceil();
     if n > MAX_ASPECTS as f64 {
@@ -476,7 +478,11 @@ fn resolve_material(
     dir: &Path,
     field: &dyn Fn(Range<usize>, &'static str, String) -> SceneError,
 ) -> Result<(AnyModel<f64>, Source), SceneError> {
-    let given = [e.model.is_some() || e.params.is_some(), e.fit.is_some(), e.blob.is_some()];
+    let given = [
+        e.model.is_some() || e.params.is_some(),
+        e.fit.is_some(),
+        e.blob.is_some(),
+    ];
     if given.iter().filter(|g| **g).count() != 1 {
         return Err(field(
             e.part.span(),
@@ -493,8 +499,13 @@ fn resolve_material(
         Some(i) => return Err(field(i.span(), "index", format!("{} is negative", i.get_ref()))),
     };
     let build = |kind: ModelKind, p: &[f64; MAX_PARAMS], span: Range<usize>, key: &'static str| {
-        AnyModel::new(kind, &p[..kind.param_count()])
-            .map_err(|err| field(span, key, format!("invalid parameters for model {}: {err}", kind.name())))
+        AnyModel::new(kind, &p[..kind.param_count()]).map_err(|err| {
+            field(
+                span,
+                key,
+                format!("invalid parameters for model {}: {err}", kind.name()),
+            )
+        })
     };
     if e.model.is_some() || e.params.is_some() {
         if let Some(i) = &e.index {
@@ -512,7 +523,11 @@ fn resolve_material(
             field(
                 model.span(),
                 "model",
-                format!("unknown model `{}` (expected one of: {})", model.get_ref(), names.join(", ")),
+                format!(
+                    "unknown model `{}` (expected one of: {})",
+                    model.get_ref(),
+                    names.join(", ")
+                ),
             )
         })?;
         let p = brdf_fit::params::parse_params(kind, params.get_ref())
@@ -522,7 +537,8 @@ fn resolve_material(
     if let Some(fit) = &e.fit {
         let path = dir.join(fit.get_ref());
         let shown = path.display().to_string();
-        let text = std::fs::read_to_string(&path).map_err(|err| field(fit.span(), "fit", format!("{shown}: {err}")))?;
+        let text = std::fs::read_to_string(&path)
+            .map_err(|err| field(fit.span(), "fit", format!("{shown}: {err}")))?;
         let (kind, p, k) =
             fit_params(&text, index).map_err(|m| field(fit.span(), "fit", format!("{shown}: {m}")))?;
         return Ok((build(kind, &p, fit.span(), "fit")?, Source::Fit(path, k)));
@@ -571,7 +587,11 @@ fn fit_params(text: &str, index: Option<usize>) -> Result<(ModelKind, [f64; MAX_
         ),
         (serde_json::Value::Array(a), None) if a.len() == 1 => (&a[0], 0),
         (serde_json::Value::Array(a), None) => {
-            return Err(format!("holds {} fits: say which with index = 0..{}", a.len(), a.len().saturating_sub(1)))
+            return Err(format!(
+                "holds {} fits: say which with index = 0..{}",
+                a.len(),
+                a.len().saturating_sub(1)
+            ))
         }
         (other, None | Some(0)) => (other, 0),
         (_, Some(k)) => return Err(format!("holds one fit; there is no index {k}")),

@@ -177,12 +177,17 @@ impl SceneSelection {
                     "  {:<22} {:>15} {:>18} {:>10} {:>7}{}{}",
                     c.name,
                     format!("{:.2e}", c.worst_sigma_error),
-                    c.worst_at
-                        .map_or("-".to_owned(), |[a, e]| format!("({a}, {e})")),
+                    c.worst_at.map_or("-".to_owned(), |[a, e]| format!("({a}, {e})")),
                     c.device_instructions,
                     c.bytes,
                     if c.fits_blob { "" } else { "  (over a slot)" },
-                    if c.within_budget && c.fits_blob { "" } else if c.fits_blob { "  over budget" } else { "" }
+                    if c.within_budget && c.fits_blob {
+                        ""
+                    } else if c.fits_blob {
+                        "  over budget"
+                    } else {
+                        ""
+                    }
                 )?;
             }
             for n in &m.notes {
@@ -194,9 +199,7 @@ impl SceneSelection {
                     writeln!(
                         out,
                         "  chosen: {} ({} instructions per lookup, worst sigma error {:.2e})",
-                        c.name,
-                        c.device_instructions,
-                        c.worst_sigma_error
+                        c.name, c.device_instructions, c.worst_sigma_error
                     )?;
                 }
                 None => writeln!(out, "  no representation meets the budget")?,
@@ -246,7 +249,11 @@ fn blob_len(materials: &[Material]) -> usize {
     for m in materials.iter().take(MAX_MATERIALS) {
         let _ = v.push(*m);
     }
-    Blob { sequence: 0, materials: v }.encoded_len()
+    Blob {
+        sequence: 0,
+        materials: v,
+    }
+    .encoded_len()
 }
 
 /// Bytes of one material inside a blob.
@@ -306,7 +313,13 @@ fn fit_sample(domain: &Domain, m: usize, exact: &Evaluator, sigma: &[Vec<f64>], 
 }
 
 /// The candidates of material `m`.
-fn drafts(scene: &Scene, m: usize, points: &[Point], opts: &SelectOptions, notes: &mut Vec<String>) -> Vec<Draft> {
+fn drafts(
+    scene: &Scene,
+    m: usize,
+    points: &[Point],
+    opts: &SelectOptions,
+    notes: &mut Vec<String>,
+) -> Vec<Draft> {
     let own = &scene.materials[m].model;
     let own_kind = own.kind();
     let own_params = own.to_params();
@@ -386,7 +399,11 @@ fn drafts(scene: &Scene, m: usize, points: &[Point], opts: &SelectOptions, notes
 /// Chooses, per material of `scene`, the cheapest representation within `opts.budget` over
 /// the queries of `domain` (from [`crate::lrcs::domain`]), and encodes the chosen set.
 pub fn select(scene: &Scene, domain: &Domain, opts: &SelectOptions) -> SceneSelection {
-    let exact: Vec<Evaluator> = scene.materials.iter().map(|m| Evaluator::Exact(m.model)).collect();
+    let exact: Vec<Evaluator> = scene
+        .materials
+        .iter()
+        .map(|m| Evaluator::Exact(m.model))
+        .collect();
     let sigma = domain.sigma(&exact);
     let mut materials = Vec::new();
     for m in 0..scene.materials.len() {
@@ -440,7 +457,11 @@ pub fn select(scene: &Scene, domain: &Domain, opts: &SelectOptions) -> SceneSele
                     fits_blob: blob_len(&[d.material]) <= MAX_BLOB_LEN,
                     worst_sigma_error: worst,
                     worst_at: at,
-                    rms_sigma_error: if seen.is_empty() { 0.0 } else { (sum2 / seen.len() as f64).sqrt() },
+                    rms_sigma_error: if seen.is_empty() {
+                        0.0
+                    } else {
+                        (sum2 / seen.len() as f64).sqrt()
+                    },
                     within_budget: worst <= opts.budget,
                     material: d.material,
                     table: d.table,
@@ -505,11 +526,17 @@ fn assemble(materials: &mut [MaterialChoice], sequence: u32) -> (Option<Vec<u8>>
     if let Some(m) = materials.iter().find(|m| m.chosen.is_none()) {
         return (
             None,
-            Some(format!("material {} `{}` has no representation within the budget", m.index, m.part)),
+            Some(format!(
+                "material {} `{}` has no representation within the budget",
+                m.index, m.part
+            )),
         );
     }
     if materials.len() > MAX_MATERIALS {
-        return (None, Some(format!("a blob holds at most {MAX_MATERIALS} materials")));
+        return (
+            None,
+            Some(format!("a blob holds at most {MAX_MATERIALS} materials")),
+        );
     }
     loop {
         let chosen: Vec<Material> = materials

@@ -68,7 +68,12 @@ impl MeshBuilder {
             .enumerate()
             .map(|(k, &(v, p))| (v, p, Origin::Facet(k + 1)))
             .collect();
-        Mesh::from_triangles(PathBuf::from(label), self.vertices.clone(), &tris, self.parts.clone())
+        Mesh::from_triangles(
+            PathBuf::from(label),
+            self.vertices.clone(),
+            &tris,
+            self.parts.clone(),
+        )
     }
 
     /// Writes Wavefront OBJ: the vertices (shortest round-trip decimals, so a reader gets the
@@ -165,7 +170,14 @@ impl MeshBuilder {
 
     /// A rectangle `corner + s u + t v` (`s, t` in [0, 1]) split into `nu x nv` cells, facing
     /// `u x v`.
-    pub fn plate(&mut self, corner: [f64; 3], u: [f64; 3], v: [f64; 3], (nu, nv): (usize, usize), part: &str) {
+    pub fn plate(
+        &mut self,
+        corner: [f64; 3],
+        u: [f64; 3],
+        v: [f64; 3],
+        (nu, nv): (usize, usize),
+        part: &str,
+    ) {
         let part = self.part(part);
         let mut id = vec![vec![0u32; nv + 1]; nu + 1];
         for (i, row) in id.iter_mut().enumerate() {
@@ -322,7 +334,13 @@ fn fin_cells(spec: &TargetSpec, lo: [f64; 3], hi: [f64; 3]) -> [usize; 3] {
 pub fn target(spec: TargetSpec) -> MeshBuilder {
     let mut b = MeshBuilder::new();
     let l = spec.length;
-    b.cylinder((-l / 2.0, l / 2.0), spec.radius, (spec.segments, spec.rings), "hull", "caps");
+    b.cylinder(
+        (-l / 2.0, l / 2.0),
+        spec.radius,
+        (spec.segments, spec.rings),
+        "hull",
+        "caps",
+    );
     let (lo, hi) = fin_box(&spec);
     let cells = fin_cells(&spec, lo, hi);
     b.cuboid(lo, hi, cells, "fin");

@@ -57,7 +57,11 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 fn norm(a: [f64; 3]) -> f64 {
     dot(a, a).sqrt()
@@ -111,7 +115,11 @@ fn sphere_bound(mesh: &Mesh, r: f64, v: [f64; 3]) -> f64 {
         let g = mu.max(0.0).powi(2);
         let dg = 2.0 * mu.max(0.0);
         t1 += (f.area - s) * g;
-        t2 += dg * dot(v, sub(vec_area, [s * f.normal[0], s * f.normal[1], s * f.normal[2]]));
+        t2 += dg
+            * dot(
+                v,
+                sub(vec_area, [s * f.normal[0], s * f.normal[1], s * f.normal[2]]),
+            );
         rem += s * delta * delta;
     }
     (t1 - t2).abs() + rem
@@ -147,7 +155,10 @@ fn lambertian_sphere_is_8_3_pi_rho_r2_within_the_mesh_bound() {
         );
         // Second order: each level halves the facet size.
         if let Some(p) = worst_prev {
-            assert!(worst <= p / 3.0, "level {level}: {worst:e} after {p:e} is not second order");
+            assert!(
+                worst <= p / 3.0,
+                "level {level}: {worst:e} after {p:e} is not second order"
+            );
         }
         worst_prev = Some(worst);
     }
@@ -158,11 +169,24 @@ fn lambertian_plate_is_4_rho_a_cos2() {
     let rho = 0.3;
     let mut b = MeshBuilder::new();
     // 2 m x 3 m in the plane x = 0.5, facing +x.
-    b.plate([0.5, -1.0, -1.5], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0], (3, 2), "plate");
+    b.plate(
+        [0.5, -1.0, -1.5],
+        [0.0, 2.0, 0.0],
+        [0.0, 0.0, 3.0],
+        (3, 2),
+        "plate",
+    );
     let area = 6.0;
-    let az: Vec<f64> = (-8..=8).map(|k| 10.0 * k as f64 + 1.5).chain([180.0, 95.0]).collect();
+    let az: Vec<f64> = (-8..=8)
+        .map(|k| 10.0 * k as f64 + 1.5)
+        .chain([180.0, 95.0])
+        .collect();
     let el = [0.0, 20.0, 40.0, -55.0];
-    let s = scene(b.build("plate").unwrap(), lambert(rho), sensor(Mode::Monostatic, &az, &el));
+    let s = scene(
+        b.build("plate").unwrap(),
+        lambert(rho),
+        sensor(Mode::Monostatic, &az, &el),
+    );
     let got = sigmas(&s);
     for (k, a) in s.aspects().iter().enumerate() {
         let c = a.elevation_deg.to_radians().cos() * a.azimuth_deg.to_radians().cos();
@@ -170,13 +194,20 @@ fn lambertian_plate_is_4_rho_a_cos2() {
         if want == 0.0 {
             assert_eq!(got[k], 0.0, "{a:?}: the plate's back side reflects nothing");
         } else {
-            assert!(rel(got[k], want) <= F64_REFORMULATION_REL, "{a:?}: {} against {want}", got[k]);
+            assert!(
+                rel(got[k], want) <= F64_REFORMULATION_REL,
+                "{a:?}: {} against {want}",
+                got[k]
+            );
         }
     }
 }
 
-/// The six faces of the box `[lo, hi]`: (outward normal, tangent u, tangent w, area).
-fn box_faces(lo: [f64; 3], hi: [f64; 3]) -> Vec<([f64; 3], [f64; 3], [f64; 3], f64)> {
+/// A face of a box: outward normal, tangents u and w (u x w = normal), area.
+type Face = ([f64; 3], [f64; 3], [f64; 3], f64);
+
+/// The six faces of the box `[lo, hi]`.
+fn box_faces(lo: [f64; 3], hi: [f64; 3]) -> Vec<Face> {
     let d = sub(hi, lo);
     let e = |k: usize, s: f64| {
         let mut v = [0.0; 3];
@@ -199,7 +230,13 @@ fn a_box_is_the_sum_over_the_faces_both_directions_see() {
     let model = six(KHAKI);
     let az: Vec<f64> = (0..24).map(|k| 15.0 * k as f64 + 3.0).collect();
     let el = [-40.0, 0.0, 25.0, 60.0];
-    for mode in [Mode::Monostatic, Mode::Bistatic { separation_deg: 30.0 }, Mode::Bistatic { separation_deg: -75.0 }] {
+    for mode in [
+        Mode::Monostatic,
+        Mode::Bistatic { separation_deg: 30.0 },
+        Mode::Bistatic {
+            separation_deg: -75.0,
+        },
+    ] {
         let mut b = MeshBuilder::new();
         b.cuboid(lo, hi, [4, 3, 2], "box");
         let s = scene(b.build("box").unwrap(), model, sensor(mode, &az, &el));
@@ -214,7 +251,11 @@ fn a_box_is_the_sum_over_the_faces_both_directions_see() {
                     want += 4.0 * PI * model.eval_vectors(wi, wr) * wi[2] * wr[2] * area;
                 }
             }
-            assert!(rel(got[k], want) <= F64_REFORMULATION_REL, "{mode:?} {a:?}: {} against {want}", got[k]);
+            assert!(
+                rel(got[k], want) <= F64_REFORMULATION_REL,
+                "{mode:?} {a:?}: {} against {want}",
+                got[k]
+            );
         }
     }
 }
@@ -224,14 +265,34 @@ fn a_plate_hidden_behind_another_counts_only_where_it_shows() {
     // Two 1 m x 1 m plates facing +x, one 1 m behind the other.
     let rho = 0.5;
     let mut b = MeshBuilder::new();
-    b.plate([1.0, -0.5, -0.5], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], (1, 1), "front");
-    b.plate([0.0, -0.5, -0.5], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], (20, 20), "back");
+    b.plate(
+        [1.0, -0.5, -0.5],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        (1, 1),
+        "front",
+    );
+    b.plate(
+        [0.0, -0.5, -0.5],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        (20, 20),
+        "back",
+    );
     // Head-on the back plate is hidden; from 50 deg its shadow (shifted by tan 50 > 1 m) misses it.
-    let s = scene(b.build("plates").unwrap(), lambert(rho), sensor(Mode::Monostatic, &[0.0, 50.0], &[0.0]));
+    let s = scene(
+        b.build("plates").unwrap(),
+        lambert(rho),
+        sensor(Mode::Monostatic, &[0.0, 50.0], &[0.0]),
+    );
     let got = sigmas(&s);
     assert!(rel(got[0], 4.0 * rho) <= F64_REFORMULATION_REL, "{}", got[0]);
     let c = 50f64.to_radians().cos();
-    assert!(rel(got[1], 4.0 * rho * 2.0 * c * c) <= F64_REFORMULATION_REL, "{}", got[1]);
+    assert!(
+        rel(got[1], 4.0 * rho * 2.0 * c * c) <= F64_REFORMULATION_REL,
+        "{}",
+        got[1]
+    );
 }
 
 /// A ray-triangle test written apart from the library's: the ray meets the triangle's plane
@@ -272,7 +333,11 @@ fn brute_force(s: &Scene, model: &AnyModel<f64>, occlude: bool) -> Vec<(f64, usi
             for (k, f) in m.facets.iter().enumerate() {
                 let n = f.normal;
                 // A local frame on the facet for the core's unit-vector path.
-                let t = unit(if n[0].abs() < 0.9 { cross(n, [1.0, 0.0, 0.0]) } else { cross(n, [0.0, 1.0, 0.0]) });
+                let t = unit(if n[0].abs() < 0.9 {
+                    cross(n, [1.0, 0.0, 0.0])
+                } else {
+                    cross(n, [0.0, 1.0, 0.0])
+                });
                 let b = cross(n, t);
                 let wi = [dot(src, t), dot(src, b), dot(src, n)];
                 let wr = [dot(rcv, t), dot(rcv, b), dot(rcv, n)];
@@ -304,12 +369,26 @@ fn a_non_convex_target_matches_the_brute_force_reference_and_occlusion_matters()
         let unoccluded = brute_force(&s, &model, false);
         let mut largest_effect = 0.0f64;
         for ((g, (want, seen)), (free, _)) in got.aspects.iter().zip(&reference).zip(&unoccluded) {
-            assert_eq!(g.facets_seen, *seen, "{mode:?} at ({}, {})", g.azimuth, g.elevation);
-            assert!(rel(g.lrcs, *want) <= F64_REFORMULATION_REL, "{mode:?}: {} against {want}", g.lrcs);
+            assert_eq!(
+                g.facets_seen, *seen,
+                "{mode:?} at ({}, {})",
+                g.azimuth, g.elevation
+            );
+            assert!(
+                rel(g.lrcs, *want) <= F64_REFORMULATION_REL,
+                "{mode:?}: {} against {want}",
+                g.lrcs
+            );
             largest_effect = largest_effect.max(rel(*free, *want));
         }
-        println!("{mode:?}: occlusion changes sigma by up to {:.1}%", 100.0 * largest_effect);
-        assert!(largest_effect > 0.05, "{mode:?}: occlusion should matter on this target");
+        println!(
+            "{mode:?}: occlusion changes sigma by up to {:.1}%",
+            100.0 * largest_effect
+        );
+        assert!(
+            largest_effect > 0.05,
+            "{mode:?}: occlusion should matter on this target"
+        );
     }
 }
 
@@ -334,7 +413,11 @@ fn swapping_source_and_receiver_leaves_sigma_unchanged_for_reciprocal_models() {
         (lambert(0.3), true),
         (five, false),
     ] {
-        let a = sigmas(&scene(mesh.clone(), model, sensor(Mode::Bistatic { separation_deg: sep }, &az, &el)));
+        let a = sigmas(&scene(
+            mesh.clone(),
+            model,
+            sensor(Mode::Bistatic { separation_deg: sep }, &az, &el),
+        ));
         let b = sigmas(&scene(
             mesh.clone(),
             model,
@@ -345,7 +428,10 @@ fn swapping_source_and_receiver_leaves_sigma_unchanged_for_reciprocal_models() {
         if reciprocal {
             assert!(worst <= F64_REFORMULATION_REL, "{:?}: {worst:e}", model.kind());
         } else {
-            assert!(worst > 1e-3, "the five-parameter model is not reciprocal: {worst:e}");
+            assert!(
+                worst > 1e-3,
+                "the five-parameter model is not reciprocal: {worst:e}"
+            );
         }
     }
     // The two sweeps really swap the directions.
