@@ -337,26 +337,35 @@ impl Mesh {
         v3::norm(v3::sub(hi, lo))
     }
 
-    /// Consistent winding across shared edges; closed shells face outwards.
+    /// Consistent winding across shared edges; closed shells face outwards. An edge shared by
+    /// exactly two facets must be run in opposite directions by them; an edge of three or more
+    /// facets (a sheet welded onto a body along an edge) is not manifold, and its shells are
+    /// treated as open.
     fn check_winding(&self) -> Result<(), MeshError> {
         let file = || self.file.display().to_string();
-        let mut directed: HashMap<(u32, u32), usize> = HashMap::new();
-        let mut undirected: HashMap<(u32, u32), (u32, usize)> = HashMap::new();
-        for (k, f) in self.facets.iter().enumerate() {
+        let edges = |f: &Facet| {
             let v = f.vertices;
-            for (a, b) in [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])] {
-                if let Some(&other) = directed.get(&(a, b)) {
+            [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])]
+        };
+        // Undirected edge -> (facets using it, first facet, its direction).
+        let mut undirected: HashMap<(u32, u32), (u32, usize, (u32, u32))> = HashMap::new();
+        for (k, f) in self.facets.iter().enumerate() {
+            for (a, b) in edges(f) {
+                undirected.entry((a.min(b), a.max(b))).or_insert((0, k, (a, b))).0 += 1;
+            }
+        }
+        for (k, f) in self.facets.iter().enumerate() {
+            for (a, b) in edges(f) {
+                let (uses, first, dir) = undirected[&(a.min(b), a.max(b))];
+                if uses == 2 && first != k && dir == (a, b) {
                     return Err(MeshError::Winding {
                         file: file(),
-                        a: self.origins[other],
+                        a: self.origins[first],
                         b: self.origins[k],
                         from: self.vertices[a as usize],
                         to: self.vertices[b as usize],
                     });
                 }
-                directed.insert((a, b), k);
-                let e = undirected.entry((a.min(b), a.max(b))).or_insert((0, k));
-                e.0 += 1;
             }
         }
         // Shells: facets connected through shared edges (union-find).
@@ -370,8 +379,7 @@ impl Mesh {
             i
         }
         for (k, f) in self.facets.iter().enumerate() {
-            let v = f.vertices;
-            for (a, b) in [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])] {
+            for (a, b) in edges(f) {
                 let first = undirected[&(a.min(b), a.max(b))].1;
                 let (ra, rb) = (root(&mut parent, k), root(&mut parent, first));
                 if ra != rb {
@@ -394,7 +402,7 @@ impl Mesh {
                     hi[r][c] = hi[r][c].max(q[c]);
                 }
             }
-            for (a, b) in [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])] {
+            for (a, b) in edges(f) {
                 if undirected[&(a.min(b), a.max(b))].0 != 2 {
                     open[r] = true;
                 }
@@ -672,6 +680,18 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("line 5") && e.contains("not convex"), "{e}");
+    }
+
+    #[test]
+    fn a_sheet_welded_onto_a_body_along_an_edge_is_accepted() {
+        // A fin (both sides) standing on the tetrahedron's edge 1-2.
+        let fin = format!("{TETRA}v 0.5 -0.5 -0.5\no fin\nf 1 2 5\nf 1 5 2\n");
+        let m = obj(&fin).unwrap();
+        assert_eq!(m.parts, vec!["body", "fin"]);
+        // The body is then open at that edge, so its orientation is not checked: a flipped
+        // body facet elsewhere is still found.
+        let e = obj(&fin.replace("f 2 3 4", "f 2 4 3")).unwrap_err().to_string();
+        assert!(e.contains("inconsistent winding"), "{e}");
     }
 
     #[test]
