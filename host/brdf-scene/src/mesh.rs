@@ -348,7 +348,8 @@ impl Mesh {
             [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])]
         };
         // Undirected edge -> (facets using it, first facet, its direction).
-        let mut undirected: HashMap<(u32, u32), (u32, usize, (u32, u32))> = HashMap::new();
+        type Edge = (u32, u32);
+        let mut undirected: HashMap<Edge, (u32, usize, Edge)> = HashMap::new();
         for (k, f) in self.facets.iter().enumerate() {
             for (a, b) in edges(f) {
                 undirected.entry((a.min(b), a.max(b))).or_insert((0, k, (a, b))).0 += 1;
