@@ -22,9 +22,12 @@ use serde::Serialize;
 pub struct CheckCmd {
     #[command(flatten)]
     device: DeviceArgs,
-    /// Random directions over the hemisphere per material.
-    #[arg(long, default_value_t = 20_000)]
-    directions: usize,
+    /// Random directions over the hemisphere per material, or a CSV of directions
+    /// (`theta_i,theta_r,phi` in degrees, optional `material`), e.g. from `brdf scene domain`:
+    /// then exactly those are checked (each distinct direction once), each against its
+    /// material.
+    #[arg(long, default_value = "20000", value_parser = parse_directions)]
+    directions: Directions,
     /// Edge-case directions per region and material.
     #[arg(long, default_value_t = 1_000)]
     edge: usize,
@@ -34,6 +37,22 @@ pub struct CheckCmd {
     /// Print JSON.
     #[arg(long)]
     json: bool,
+}
+
+/// How many random directions, or which file of directions.
+#[derive(Clone, Debug)]
+pub enum Directions {
+    /// Random directions per material (plus the edge regions).
+    Count(usize),
+    /// A CSV of directions.
+    File(PathBuf),
+}
+
+fn parse_directions(text: &str) -> Result<Directions, String> {
+    Ok(match text.trim().parse::<usize>() {
+        Ok(n) => Directions::Count(n),
+        Err(_) => Directions::File(PathBuf::from(text)),
+    })
 }
 
 /// A link over whichever transport the user chose.
@@ -194,6 +213,11 @@ fn regions(n: usize, edge: usize, seed: u64) -> Vec<(&'static str, Vec<[f32; 3]>
 
 impl CheckCmd {
     pub fn run(self) -> Result<()> {
+        // A directions file is read (and every row checked) before the device is opened.
+        let (random_n, file) = match &self.directions {
+            Directions::Count(n) => (*n, None),
+            Directions::File(p) => (0, Some((p.clone(), brdf_scene::domain::read_directions(p)?))),
+        };
         let (mut link, loaded) = self.device.connect()?;
         // Without --blob the device must run the built-in Table 1, the only set the host
         // then knows.
@@ -214,9 +238,41 @@ impl CheckCmd {
                  ({expected_crc:#010x}): pass the blob it runs with --blob"
             );
         }
-        let dirs = regions(self.directions, self.edge, self.seed);
+        let (random, file) = match file {
+            None => (regions(random_n, self.edge, self.seed), None),
+            Some((p, rows)) => {
+                let n = blob.materials.len();
+                if let Some(r) = rows.iter().find(|r| r.material.is_some_and(|k| k >= n)) {
+                    bail!(
+                        "{}: line {}: material {}: the device holds {n} materials (0..{})",
+                        p.display(),
+                        r.line,
+                        r.material.unwrap_or(0),
+                        n - 1
+                    );
+                }
+                (Vec::new(), Some(rows))
+            }
+        };
         let mut table = Vec::new();
         for (m, mat) in blob.materials.iter().enumerate() {
+            // The file's directions of this material (all of them without a material column),
+            // converted as `brdf eval --precision f32` does: degrees to radians in f64, then f32.
+            let dirs = match &file {
+                None => random.clone(),
+                Some(rows) => {
+                    let mut xs: Vec<[f32; 3]> = rows
+                        .iter()
+                        .filter(|r| r.material.is_none_or(|k| k == m))
+                        .map(|r| [r.theta_i, r.theta_r, r.phi].map(|d| d.to_radians() as f32))
+                        .collect();
+                    // Facets that share angles (a ring of a hull) ask the same question: each
+                    // distinct direction is asked once.
+                    xs.sort_by_key(|x| x.map(f32::to_bits));
+                    xs.dedup_by_key(|x| x.map(f32::to_bits));
+                    vec![("scene directions", xs)]
+                }
+            };
             let p64: Vec<f64> = mat.params[..mat.kind.param_count()]
                 .iter()
                 .map(|&v| f64::from(v))
@@ -232,7 +288,7 @@ impl CheckCmd {
                     .map(|b| (b.1, TABLE_MAX_ZENITH_DEG)),
             };
             let mut results = Vec::new();
-            for (name, xs) in &dirs {
+            for (name, xs) in dirs.iter().filter(|d| !d.1.is_empty()) {
                 let dev = link.eval(m as u8, Input::Angles, xs)?;
                 let exact: Vec<f64> = xs
                     .iter()

@@ -13,6 +13,7 @@ mod params;
 mod plot;
 mod query;
 mod report;
+mod scene;
 mod select;
 mod synth;
 
@@ -48,6 +49,9 @@ enum Command {
     Query(query::QueryCmd),
     /// Regenerate the model-comparison report over the shared measured datasets.
     Report(report::ReportCmd),
+    /// Laser radar cross-section of a meshed target over a sensor sweep, and the BRDF
+    /// queries it makes.
+    Scene(scene::SceneCmd),
     /// Fit the model ladder and name the simplest model within an error budget.
     Select(select::SelectCmd),
     /// Write a synthetic dataset from known parameters.
@@ -67,6 +71,7 @@ fn main() -> std::process::ExitCode {
         Command::Plot(cmd) => cmd.run(),
         Command::Query(cmd) => cmd.run(),
         Command::Report(cmd) => cmd.run(),
+        Command::Scene(cmd) => cmd.run(),
         Command::Select(cmd) => cmd.run(),
         Command::Synth(cmd) => cmd.run(),
     };

@@ -4,7 +4,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use brdf_core::table::{table_accuracy, SixTable, TABLE_SIZES};
 use brdf_core::{Brdf, ModelKind};
 use brdf_fit::report::FitReport;
@@ -63,7 +63,12 @@ pub struct SelectCmd {
     #[arg(long)]
     allow_nonphysical: bool,
     /// Data file (one dataset; use `brdf fit` for batches).
-    data: PathBuf,
+    #[arg(required_unless_present = "scene", conflicts_with = "scene")]
+    data: Option<PathBuf>,
+    /// Instead of data: a scene file. Per material, the cheapest device representation whose
+    /// laser radar cross-section stays within --budget of the exact model's at every aspect.
+    #[arg(long, value_name = "SCENE.toml")]
+    scene: Option<PathBuf>,
 }
 
 #[derive(Serialize)]
@@ -126,11 +131,14 @@ impl Representation {
 
 impl SelectCmd {
     pub fn run(self) -> Result<()> {
-        let datasets = self.engine.load(std::slice::from_ref(&self.data))?;
+        let Some(data) = self.data.clone() else {
+            return self.run_scene();
+        };
+        let datasets = self.engine.load(std::slice::from_ref(&data))?;
         if datasets.len() != 1 {
             bail!(
                 "{}: holds {} datasets (sample/wavelength groups); select works on one",
-                self.data.display(),
+                data.display(),
                 datasets.len()
             );
         }
@@ -311,6 +319,52 @@ impl SelectCmd {
                     .map_or(String::new(), |p| format!("; written to {}", p.display()))
             )?,
             None => writeln!(out, "chosen: none: {reason}")?,
+        }
+        Ok(())
+    }
+}
+
+impl SelectCmd {
+    /// `--scene`: the selection is `brdf_scene::select`; this prints it and writes the blob.
+    fn run_scene(&self) -> Result<()> {
+        use brdf_scene::select::{select, SelectOptions};
+        let path = self
+            .scene
+            .as_ref()
+            .ok_or_else(|| anyhow!("give a data file or --scene"))?;
+        let scene = brdf_scene::scene::Scene::load(path)
+            .map_err(|e| anyhow!(e).context(format!("cannot use scene {}", path.display())))?;
+        let bar = brdf_scene::progress::terminal_bar(scene.aspects().len(), "aspects");
+        let domain = brdf_scene::lrcs::domain(&scene, &|| bar.inc(1));
+        bar.finish_and_clear();
+        let opts = SelectOptions {
+            budget: self.budget,
+            seed: self.engine.seed,
+            sequence: self.sequence,
+            ..SelectOptions::default()
+        };
+        let s = select(&scene, &domain, &opts);
+        let mut out = std::io::stdout().lock();
+        if self.json {
+            writeln!(out, "{}", serde_json::to_string_pretty(&s)?)?;
+        } else {
+            s.write_report(&mut out)?;
+        }
+        if let Some(o) = &self.output {
+            let blob = s.blob().ok_or_else(|| {
+                anyhow!(
+                    "nothing written to {}: {}",
+                    o.display(),
+                    s.blob_note.clone().unwrap_or_default()
+                )
+            })?;
+            std::fs::write(o, blob).with_context(|| format!("cannot write {}", o.display()))?;
+            eprintln!(
+                "wrote {} ({} bytes, {} materials in scene order)",
+                o.display(),
+                blob.len(),
+                s.materials.len()
+            );
         }
         Ok(())
     }

@@ -11,7 +11,7 @@ fn check_recovery(name: &str, truth: &[f64; 6], incidences: &[f64]) {
     let data = synth::in_plane(ModelKind::Six, truth, incidences, 1.0, 0.005, 7).unwrap();
     let problem = Problem::from_dataset(ModelKind::Six, Residual::Relative, &data);
     let out = fit(&problem, &FitOptions::default());
-    let rep = report(&data, &problem, &out, 1);
+    let rep = report(&data, &problem, &out, &FitOptions::default());
     let truth_q = brdf_fit::kernel::to_internal(ModelKind::Six, truth);
     let truth_rms = metrics(
         &problem.values(&truth_q),
@@ -119,7 +119,7 @@ fn kr_is_within_10_percent_or_flagged_for_every_noise_draw() {
                 let data = synth::in_plane(ModelKind::Six, &truth, inc, step, 0.005, noise_seed).unwrap();
                 let problem = Problem::from_dataset(ModelKind::Six, Residual::Relative, &data);
                 let out = fit(&problem, &FitOptions::default());
-                let rep = report(&data, &problem, &out, 1);
+                let rep = report(&data, &problem, &out, &FitOptions::default());
                 let rel = |j: usize| ((out.params[j].abs() - truth[j].abs()) / truth[j]).abs();
                 let kr = &rep.uncertainty.params.0[1].1;
                 total += 1;

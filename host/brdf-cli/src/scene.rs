@@ -1,0 +1,195 @@
+//! `brdf scene`: a target's laser radar cross-section over a sensor sweep, and the BRDF
+//! queries it makes (`brdf_scene`).
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use brdf_scene::lrcs::{domain, lrcs};
+use brdf_scene::progress::terminal_bar;
+use brdf_scene::scene::{Mode, Scene};
+use clap::{Args, Subcommand};
+use serde::Serialize;
+
+/// Scenes: a target mesh with a material per part and a sensor sweep (a TOML scene file).
+#[derive(Debug, Args)]
+pub struct SceneCmd {
+    #[command(subcommand)]
+    command: SceneSub,
+}
+
+#[derive(Debug, Subcommand)]
+enum SceneSub {
+    /// Laser radar cross-section per aspect: sigma = sum over facets seen by source and
+    /// receiver of 4 pi f_r cos(theta_i) cos(theta_r) A (m^2), as CSV
+    /// `azimuth,elevation,lrcs`.
+    Lrcs(LrcsCmd),
+    /// The (theta_i, theta_r, phi) queries the scene makes, one row per aspect and facet
+    /// seen, with the weight each carries in sigma (m^2 sr).
+    Domain(DomainCmd),
+}
+
+/// `brdf scene lrcs`.
+#[derive(Debug, Args)]
+pub struct LrcsCmd {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Write the CSV here instead of standard output.
+    #[arg(short = 'o', long)]
+    output: Option<PathBuf>,
+    /// Print JSON (per aspect: sigma, each material's share, facets seen) instead of CSV.
+    #[arg(long)]
+    json: bool,
+    /// Draw sigma against azimuth, one curve per elevation (.svg or .png).
+    #[arg(long)]
+    plot: Option<PathBuf>,
+}
+
+/// `brdf scene domain`.
+#[derive(Debug, Args)]
+pub struct DomainCmd {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Write the CSV here instead of standard output.
+    #[arg(short = 'o', long)]
+    output: Option<PathBuf>,
+}
+
+#[derive(Serialize)]
+struct LrcsJson<'a> {
+    scene: String,
+    mesh: String,
+    facets: usize,
+    mode: &'static str,
+    separation_deg: Option<f64>,
+    materials: Vec<MaterialJson>,
+    seconds: f64,
+    aspects: &'a [brdf_scene::lrcs::AspectSigma],
+}
+
+#[derive(Serialize)]
+struct MaterialJson {
+    part: String,
+    model: &'static str,
+    params: Vec<f64>,
+}
+
+fn load(path: &Path) -> Result<Scene> {
+    Scene::load(path).with_context(|| format!("cannot use scene {}", path.display()))
+}
+
+/// Standard output or a file, buffered.
+fn sink(output: &Option<PathBuf>) -> Result<Box<dyn Write>> {
+    Ok(match output {
+        Some(p) => Box::new(std::io::BufWriter::new(
+            std::fs::File::create(p).with_context(|| format!("cannot write {}", p.display()))?,
+        )),
+        None => Box::new(std::io::BufWriter::new(std::io::stdout().lock())),
+    })
+}
+
+impl SceneCmd {
+    pub fn run(self) -> Result<()> {
+        match self.command {
+            SceneSub::Lrcs(c) => c.run(),
+            SceneSub::Domain(c) => c.run(),
+        }
+    }
+}
+
+impl LrcsCmd {
+    fn run(self) -> Result<()> {
+        let scene = load(&self.scene)?;
+        let n = scene.aspects().len();
+        let bar = terminal_bar(n, "aspects");
+        let result = lrcs(&scene, &|| bar.inc(1));
+        bar.finish_and_clear();
+        let (lo, hi) = result
+            .aspects
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), a| {
+                (lo.min(a.lrcs), hi.max(a.lrcs))
+            });
+        eprintln!(
+            "{}: {} facets, {} aspects in {:.2} s; sigma from {lo:.4e} to {hi:.4e} m^2",
+            self.scene.display(),
+            scene.mesh.facets.len(),
+            n,
+            result.seconds
+        );
+        let mut out = sink(&self.output)?;
+        if self.json {
+            let (mode, separation_deg) = match scene.sensor.mode {
+                Mode::Monostatic => ("monostatic", None),
+                Mode::Bistatic { separation_deg } => ("bistatic", Some(separation_deg)),
+            };
+            let j = LrcsJson {
+                scene: self.scene.display().to_string(),
+                mesh: scene.mesh.file.display().to_string(),
+                facets: scene.mesh.facets.len(),
+                mode,
+                separation_deg,
+                materials: scene
+                    .materials
+                    .iter()
+                    .map(|m| MaterialJson {
+                        part: m.part.clone(),
+                        model: m.model.kind().name(),
+                        params: m.model.to_params()[..m.model.kind().param_count()].to_vec(),
+                    })
+                    .collect(),
+                seconds: result.seconds,
+                aspects: &result.aspects,
+            };
+            writeln!(out, "{}", serde_json::to_string_pretty(&j)?)?;
+        } else {
+            writeln!(out, "azimuth,elevation,lrcs")?;
+            for a in &result.aspects {
+                writeln!(out, "{},{},{}", a.azimuth, a.elevation, a.lrcs)?;
+            }
+        }
+        out.flush().context("cannot write the output")?;
+        if let Some(plot) = &self.plot {
+            let curves: Vec<brdf_plot::PolarCurve> = scene
+                .sensor
+                .elevation_deg
+                .iter()
+                .map(|&el| brdf_plot::PolarCurve {
+                    label: format!("elevation {el}°"),
+                    points: result
+                        .aspects
+                        .iter()
+                        .filter(|a| a.elevation == el)
+                        .map(|a| (a.azimuth, a.lrcs))
+                        .collect(),
+                })
+                .collect();
+            let mode = match scene.sensor.mode {
+                Mode::Monostatic => "monostatic".to_owned(),
+                Mode::Bistatic { separation_deg } => format!("bistatic, {separation_deg}° separation"),
+            };
+            let title = format!("Laser radar cross-section of {} ({mode})", self.scene.display());
+            brdf_plot::polar(plot, &title, "sigma / m^2", &curves)?;
+            eprintln!("wrote {}", plot.display());
+        }
+        Ok(())
+    }
+}
+
+impl DomainCmd {
+    fn run(self) -> Result<()> {
+        let scene = load(&self.scene)?;
+        let bar = terminal_bar(scene.aspects().len(), "aspects");
+        let d = domain(&scene, &|| bar.inc(1));
+        bar.finish_and_clear();
+        let out = sink(&self.output)?;
+        brdf_scene::domain::write_csv(&scene, &d, out).context("cannot write the queries")?;
+        eprintln!(
+            "{}: {} queries over {} aspects",
+            self.scene.display(),
+            d.len(),
+            d.aspects.len()
+        );
+        Ok(())
+    }
+}

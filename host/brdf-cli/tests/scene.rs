@@ -1,0 +1,225 @@
+//! `brdf scene lrcs`, `brdf scene domain`, `brdf select --scene` and `brdf check
+//! --directions` on the bundled scene, end to end.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+use brdf_core::tolerance::F64_REFORMULATION_REL;
+use brdf_core::{AnyModel, Brdf, ModelKind};
+
+fn brdf(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_brdf"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn scene() -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data/scenes/target.toml")
+        .display()
+        .to_string()
+}
+
+fn ok(out: &std::process::Output) -> String {
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout.clone()).unwrap()
+}
+
+/// The bundled scene's materials (hull, caps, fin): Table 1 khaki, yellow, white.
+fn models() -> [AnyModel<f64>; 3] {
+    [
+        [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2],
+        [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420],
+        [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415],
+    ]
+    .map(|p| AnyModel::new(ModelKind::Six, &p).unwrap())
+}
+
+#[test]
+fn lrcs_is_the_weighted_sum_of_the_domain_rows_and_draws_its_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let plot = dir.path().join("lrcs.svg");
+    let csv = ok(&brdf(&[
+        "scene",
+        "lrcs",
+        &scene(),
+        "--plot",
+        plot.to_str().unwrap(),
+    ]));
+    let rows: Vec<(f64, f64, f64)> = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            (v[0], v[1], v[2])
+        })
+        .collect();
+    assert_eq!(csv.lines().next(), Some("azimuth,elevation,lrcs"));
+    assert_eq!(rows.len(), 72 * 3);
+    assert_eq!((rows[1].0, rows[1].1), (5.0, 0.0), "sweep order: azimuth fastest");
+    assert!(rows.iter().all(|r| r.2 > 0.0));
+    assert!(std::fs::read_to_string(&plot).unwrap().contains("<svg"));
+
+    // sigma at each aspect = sum over its domain rows of weight * f(theta_i, theta_r, phi).
+    let queries = dir.path().join("q.csv");
+    ok(&brdf(&[
+        "scene",
+        "domain",
+        &scene(),
+        "-o",
+        queries.to_str().unwrap(),
+    ]));
+    let text = std::fs::read_to_string(&queries).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("azimuth,elevation,material,part,facet,theta_i,theta_r,phi,weight")
+    );
+    let m = models();
+    let mut sums = vec![0.0; rows.len()];
+    for l in lines {
+        let f: Vec<&str> = l.split(',').collect();
+        let (az, el): (f64, f64) = (f[0].parse().unwrap(), f[1].parse().unwrap());
+        let k = (el / 15.0) as usize * 72 + (az / 5.0) as usize;
+        let mat: usize = f[2].parse().unwrap();
+        let [ti, tr, phi, w] = [5, 6, 7, 8].map(|i| f[i].parse::<f64>().unwrap());
+        assert_eq!(phi, 0.0, "monostatic: every query is in the retro direction");
+        sums[k] += w * m[mat].eval_angles(ti.to_radians(), tr.to_radians(), phi.to_radians());
+    }
+    for (r, s) in rows.iter().zip(&sums) {
+        let rel = (r.2 - s).abs() / r.2;
+        assert!(
+            rel <= F64_REFORMULATION_REL,
+            "({}, {}): {} against {s}",
+            r.0,
+            r.1,
+            r.2
+        );
+    }
+
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&brdf(&["scene", "lrcs", &scene(), "--json"]))).unwrap();
+    assert_eq!(json["aspects"].as_array().unwrap().len(), 216);
+    assert_eq!(json["aspects"][0]["lrcs"].as_f64(), Some(rows[0].2));
+}
+
+#[test]
+fn select_scene_picks_within_budget_and_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let blob = dir.path().join("scene.bin");
+    let text = ok(&brdf(&[
+        "select",
+        "--scene",
+        &scene(),
+        "--budget",
+        "1%",
+        "-o",
+        blob.to_str().unwrap(),
+    ]));
+    println!("{text}");
+    assert_eq!(text.matches("  chosen: ").count(), 3, "one choice per material");
+    for name in [
+        "lambert fitted",
+        "minnaert fitted",
+        "six exact",
+        "six table 64",
+        "six table 256",
+    ] {
+        let rows = text
+            .lines()
+            .filter(|l| l.starts_with(&format!("  {name} ")))
+            .count();
+        assert_eq!(rows, 3, "{name} is a candidate for every material");
+    }
+    let bytes = std::fs::read(&blob).unwrap();
+    let b = brdf_wire::blob::Blob::decode(&bytes).unwrap();
+    assert_eq!(b.materials.len(), 3);
+
+    let json: serde_json::Value = serde_json::from_str(&ok(&brdf(&[
+        "select",
+        "--scene",
+        &scene(),
+        "--budget",
+        "1%",
+        "--json",
+    ])))
+    .unwrap();
+    for m in json["materials"].as_array().unwrap() {
+        let cands = m["candidates"].as_array().unwrap();
+        let chosen = m["chosen"].as_u64().unwrap() as usize;
+        let err = |c: &serde_json::Value| c["worst_sigma_error"].as_f64().unwrap();
+        assert!(err(&cands[chosen]) <= 0.01);
+        // Nothing cheaper was within the budget and fitted a slot.
+        let cost = |c: &serde_json::Value| c["device_instructions"].as_u64().unwrap();
+        for c in cands {
+            if cost(c) < cost(&cands[chosen]) {
+                assert!(err(c) > 0.01 || !c["fits_blob"].as_bool().unwrap(), "{c}");
+            }
+        }
+    }
+    assert!(json["scene_worst_sigma_error"].as_f64().unwrap() <= 0.01);
+
+    // A budget nothing meets writes nothing and says so.
+    let none = brdf(&[
+        "select",
+        "--scene",
+        &scene(),
+        "--budget",
+        "0",
+        "-o",
+        blob.to_str().unwrap(),
+    ]);
+    assert!(!none.status.success());
+    assert!(String::from_utf8_lossy(&none.stderr).contains("nothing written"));
+}
+
+#[test]
+fn check_runs_the_device_on_exactly_the_scenes_directions() {
+    let dir = tempfile::tempdir().unwrap();
+    // Directions files are checked row by row.
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(&bad, "theta_i,theta_r,phi\n10,95,0\n").unwrap();
+    let out = brdf(&["check", "--qemu", "--directions", bad.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    if brdf_tests::qemu::firmware().is_none() {
+        return;
+    }
+    assert!(
+        err.contains("bad.csv: line 2: column theta_r: zenith 95"),
+        "{err}"
+    );
+    let queries = dir.path().join("q.csv");
+    let blob = dir.path().join("scene.bin");
+    ok(&brdf(&[
+        "scene",
+        "domain",
+        &scene(),
+        "-o",
+        queries.to_str().unwrap(),
+    ]));
+    ok(&brdf(&[
+        "select",
+        "--scene",
+        &scene(),
+        "--budget",
+        "1%",
+        "-o",
+        blob.to_str().unwrap(),
+    ]));
+    let text = ok(&brdf(&[
+        "check",
+        "--qemu",
+        "--blob",
+        blob.to_str().unwrap(),
+        "--directions",
+        queries.to_str().unwrap(),
+    ]));
+    println!("{text}");
+    let judged: Vec<&str> = text
+        .lines()
+        .filter(|l| l.contains("scene directions ["))
+        .collect();
+    assert_eq!(judged.len(), 3, "one judged region per material");
+    assert!(judged.iter().all(|l| l.ends_with("ok")));
+}

@@ -1,0 +1,101 @@
+//! Parameter lists as people write them: `kb=0.2545,kr=21.8031,...` (`brdf eval --params`,
+//! the `params` of a scene file's material).
+
+use brdf_core::{ModelKind, MAX_PARAMS};
+use thiserror::Error;
+
+/// Why a parameter list was refused.
+#[derive(Clone, Debug, PartialEq, Error)]
+#[non_exhaustive]
+pub enum ParamsError {
+    /// An item without `=`.
+    #[error("parameter `{0}` is not of the form name=value")]
+    Form(String),
+    /// A name the model does not have.
+    #[error("unknown parameter `{name}` for model {model} (expected {expected})")]
+    Unknown {
+        /// The name given.
+        name: String,
+        /// The model.
+        model: &'static str,
+        /// Its parameter names, comma-separated.
+        expected: String,
+    },
+    /// A value that is not a number.
+    #[error("parameter {name}: `{value}` is not a number")]
+    NotANumber {
+        /// Parameter name.
+        name: String,
+        /// The text given.
+        value: String,
+    },
+    /// The same parameter twice.
+    #[error("parameter {0} given twice")]
+    Repeated(String),
+    /// A parameter the model needs is missing.
+    #[error("missing parameter {name} for model {model} (expected {expected})")]
+    Missing {
+        /// Parameter name.
+        name: &'static str,
+        /// The model.
+        model: &'static str,
+        /// Its parameter names, comma-separated.
+        expected: String,
+    },
+}
+
+/// Parses `kb=0.25,kr=21.8,...` into the parameter vector of `kind`, in the paper's order.
+/// Every parameter must appear exactly once; unknown names are errors. Ranges are checked
+/// where the model is built (`AnyModel::new`), not here.
+pub fn parse_params(kind: ModelKind, text: &str) -> Result<[f64; MAX_PARAMS], ParamsError> {
+    let names = kind.param_names();
+    let expected = || names.join(", ");
+    let mut values: [Option<f64>; MAX_PARAMS] = [None; MAX_PARAMS];
+    for item in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let (name, value) = item
+            .split_once('=')
+            .ok_or_else(|| ParamsError::Form(item.to_owned()))?;
+        let (name, value) = (name.trim(), value.trim());
+        let idx = names
+            .iter()
+            .position(|n| *n == name)
+            .ok_or_else(|| ParamsError::Unknown {
+                name: name.to_owned(),
+                model: kind.name(),
+                expected: expected(),
+            })?;
+        let v: f64 = value.parse().map_err(|_| ParamsError::NotANumber {
+            name: name.to_owned(),
+            value: value.to_owned(),
+        })?;
+        if values[idx].replace(v).is_some() {
+            return Err(ParamsError::Repeated(name.to_owned()));
+        }
+    }
+    let mut out = [0.0; MAX_PARAMS];
+    for (i, name) in names.iter().enumerate() {
+        out[i] = values[i].ok_or_else(|| ParamsError::Missing {
+            name,
+            model: kind.name(),
+            expected: expected(),
+        })?;
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_in_any_order_and_rejects_bad_lists() {
+        let p = parse_params(ModelKind::Minnaert, "k=0.5, rho0=0.3").unwrap();
+        assert_eq!(&p[..2], &[0.3, 0.5]);
+        let err = |t: &str| parse_params(ModelKind::Minnaert, t).unwrap_err().to_string();
+        assert!(err("rho0=0.3").contains("missing parameter k"));
+        assert!(err("rho0=0.3,k=0.5,kb=1").contains("unknown parameter `kb`"));
+        assert!(err("rho0=0.3,k=x").contains("`x` is not a number"));
+        assert!(err("rho0=0.3,k=0.5,k=0.6").contains("given twice"));
+        assert!(err("rho0").contains("name=value"));
+    }
+}

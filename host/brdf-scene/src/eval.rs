@@ -1,0 +1,77 @@
+//! The one place where this crate evaluates BRDFs: a batch of queries, as slices of
+//! cosines, through one material representation.
+//!
+//! Every σ, every domain weight and every candidate's error goes through [`eval_batch`], one
+//! call per (aspect, material), so that a batch (SIMD) evaluation in the core replaces the
+//! loop here without touching the callers.
+
+use brdf_core::table::{SixTable, TableConsts};
+use brdf_core::{AnyModel, Brdf};
+
+use crate::lrcs::Batch;
+
+/// How a material's BRDF is evaluated.
+#[derive(Clone, Debug)]
+pub enum Evaluator {
+    /// The exact model in f64 from f64 cosines: the reference.
+    Exact(AnyModel<f64>),
+    /// The exact model in f32 from the cosines rounded to f32: the device's exact path.
+    Device(AnyModel<f32>),
+    /// Six-parameter lookup tables in f32 from the cosines rounded to f32: the device's
+    /// tabulated path (`brdf_core::table`).
+    Table {
+        /// The material's table constants.
+        consts: TableConsts,
+        /// The node bytes, as they travel in a blob.
+        bytes: Vec<u8>,
+    },
+}
+
+/// `f_r` (1/sr) at each query: `out[k] = f(cos_theta_i[k], cos_theta_r[k], cos_phi[k])`.
+/// All four slices have the same length.
+pub fn eval_batch(e: &Evaluator, cos_theta_i: &[f64], cos_theta_r: &[f64], cos_phi: &[f64], out: &mut [f64]) {
+    debug_assert!(
+        cos_theta_i.len() == out.len() && cos_theta_r.len() == out.len() && cos_phi.len() == out.len()
+    );
+    let q = cos_theta_i
+        .iter()
+        .zip(cos_theta_r)
+        .zip(cos_phi)
+        .zip(out.iter_mut());
+    match e {
+        Evaluator::Exact(m) => {
+            for (((&i, &r), &p), o) in q {
+                *o = m.eval_cosines(i, r, p);
+            }
+        }
+        Evaluator::Device(m) => {
+            for (((&i, &r), &p), o) in q {
+                *o = f64::from(m.eval_cosines(i as f32, r as f32, p as f32));
+            }
+        }
+        Evaluator::Table { consts, bytes } => {
+            // Constants and bytes come from the same `SixTable::new`, so the lengths match;
+            // an unmatched pair evaluates to NaN (never a plausible value).
+            match SixTable::from_parts(*consts, bytes) {
+                Some(t) => {
+                    for (((&i, &r), &p), o) in q {
+                        *o = f64::from(t.eval_cosines(i as f32, r as f32, p as f32));
+                    }
+                }
+                None => {
+                    for (_, o) in q {
+                        *o = f64::NAN;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// `sum_k weight[k] f_r(k)`: a batch's share of σ, m². `scratch` is reused between calls.
+pub fn sigma(e: &Evaluator, b: &Batch, scratch: &mut Vec<f64>) -> f64 {
+    scratch.clear();
+    scratch.resize(b.weight.len(), 0.0);
+    eval_batch(e, &b.cos_theta_i, &b.cos_theta_r, &b.cos_phi, scratch);
+    b.weight.iter().zip(scratch.iter()).map(|(w, f)| w * f).sum()
+}

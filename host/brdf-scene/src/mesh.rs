@@ -1,0 +1,707 @@
+//! Target meshes: Wavefront OBJ (objects and groups name the parts) or STL, coordinates in
+//! metres, facet normals from the winding (counter-clockwise seen from outside), checked
+//! before use.
+//!
+//! Checks, each a [`MeshError`] naming the file and the line (OBJ) or facet number (STL):
+//! non-finite coordinates; degenerate facets (zero area, or an angle so thin that the normal
+//! is noise); polygons that a fan does not triangulate (non-convex or non-planar);
+//! inconsistent winding (two facets that run along a shared edge in the same direction, so
+//! one of them faces the wrong way); and a closed shell whose facets all face inwards
+//! (negative enclosed volume). Vertices at bit-identical positions are welded, so facets of
+//! different OBJ objects that share positions are checked across the part boundary too.
+
+use std::collections::HashMap;
+use std::fmt;
+use std::io::{BufRead, Read};
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+
+/// Smallest accepted `2 A / L^2` of a facet (area `A`, longest edge `L`): about the sine of its
+/// smallest angle. Below 1e-10 the cross product that gives the normal has lost all but a
+/// few digits of f64 to cancellation, so the facet's normal (and whether a ray hits it) is
+/// noise; a real surface has no such facet.
+pub const DEGENERATE_SINE: f64 = 1e-10;
+
+/// A closed shell whose signed volume is within this fraction of its bounding box volume of
+/// zero encloses nothing (a two-sided sheet, two facets back to back) and has no inside to
+/// face; its orientation is not checked.
+pub const FLAT_SHELL_VOLUME: f64 = 1e-9;
+
+/// Where a facet came from, for messages.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Origin {
+    /// 1-based line of an OBJ file.
+    Line(u64),
+    /// 1-based facet number (STL, or a mesh built in memory).
+    Facet(usize),
+}
+
+impl fmt::Display for Origin {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Origin::Line(l) => write!(f, "line {l}"),
+            Origin::Facet(k) => write!(f, "facet {k}"),
+        }
+    }
+}
+
+/// Why a mesh was refused.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum MeshError {
+    /// The file could not be read.
+    #[error("{file}: cannot read: {source}")]
+    Io {
+        /// Mesh file.
+        file: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// Neither `.obj` nor `.stl`.
+    #[error("{file}: unknown mesh format (expected .obj or .stl)")]
+    Format {
+        /// Mesh file.
+        file: String,
+    },
+    /// The OBJ or STL reader refused the file, or a statement is not usable for a target.
+    #[error("{file}: {at}: {message}")]
+    Parse {
+        /// Mesh file.
+        file: String,
+        /// Where.
+        at: Origin,
+        /// What is wrong.
+        message: String,
+    },
+    /// The STL reader refused the file (it does not say where).
+    #[error("{file}: not a readable STL file: {message}")]
+    Stl {
+        /// Mesh file.
+        file: String,
+        /// The reader's message.
+        message: String,
+    },
+    /// No facets.
+    #[error("{file}: no facets")]
+    Empty {
+        /// Mesh file.
+        file: String,
+    },
+    /// A coordinate is NaN or infinite.
+    #[error("{file}: {at}: a vertex coordinate is not finite")]
+    NotFinite {
+        /// Mesh file.
+        file: String,
+        /// Facet using the vertex.
+        at: Origin,
+    },
+    /// A facet of (nearly) zero area.
+    #[error(
+        "{file}: {at}: degenerate facet (area {area:e} m^2, 2A/L^2 = {sine:e} below {DEGENERATE_SINE:e}): \
+         its normal is undefined; remove it or merge its vertices"
+    )]
+    Degenerate {
+        /// Mesh file.
+        file: String,
+        /// Where.
+        at: Origin,
+        /// Its area, m^2.
+        area: f64,
+        /// `2 A / L^2`.
+        sine: f64,
+    },
+    /// A polygon whose fan triangles do not all face one way.
+    #[error(
+        "{file}: {at}: polygon of {vertices} vertices is not convex and planar (its fan triangles \
+         face different ways): split it into triangles"
+    )]
+    Polygon {
+        /// Mesh file.
+        file: String,
+        /// Where.
+        at: Origin,
+        /// Vertex count.
+        vertices: usize,
+    },
+    /// Two facets run along a shared edge in the same direction.
+    #[error(
+        "{file}: inconsistent winding: {a} and {b} both run from {from:?} to {to:?} along their \
+         shared edge, so one of them faces the wrong way (facets are counter-clockwise seen from \
+         outside; or the mesh is not manifold there)"
+    )]
+    Winding {
+        /// Mesh file.
+        file: String,
+        /// First facet.
+        a: Origin,
+        /// Second facet.
+        b: Origin,
+        /// Edge start, m.
+        from: [f64; 3],
+        /// Edge end, m.
+        to: [f64; 3],
+    },
+    /// A closed shell wound inside out.
+    #[error(
+        "{file}: the closed shell containing {at} (part `{part}`) encloses a negative volume \
+         ({volume:e} m^3): its facets are clockwise seen from outside, so every normal points \
+         inwards; reverse the vertex order of its facets"
+    )]
+    Inward {
+        /// Mesh file.
+        file: String,
+        /// A facet of the shell.
+        at: Origin,
+        /// Its part.
+        part: String,
+        /// Signed volume, m^3.
+        volume: f64,
+    },
+}
+
+/// One triangle of the target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Facet {
+    /// Vertex indices, counter-clockwise seen from outside.
+    pub vertices: [u32; 3],
+    /// Index into [`Mesh::parts`].
+    pub part: u32,
+    /// Outward unit normal (from the winding).
+    pub normal: [f64; 3],
+    /// Area, m^2.
+    pub area: f64,
+    /// Centroid, m.
+    pub centroid: [f64; 3],
+}
+
+/// A checked triangle mesh.
+#[derive(Clone)]
+pub struct Mesh {
+    /// Mesh file (or a label for meshes built in memory).
+    pub file: PathBuf,
+    /// Welded vertex positions, m.
+    pub vertices: Vec<[f64; 3]>,
+    /// Triangles.
+    pub facets: Vec<Facet>,
+    /// Part names, in order of first appearance.
+    pub parts: Vec<String>,
+    /// Where each facet came from (OBJ line or facet number).
+    pub origins: Vec<Origin>,
+}
+
+impl fmt::Debug for Mesh {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Mesh")
+            .field("file", &self.file)
+            .field("vertices", &self.vertices.len())
+            .field("facets", &self.facets.len())
+            .field("parts", &self.parts)
+            .finish()
+    }
+}
+
+/// Vector helpers (f64, 3-D).
+pub(crate) mod v3 {
+    pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+        [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+    }
+    pub fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+        [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+    }
+    pub fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+        [a[0] * s, a[1] * s, a[2] * s]
+    }
+    pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    }
+    pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    }
+    pub fn norm(a: [f64; 3]) -> f64 {
+        dot(a, a).sqrt()
+    }
+}
+
+impl Mesh {
+    /// Reads and checks an OBJ or STL file (by extension).
+    pub fn load(path: &Path) -> Result<Mesh, MeshError> {
+        let file = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("obj") => Self::from_obj(path, &bytes),
+            Some("stl") => Self::from_stl(path, &bytes),
+            _ => Err(MeshError::Format { file }),
+        }
+    }
+
+    /// Builds and checks a mesh from triangles: `(vertex indices, part index, origin)`.
+    /// Vertices at bit-identical positions are welded first.
+    pub fn from_triangles(
+        file: PathBuf,
+        vertices: Vec<[f64; 3]>,
+        triangles: &[([u32; 3], u32, Origin)],
+        parts: Vec<String>,
+    ) -> Result<Mesh, MeshError> {
+        let name = file.display().to_string();
+        if triangles.is_empty() {
+            return Err(MeshError::Empty { file: name });
+        }
+        // Weld bit-identical positions.
+        let mut map: HashMap<[u64; 3], u32> = HashMap::new();
+        let mut welded: Vec<[f64; 3]> = Vec::new();
+        let mut remap = Vec::with_capacity(vertices.len());
+        for v in &vertices {
+            let key = [v[0].to_bits(), v[1].to_bits(), v[2].to_bits()];
+            let id = *map.entry(key).or_insert_with(|| {
+                welded.push(*v);
+                (welded.len() - 1) as u32
+            });
+            remap.push(id);
+        }
+        let mut facets = Vec::with_capacity(triangles.len());
+        let mut origins = Vec::with_capacity(triangles.len());
+        for &(tri, part, at) in triangles {
+            let ids = tri.map(|i| remap[i as usize]);
+            let p = ids.map(|i| welded[i as usize]);
+            if p.iter().flatten().any(|c| !c.is_finite()) {
+                return Err(MeshError::NotFinite { file: name, at });
+            }
+            let c = v3::cross(v3::sub(p[1], p[0]), v3::sub(p[2], p[0]));
+            let twice_area = v3::norm(c);
+            let longest = [v3::sub(p[1], p[0]), v3::sub(p[2], p[1]), v3::sub(p[0], p[2])]
+                .iter()
+                .map(|e| v3::dot(*e, *e))
+                .fold(0.0, f64::max);
+            let sine = if longest > 0.0 { twice_area / longest } else { 0.0 };
+            if !(twice_area > 0.0 && sine >= DEGENERATE_SINE)
+                || ids[0] == ids[1]
+                || ids[1] == ids[2]
+                || ids[0] == ids[2]
+            {
+                return Err(MeshError::Degenerate {
+                    file: name,
+                    at,
+                    area: twice_area / 2.0,
+                    sine,
+                });
+            }
+            facets.push(Facet {
+                vertices: ids,
+                part,
+                normal: v3::scale(c, 1.0 / twice_area),
+                area: twice_area / 2.0,
+                centroid: v3::scale(v3::add(v3::add(p[0], p[1]), p[2]), 1.0 / 3.0),
+            });
+            origins.push(at);
+        }
+        let mesh = Mesh {
+            file,
+            vertices: welded,
+            facets,
+            parts,
+            origins,
+        };
+        mesh.check_winding()?;
+        Ok(mesh)
+    }
+
+    /// Smallest axis-aligned box around the vertices: (min, max), m.
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for v in &self.vertices {
+            for k in 0..3 {
+                lo[k] = lo[k].min(v[k]);
+                hi[k] = hi[k].max(v[k]);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Length of the bounding box diagonal, m.
+    pub fn diagonal(&self) -> f64 {
+        let (lo, hi) = self.bounds();
+        v3::norm(v3::sub(hi, lo))
+    }
+
+    /// Consistent winding across shared edges; closed shells face outwards. An edge shared by
+    /// exactly two facets must be run in opposite directions by them; an edge of three or more
+    /// facets (a sheet welded onto a body along an edge) is not manifold, and its shells are
+    /// treated as open.
+    fn check_winding(&self) -> Result<(), MeshError> {
+        let file = || self.file.display().to_string();
+        let edges = |f: &Facet| {
+            let v = f.vertices;
+            [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])]
+        };
+        // Undirected edge -> (facets using it, first facet, its direction).
+        type Edge = (u32, u32);
+        let mut undirected: HashMap<Edge, (u32, usize, Edge)> = HashMap::new();
+        for (k, f) in self.facets.iter().enumerate() {
+            for (a, b) in edges(f) {
+                undirected.entry((a.min(b), a.max(b))).or_insert((0, k, (a, b))).0 += 1;
+            }
+        }
+        for (k, f) in self.facets.iter().enumerate() {
+            for (a, b) in edges(f) {
+                let (uses, first, dir) = undirected[&(a.min(b), a.max(b))];
+                if uses == 2 && first != k && dir == (a, b) {
+                    return Err(MeshError::Winding {
+                        file: file(),
+                        a: self.origins[first],
+                        b: self.origins[k],
+                        from: self.vertices[a as usize],
+                        to: self.vertices[b as usize],
+                    });
+                }
+            }
+        }
+        // Shells: facets connected through shared edges (union-find).
+        let n = self.facets.len();
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        for (k, f) in self.facets.iter().enumerate() {
+            for (a, b) in edges(f) {
+                let first = undirected[&(a.min(b), a.max(b))].1;
+                let (ra, rb) = (root(&mut parent, k), root(&mut parent, first));
+                if ra != rb {
+                    parent[ra] = rb;
+                }
+            }
+        }
+        let mut open = vec![false; n];
+        let mut volume = vec![0.0f64; n];
+        let mut lo = vec![[f64::INFINITY; 3]; n];
+        let mut hi = vec![[f64::NEG_INFINITY; 3]; n];
+        for (k, f) in self.facets.iter().enumerate() {
+            let r = root(&mut parent, k);
+            let v = f.vertices;
+            let p = v.map(|i| self.vertices[i as usize]);
+            volume[r] += v3::dot(p[0], v3::cross(p[1], p[2])) / 6.0;
+            for q in p {
+                for c in 0..3 {
+                    lo[r][c] = lo[r][c].min(q[c]);
+                    hi[r][c] = hi[r][c].max(q[c]);
+                }
+            }
+            for (a, b) in edges(f) {
+                if undirected[&(a.min(b), a.max(b))].0 != 2 {
+                    open[r] = true;
+                }
+            }
+        }
+        for k in 0..n {
+            if root(&mut parent, k) != k || open[k] {
+                continue;
+            }
+            let extent = v3::sub(hi[k], lo[k]);
+            let box_volume = extent[0] * extent[1] * extent[2];
+            if volume[k] < -FLAT_SHELL_VOLUME * box_volume {
+                // Name the first facet of the shell in file order.
+                let first = (0..n).find(|&j| root(&mut parent, j) == k).unwrap_or(k);
+                return Err(MeshError::Inward {
+                    file: file(),
+                    at: self.origins[first],
+                    part: self.parts[self.facets[first].part as usize].clone(),
+                    volume: volume[k],
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// OBJ through `tobj`, with line numbers for every facet and every reader error.
+    fn from_obj(path: &Path, bytes: &[u8]) -> Result<Mesh, MeshError> {
+        let file = path.display().to_string();
+        let face_lines = scan_obj_faces(&file, bytes)?;
+        let mut reader = LineCounter { data: bytes, pos: 0 };
+        let options = tobj::LoadOptions {
+            triangulate: false,
+            single_index: false,
+            ignore_points: true,
+            ignore_lines: true,
+        };
+        // Materials (`mtllib`) carry colours for renderers; the scene file gives the BRDFs.
+        let (models, _) =
+            tobj::load_obj_buf(&mut reader, &options, |_| Ok(Default::default())).map_err(|e| {
+                MeshError::Parse {
+                    file: file.clone(),
+                    at: Origin::Line(reader.line()),
+                    message: format!("the OBJ reader refused it: {e}"),
+                }
+            })?;
+        let mut vertices: Vec<[f64; 3]> = Vec::new();
+        let mut triangles = Vec::new();
+        let mut parts: Vec<String> = Vec::new();
+        let total: usize = models
+            .iter()
+            .map(|m| {
+                if m.mesh.face_arities.is_empty() {
+                    m.mesh.indices.len() / 3
+                } else {
+                    m.mesh.face_arities.len()
+                }
+            })
+            .sum();
+        // Face statements map to faces one to one (checked); otherwise fall back to numbers.
+        let lines_known = total == face_lines.len();
+        let mut face_no = 0usize;
+        for m in &models {
+            let part = match parts.iter().position(|p| *p == m.name) {
+                Some(i) => i,
+                None => {
+                    parts.push(m.name.clone());
+                    parts.len() - 1
+                }
+            } as u32;
+            let base = vertices.len() as u32;
+            vertices.extend(m.mesh.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+            let arities: Vec<u32> = if m.mesh.face_arities.is_empty() {
+                vec![3; m.mesh.indices.len() / 3]
+            } else {
+                m.mesh.face_arities.clone()
+            };
+            let mut at = 0usize;
+            for &n in &arities {
+                let n = n as usize;
+                let idx: Vec<u32> = m.mesh.indices[at..at + n].iter().map(|i| base + i).collect();
+                at += n;
+                face_no += 1;
+                let origin = if lines_known {
+                    Origin::Line(face_lines[face_no - 1])
+                } else {
+                    Origin::Facet(face_no)
+                };
+                fan(&file, &vertices, &idx, part, origin, &mut triangles)?;
+            }
+        }
+        Self::from_triangles(path.to_path_buf(), vertices, &triangles, parts)
+    }
+
+    /// STL (ASCII or binary) through `stl_io`: one part, named after the file's stem.
+    fn from_stl(path: &Path, bytes: &[u8]) -> Result<Mesh, MeshError> {
+        let file = path.display().to_string();
+        let mut cursor = std::io::Cursor::new(bytes);
+        let stl = stl_io::read_stl(&mut cursor).map_err(|e| MeshError::Stl {
+            file: file.clone(),
+            message: e.to_string(),
+        })?;
+        let vertices: Vec<[f64; 3]> = stl
+            .vertices
+            .iter()
+            .map(|v| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])])
+            .collect();
+        let triangles: Vec<([u32; 3], u32, Origin)> = stl
+            .faces
+            .iter()
+            .enumerate()
+            .map(|(k, f)| (f.vertices.map(|i| i as u32), 0, Origin::Facet(k + 1)))
+            .collect();
+        let part = path
+            .file_stem()
+            .map_or_else(|| "stl".to_owned(), |s| s.to_string_lossy().into_owned());
+        Self::from_triangles(path.to_path_buf(), vertices, &triangles, vec![part])
+    }
+}
+
+/// Triangulates one polygon as a fan from its first vertex, refusing a polygon whose fan
+/// triangles do not all face the way of its Newell normal (non-convex or non-planar).
+fn fan(
+    file: &str,
+    vertices: &[[f64; 3]],
+    idx: &[u32],
+    part: u32,
+    origin: Origin,
+    out: &mut Vec<([u32; 3], u32, Origin)>,
+) -> Result<(), MeshError> {
+    if idx.len() == 3 {
+        out.push(([idx[0], idx[1], idx[2]], part, origin));
+        return Ok(());
+    }
+    let p = |i: u32| vertices[i as usize];
+    let mut newell = [0.0; 3];
+    for (k, &i) in idx.iter().enumerate() {
+        let (a, b) = (p(i), p(idx[(k + 1) % idx.len()]));
+        newell = v3::add(newell, v3::cross(a, b));
+    }
+    for k in 1..idx.len() - 1 {
+        let (a, b, c) = (p(idx[0]), p(idx[k]), p(idx[k + 1]));
+        let n = v3::cross(v3::sub(b, a), v3::sub(c, a));
+        if v3::dot(n, newell) <= 0.0 {
+            return Err(MeshError::Polygon {
+                file: file.to_owned(),
+                at: origin,
+                vertices: idx.len(),
+            });
+        }
+        out.push(([idx[0], idx[k], idx[k + 1]], part, origin));
+    }
+    Ok(())
+}
+
+/// Lines of the face statements the OBJ reader will turn into faces, in order; refuses face
+/// statements that cannot be a facet (fewer than three vertices, a polyline of three or more
+/// vertices, which the reader would take for a face) with their line.
+fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
+    let text = String::from_utf8_lossy(bytes);
+    let mut out = Vec::new();
+    for (k, line) in text.lines().enumerate() {
+        let line_no = k as u64 + 1;
+        let mut words = line.split_whitespace();
+        let at = Origin::Line(line_no);
+        match words.next() {
+            Some("f") => {
+                let n = words.count();
+                if n < 3 {
+                    return Err(MeshError::Parse {
+                        file: file.to_owned(),
+                        at,
+                        message: format!("a face needs at least 3 vertices, this one has {n}"),
+                    });
+                }
+                out.push(line_no);
+            }
+            Some("l") if words.count() >= 3 => {
+                return Err(MeshError::Parse {
+                    file: file.to_owned(),
+                    at,
+                    message: "a polyline (`l`) of 3 or more vertices has no surface and cannot \
+                              be part of a target"
+                        .into(),
+                })
+            }
+            _ => {}
+        }
+    }
+    Ok(out)
+}
+
+/// A `BufRead` over bytes that knows which line the reader last took, so that an error of
+/// the OBJ reader can name its line.
+struct LineCounter<'a> {
+    data: &'a [u8],
+    pos: usize,
+}
+
+impl LineCounter<'_> {
+    /// 1-based line of the last byte consumed (the line being parsed).
+    fn line(&self) -> u64 {
+        let upto = self.pos.saturating_sub(1);
+        self.data[..upto].iter().filter(|&&b| b == b'\n').count() as u64 + 1
+    }
+}
+
+impl Read for LineCounter<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = buf.len().min(self.data.len() - self.pos);
+        buf[..n].copy_from_slice(&self.data[self.pos..self.pos + n]);
+        self.pos += n;
+        Ok(n)
+    }
+}
+
+impl BufRead for LineCounter<'_> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        Ok(&self.data[self.pos..])
+    }
+    fn consume(&mut self, amt: usize) {
+        self.pos = (self.pos + amt).min(self.data.len());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn obj(text: &str) -> Result<Mesh, MeshError> {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.obj");
+        std::fs::write(&p, text).unwrap();
+        Mesh::load(&p)
+    }
+
+    const TETRA: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\no body\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n";
+
+    #[test]
+    fn a_tetrahedron_loads_with_outward_normals_and_lines() {
+        let m = obj(TETRA).unwrap();
+        assert_eq!(m.facets.len(), 4);
+        assert_eq!(m.parts, vec!["body"]);
+        assert_eq!(m.origins[0], Origin::Line(6));
+        // Facet 1 3 2 lies in z = 0 and faces -z.
+        assert_eq!(m.facets[0].normal, [0.0, 0.0, -1.0]);
+        assert!((m.facets[0].area - 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn inside_out_shells_flipped_facets_and_degenerates_are_named() {
+        let inward = TETRA
+            .replace("f 1 3 2", "f 1 2 3")
+            .replace("f 1 2 4", "f 1 4 2")
+            .replace("f 2 3 4", "f 2 4 3")
+            .replace("f 1 4 3", "f 1 3 4");
+        let e = obj(&inward).unwrap_err().to_string();
+        assert!(
+            e.contains("t.obj") && e.contains("line 6") && e.contains("negative volume"),
+            "{e}"
+        );
+        let flipped = TETRA.replace("f 2 3 4", "f 2 4 3");
+        let e = obj(&flipped).unwrap_err().to_string();
+        assert!(e.contains("inconsistent winding") && e.contains("line 8"), "{e}");
+        let e = obj(&format!("{TETRA}v 2 0 0\nf 1 2 5\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 11") && e.contains("degenerate"), "{e}");
+        let e = obj("v 0 0 0\nv 1 0 0\nf 1 2\n").unwrap_err().to_string();
+        assert!(e.contains("line 3") && e.contains("at least 3"), "{e}");
+        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 4") && e.contains("refused"), "{e}");
+        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0.2 0.2 0\nf 2 4 3 1\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 5") && e.contains("not convex"), "{e}");
+    }
+
+    #[test]
+    fn a_sheet_welded_onto_a_body_along_an_edge_is_accepted() {
+        // A fin (both sides) standing on the tetrahedron's edge 1-2.
+        let fin = format!("{TETRA}v 0.5 -0.5 -0.5\no fin\nf 1 2 5\nf 1 5 2\n");
+        let m = obj(&fin).unwrap();
+        assert_eq!(m.parts, vec!["body", "fin"]);
+        // The body is then open at that edge, so its orientation is not checked: a flipped
+        // body facet elsewhere is still found.
+        let e = obj(&fin.replace("f 2 3 4", "f 2 4 3")).unwrap_err().to_string();
+        assert!(e.contains("inconsistent winding"), "{e}");
+    }
+
+    #[test]
+    fn an_open_sheet_and_a_two_sided_plate_are_accepted() {
+        let sheet = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\ng plate\nf 1 2 3 4\n";
+        let m = obj(sheet).unwrap();
+        assert_eq!(m.facets.len(), 2);
+        assert_eq!(m.origins, vec![Origin::Line(6), Origin::Line(6)]);
+        let two = format!("{sheet}f 4 3 2 1\n");
+        assert_eq!(obj(&two).unwrap().facets.len(), 4);
+    }
+}

@@ -1,0 +1,608 @@
+//! The scene file: a target mesh, a material per part, and a sensor sweep (TOML).
+//!
+//! ```toml
+//! mesh = "target.obj"            # relative to this file; OBJ (objects/groups = parts) or STL; metres
+//! [[material]]
+//! part = "hull"                  # OBJ object or group name; "*" = every part no other entry names
+//! model = "six"                  # model and params as in `brdf eval` ...
+//! params = "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2"
+//! # ... or fit = "hull.json" (a `brdf fit --json` result; index = k for the k-th of a batch)
+//! # ... or blob = "params.bin" with index = 0 (a parameter blob's material; its tables are not used)
+//! [sensor]
+//! mode = "monostatic"            # or "bistatic" with separation_deg
+//! azimuth_deg = [0, 360, 5]      # start, stop (exclusive), step
+//! elevation_deg = [0, 31, 15]
+//! ```
+//!
+//! The receiver direction in the mesh frame is `(cos el cos az, cos el sin az, sin el)`
+//! (pointing from the target towards the receiver); in bistatic mode the source direction is
+//! the receiver's rotated by `separation_deg` about `z` (azimuth `az + separation`, same
+//! elevation). Aspects run elevation by elevation, azimuth fastest.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
+use serde::Deserialize;
+use thiserror::Error;
+use toml::Spanned;
+
+use crate::mesh::{Mesh, MeshError, Origin};
+use crate::occlusion::Occluder;
+
+/// Most aspects a sweep may have (a typo such as a step of 0.0001 would otherwise run for
+/// days): 10^6.
+pub const MAX_ASPECTS: usize = 1_000_000;
+
+/// Why a scene was refused.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum SceneError {
+    /// The scene file (or a file it names) could not be read.
+    #[error("{file}: cannot read: {source}")]
+    Io {
+        /// File.
+        file: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// Not valid TOML, or a key of the wrong type, missing or unknown (the message names
+    /// line and column).
+    #[error("{file}: {message}")]
+    Toml {
+        /// Scene file.
+        file: String,
+        /// The parser's message.
+        message: String,
+    },
+    /// A value that is well-formed but unusable.
+    #[error("{file}: line {line}: {field}: {message}")]
+    Field {
+        /// Scene file.
+        file: String,
+        /// 1-based line of the value.
+        line: u64,
+        /// Key.
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// The mesh was refused.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    /// A part of the mesh that no material entry covers.
+    #[error(
+        "{mesh}: part `{part}` (first facet at {at}) has no material: add a [[material]] with \
+         part = \"{part}\" or part = \"*\" to {scene}"
+    )]
+    Uncovered {
+        /// Mesh file.
+        mesh: String,
+        /// Scene file.
+        scene: String,
+        /// The part.
+        part: String,
+        /// Its first facet.
+        at: Origin,
+    },
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    mesh: Spanned<String>,
+    #[serde(rename = "material", default)]
+    materials: Vec<Spanned<MaterialEntry>>,
+    sensor: Spanned<SensorEntry>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialEntry {
+    part: Spanned<String>,
+    model: Option<Spanned<String>>,
+    params: Option<Spanned<String>>,
+    fit: Option<Spanned<String>>,
+    blob: Option<Spanned<String>>,
+    index: Option<Spanned<i64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SensorEntry {
+    mode: Spanned<String>,
+    separation_deg: Option<Spanned<f64>>,
+    azimuth_deg: Spanned<Vec<f64>>,
+    elevation_deg: Spanned<Vec<f64>>,
+}
+
+/// Where a material's parameters came from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Source {
+    /// `model` and `params` in the scene file.
+    Params,
+    /// A `brdf fit --json` result (file, index in a batch).
+    Fit(PathBuf, usize),
+    /// A parameter blob's material (file, index).
+    Blob(PathBuf, usize),
+}
+
+/// One `[[material]]` entry, resolved.
+#[derive(Clone, Debug)]
+pub struct SceneMaterial {
+    /// The part it covers (`*` for the rest).
+    pub part: String,
+    /// The model, f64.
+    pub model: AnyModel<f64>,
+    /// Where the parameters came from.
+    pub source: Source,
+    /// Line of the entry's `part` in the scene file (0 for scenes built in memory).
+    pub line: u64,
+}
+
+impl SceneMaterial {
+    /// A material for `part` from a model and its parameters.
+    pub fn new(part: &str, model: AnyModel<f64>) -> SceneMaterial {
+        SceneMaterial {
+            part: part.to_owned(),
+            model,
+            source: Source::Params,
+            line: 0,
+        }
+    }
+}
+
+/// Monostatic or bistatic.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Mode {
+    /// Source and receiver in the same direction.
+    Monostatic,
+    /// The source direction is the receiver's rotated about `z` by this many degrees.
+    Bistatic {
+        /// Degrees.
+        separation_deg: f64,
+    },
+}
+
+/// One sensor position.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aspect {
+    /// Receiver azimuth, degrees.
+    pub azimuth_deg: f64,
+    /// Receiver elevation, degrees.
+    pub elevation_deg: f64,
+}
+
+/// Unit vector at azimuth `az` and elevation `el` (degrees) in the mesh frame.
+pub fn direction(az_deg: f64, el_deg: f64) -> [f64; 3] {
+    let (sa, ca) = az_deg.to_radians().sin_cos();
+    let (se, ce) = el_deg.to_radians().sin_cos();
+    [ce * ca, ce * sa, se]
+}
+
+impl Aspect {
+    /// Unit vector towards the receiver, mesh frame.
+    pub fn receiver(&self) -> [f64; 3] {
+        direction(self.azimuth_deg, self.elevation_deg)
+    }
+
+    /// Unit vector towards the source, mesh frame.
+    pub fn source(&self, mode: Mode) -> [f64; 3] {
+        match mode {
+            Mode::Monostatic => self.receiver(),
+            Mode::Bistatic { separation_deg } => {
+                direction(self.azimuth_deg + separation_deg, self.elevation_deg)
+            }
+        }
+    }
+}
+
+/// The sensor and its sweep.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sensor {
+    /// Monostatic or bistatic.
+    pub mode: Mode,
+    /// Azimuths, degrees.
+    pub azimuth_deg: Vec<f64>,
+    /// Elevations, degrees.
+    pub elevation_deg: Vec<f64>,
+}
+
+impl Sensor {
+    /// Every aspect, elevation by elevation, azimuth fastest.
+    pub fn aspects(&self) -> Vec<Aspect> {
+        self.elevation_deg
+            .iter()
+            .flat_map(|&el| {
+                self.azimuth_deg.iter().map(move |&az| Aspect {
+                    azimuth_deg: az,
+                    elevation_deg: el,
+                })
+            })
+            .collect()
+    }
+}
+
+/// A target, its materials and a sensor, ready to trace.
+pub struct Scene {
+    /// Scene file (or a label).
+    pub file: PathBuf,
+    /// The target.
+    pub mesh: Mesh,
+    /// Materials, in scene-file order (the order of a blob `brdf select --scene` writes).
+    pub materials: Vec<SceneMaterial>,
+    /// Material of each facet (index into `materials`).
+    pub facet_material: Vec<u32>,
+    /// Sensor.
+    pub sensor: Sensor,
+    /// The BVH for occlusion rays.
+    pub occluder: Occluder,
+}
+
+impl std::fmt::Debug for Scene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Scene")
+            .field("file", &self.file)
+            .field("mesh", &self.mesh)
+            .field("materials", &self.materials)
+            .field("mode", &self.sensor.mode)
+            .field("aspects", &self.aspects().len())
+            .finish()
+    }
+}
+
+/// 1-based line of byte offset `at` in `text`.
+fn line_of(text: &str, at: usize) -> u64 {
+    text.as_bytes()[..at.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count() as u64
+        + 1
+}
+
+impl Scene {
+    /// Builds a scene from a mesh, materials and a sensor (the part of each material must
+    /// name a part of the mesh, or be `*`).
+    pub fn new(
+        file: PathBuf,
+        mesh: Mesh,
+        materials: Vec<SceneMaterial>,
+        sensor: Sensor,
+    ) -> Result<Scene, SceneError> {
+        let scene = file.display().to_string();
+        let mut facet_material = vec![u32::MAX; mesh.facets.len()];
+        let mut part_material = vec![None; mesh.parts.len()];
+        let mut star = None;
+        for (m, mat) in materials.iter().enumerate() {
+            let dup = |what: String| SceneError::Field {
+                file: scene.clone(),
+                line: mat.line,
+                field: "part",
+                message: what,
+            };
+            if mat.part == "*" {
+                if star.replace(m).is_some() {
+                    return Err(dup("a second entry with part = \"*\"".into()));
+                }
+                continue;
+            }
+            let Some(p) = mesh.parts.iter().position(|p| *p == mat.part) else {
+                return Err(dup(format!(
+                    "no part `{}` in {} (its parts: {})",
+                    mat.part,
+                    mesh.file.display(),
+                    mesh.parts.join(", ")
+                )));
+            };
+            if part_material[p].replace(m).is_some() {
+                return Err(dup(format!("part `{}` has a material already", mat.part)));
+            }
+        }
+        for (k, f) in mesh.facets.iter().enumerate() {
+            let p = f.part as usize;
+            match part_material[p].or(star) {
+                Some(m) => facet_material[k] = m as u32,
+                None => {
+                    return Err(SceneError::Uncovered {
+                        mesh: mesh.file.display().to_string(),
+                        scene,
+                        part: mesh.parts[p].clone(),
+                        at: mesh.origins[k],
+                    })
+                }
+            }
+        }
+        let occluder = Occluder::new(&mesh);
+        Ok(Scene {
+            file,
+            mesh,
+            materials,
+            facet_material,
+            sensor,
+            occluder,
+        })
+    }
+
+    /// Reads a scene file, its mesh and any fit or blob files it names (paths relative to
+    /// the scene file).
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        let parsed: SceneFile = toml::from_str(&text).map_err(|e| SceneError::Toml {
+            file: file.clone(),
+            message: e.to_string().trim_end().to_owned(),
+        })?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let field = |span: Range<usize>, field: &'static str, message: String| SceneError::Field {
+            file: file.clone(),
+            line: line_of(&text, span.start),
+            field,
+            message,
+        };
+        let mut materials = Vec::new();
+        for entry in &parsed.materials {
+            let e = entry.get_ref();
+            let line = line_of(&text, e.part.span().start);
+            let (model, source) = resolve_material(e, dir, &field)?;
+            materials.push(SceneMaterial {
+                part: e.part.get_ref().clone(),
+                model,
+                source,
+                line,
+            });
+        }
+        if materials.is_empty() {
+            return Err(SceneError::Field {
+                file,
+                line: 1,
+                field: "material",
+                message: "no [[material]] entries".into(),
+            });
+        }
+        let s = parsed.sensor.get_ref();
+        let mode =
+            match (s.mode.get_ref().as_str(), &s.separation_deg) {
+                ("monostatic", None) => Mode::Monostatic,
+                ("monostatic", Some(sep)) => return Err(field(
+                    sep.span(),
+                    "separation_deg",
+                    "given for a monostatic sensor (source and receiver coincide); use mode = \"bistatic\""
+                        .into(),
+                )),
+                ("bistatic", Some(sep)) => {
+                    let v = *sep.get_ref();
+                    if !v.is_finite() {
+                        return Err(field(sep.span(), "separation_deg", format!("{v} is not finite")));
+                    }
+                    Mode::Bistatic { separation_deg: v }
+                }
+                ("bistatic", None) => {
+                    return Err(field(
+                        parsed.sensor.span(),
+                        "separation_deg",
+                        "missing: a bistatic sensor needs the angle between source and receiver".into(),
+                    ))
+                }
+                (other, _) => {
+                    return Err(field(
+                        s.mode.span(),
+                        "mode",
+                        format!("`{other}`: expected \"monostatic\" or \"bistatic\""),
+                    ))
+                }
+            };
+        let azimuth_deg = sweep(&s.azimuth_deg, -f64::INFINITY, f64::INFINITY)
+            .map_err(|m| field(s.azimuth_deg.span(), "azimuth_deg", m))?;
+        let elevation_deg = sweep(&s.elevation_deg, -90.0, 90.0)
+            .map_err(|m| field(s.elevation_deg.span(), "elevation_deg", m))?;
+        if azimuth_deg.len() * elevation_deg.len() > MAX_ASPECTS {
+            return Err(field(
+                parsed.sensor.span(),
+                "sensor",
+                format!(
+                    "{} x {} aspects: more than {MAX_ASPECTS}",
+                    azimuth_deg.len(),
+                    elevation_deg.len()
+                ),
+            ));
+        }
+        let mesh_path = dir.join(parsed.mesh.get_ref());
+        let mesh = Mesh::load(&mesh_path)?;
+        Scene::new(
+            path.to_path_buf(),
+            mesh,
+            materials,
+            Sensor {
+                mode,
+                azimuth_deg,
+                elevation_deg,
+            },
+        )
+    }
+
+    /// Every aspect of the sweep.
+    pub fn aspects(&self) -> Vec<Aspect> {
+        self.sensor.aspects()
+    }
+
+    /// A short name for material `m`: its part (`*` reads "other parts").
+    pub fn material_label(&self, m: usize) -> String {
+        match self.materials[m].part.as_str() {
+            "*" => "* (other parts)".into(),
+            p => p.to_owned(),
+        }
+    }
+}
+
+/// `[start, stop, step]`: start, start + step, ... below stop; every value in `[lo, hi]`.
+fn sweep(v: &Spanned<Vec<f64>>, lo: f64, hi: f64) -> Result<Vec<f64>, String> {
+    let v = v.get_ref();
+    let [start, stop, step] = v[..] else {
+        return Err(format!(
+            "expected [start, stop, step] in degrees, got {} numbers",
+            v.len()
+        ));
+    };
+    if !(start.is_finite() && stop.is_finite() && step.is_finite()) {
+        return Err("start, stop and step must be finite".into());
+    }
+    if step <= 0.0 {
+        return Err(format!("step {step} must be positive"));
+    }
+    if stop <= start {
+        return Err(format!(
+            "stop {stop} must exceed start {start} (stop is exclusive)"
+        ));
+    }
+    let n = ((stop - start) / step).ceil();
+    if n > MAX_ASPECTS as f64 {
+        return Err(format!("{n} values: more than {MAX_ASPECTS}"));
+    }
+    // Values within 1e-9 steps of stop are taken as stop itself (excluded).
+    let out: Vec<f64> = (0..n as usize)
+        .map(|k| start + k as f64 * step)
+        .filter(|x| *x < stop - 1e-9 * step)
+        .collect();
+    if let Some(bad) = out.iter().find(|x| **x < lo || **x > hi) {
+        return Err(format!("{bad} is outside [{lo}, {hi}]"));
+    }
+    Ok(out)
+}
+
+/// The model of one `[[material]]` entry: exactly one of `model`+`params`, `fit`, `blob`.
+fn resolve_material(
+    e: &MaterialEntry,
+    dir: &Path,
+    field: &dyn Fn(Range<usize>, &'static str, String) -> SceneError,
+) -> Result<(AnyModel<f64>, Source), SceneError> {
+    let given = [
+        e.model.is_some() || e.params.is_some(),
+        e.fit.is_some(),
+        e.blob.is_some(),
+    ];
+    if given.iter().filter(|g| **g).count() != 1 {
+        return Err(field(
+            e.part.span(),
+            "material",
+            format!(
+                "part `{}`: give exactly one of model + params, fit, or blob",
+                e.part.get_ref()
+            ),
+        ));
+    }
+    let index = match &e.index {
+        None => None,
+        Some(i) if *i.get_ref() >= 0 => Some(*i.get_ref() as usize),
+        Some(i) => return Err(field(i.span(), "index", format!("{} is negative", i.get_ref()))),
+    };
+    let build = |kind: ModelKind, p: &[f64; MAX_PARAMS], span: Range<usize>, key: &'static str| {
+        AnyModel::new(kind, &p[..kind.param_count()]).map_err(|err| {
+            field(
+                span,
+                key,
+                format!("invalid parameters for model {}: {err}", kind.name()),
+            )
+        })
+    };
+    if e.model.is_some() || e.params.is_some() {
+        if let Some(i) = &e.index {
+            return Err(field(i.span(), "index", "only for fit or blob".into()));
+        }
+        let (Some(model), Some(params)) = (&e.model, &e.params) else {
+            return Err(field(
+                e.part.span(),
+                "material",
+                format!("part `{}`: model and params go together", e.part.get_ref()),
+            ));
+        };
+        let kind = ModelKind::from_name(model.get_ref()).ok_or_else(|| {
+            let names: Vec<&str> = ModelKind::ALL.iter().map(|k| k.name()).collect();
+            field(
+                model.span(),
+                "model",
+                format!(
+                    "unknown model `{}` (expected one of: {})",
+                    model.get_ref(),
+                    names.join(", ")
+                ),
+            )
+        })?;
+        let p = brdf_fit::params::parse_params(kind, params.get_ref())
+            .map_err(|err| field(params.span(), "params", err.to_string()))?;
+        return Ok((build(kind, &p, params.span(), "params")?, Source::Params));
+    }
+    if let Some(fit) = &e.fit {
+        let path = dir.join(fit.get_ref());
+        let shown = path.display().to_string();
+        let text = std::fs::read_to_string(&path)
+            .map_err(|err| field(fit.span(), "fit", format!("{shown}: {err}")))?;
+        let (kind, p, k) =
+            fit_params(&text, index).map_err(|m| field(fit.span(), "fit", format!("{shown}: {m}")))?;
+        return Ok((build(kind, &p, fit.span(), "fit")?, Source::Fit(path, k)));
+    }
+    let blob = e.blob.as_ref().expect("exactly one source is given");
+    let path = dir.join(blob.get_ref());
+    let shown = path.display().to_string();
+    let bytes = std::fs::read(&path).map_err(|err| field(blob.span(), "blob", format!("{shown}: {err}")))?;
+    let decoded = brdf_wire::blob::Blob::decode(&bytes)
+        .map_err(|err| field(blob.span(), "blob", format!("{shown}: {err}")))?;
+    let n = decoded.materials.len();
+    let k = match index {
+        Some(k) => k,
+        None if n == 1 => 0,
+        None => {
+            return Err(field(
+                blob.span(),
+                "index",
+                format!("{shown} holds {n} materials: say which with index = 0..{}", n - 1),
+            ))
+        }
+    };
+    let Some(m) = decoded.materials.get(k) else {
+        return Err(field(
+            blob.span(),
+            "index",
+            format!("{shown} holds {n} materials; there is no index {k}"),
+        ));
+    };
+    let mut p = [0.0; MAX_PARAMS];
+    for (dst, src) in p.iter_mut().zip(m.params) {
+        *dst = f64::from(src);
+    }
+    Ok((build(m.kind, &p, blob.span(), "blob")?, Source::Blob(path, k)))
+}
+
+/// Model and parameters of a `brdf fit --json` result (one object, or the `index`-th of an
+/// array).
+fn fit_params(text: &str, index: Option<usize>) -> Result<(ModelKind, [f64; MAX_PARAMS], usize), String> {
+    let v: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("not JSON: {e}"))?;
+    let (fit, k) = match (&v, index) {
+        (serde_json::Value::Array(a), Some(k)) => (
+            a.get(k)
+                .ok_or_else(|| format!("holds {} fits; there is no index {k}", a.len()))?,
+            k,
+        ),
+        (serde_json::Value::Array(a), None) if a.len() == 1 => (&a[0], 0),
+        (serde_json::Value::Array(a), None) => {
+            return Err(format!(
+                "holds {} fits: say which with index = 0..{}",
+                a.len(),
+                a.len().saturating_sub(1)
+            ))
+        }
+        (other, None | Some(0)) => (other, 0),
+        (_, Some(k)) => return Err(format!("holds one fit; there is no index {k}")),
+    };
+    let name = fit["model"].as_str().ok_or("no `model`")?;
+    let kind = ModelKind::from_name(name).ok_or_else(|| format!("unknown model `{name}`"))?;
+    let mut p = [0.0; MAX_PARAMS];
+    for (j, n) in kind.param_names().iter().enumerate() {
+        p[j] = fit["params"][*n]
+            .as_f64()
+            .ok_or_else(|| format!("parameter `{n}` missing or not a number"))?;
+    }
+    Ok((kind, p, k))
+}

@@ -1,0 +1,440 @@
+//! σ against closed forms and against an independent brute-force reference.
+//!
+//! - Lambertian sphere, monostatic: σ = (8/3) π ρ r², within a discretisation bound computed
+//!   from the mesh (see `sphere_bound`), and converging at second order.
+//! - Lambertian flat plate, monostatic: σ = 4 π (ρ/π) cos²θ A = 4 ρ A cos²θ.
+//! - A box: the sum over its faces seen by source and receiver, each evaluated through the
+//!   core's unit-vector path in the face's own frame.
+//! - A non-convex target (hull, caps, fin): σ with the BVH against σ with every ray tested
+//!   against every facet by a separate intersection routine; and occlusion changes σ.
+//! - Bistatic reciprocity: swapping source and receiver leaves σ unchanged for reciprocal
+//!   models (and changes it for the five-parameter model, which is not reciprocal).
+
+use std::f64::consts::PI;
+
+use brdf_core::tolerance::F64_REFORMULATION_REL;
+use brdf_core::{AnyModel, Brdf, ModelKind};
+use brdf_scene::lrcs::lrcs;
+use brdf_scene::mesh::Mesh;
+use brdf_scene::occlusion::{EDGE_SLACK, T_MIN};
+use brdf_scene::scene::{direction, Mode, Scene, SceneMaterial, Sensor};
+use brdf_scene::shapes::{target, MeshBuilder, TargetSpec};
+
+const KHAKI: [f64; 6] = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+
+fn lambert(rho: f64) -> AnyModel<f64> {
+    AnyModel::new(ModelKind::Lambert, &[rho]).unwrap()
+}
+
+fn six(p: [f64; 6]) -> AnyModel<f64> {
+    AnyModel::new(ModelKind::Six, &p).unwrap()
+}
+
+fn sensor(mode: Mode, az: &[f64], el: &[f64]) -> Sensor {
+    Sensor {
+        mode,
+        azimuth_deg: az.to_vec(),
+        elevation_deg: el.to_vec(),
+    }
+}
+
+fn scene(mesh: Mesh, model: AnyModel<f64>, sensor: Sensor) -> Scene {
+    Scene::new("test".into(), mesh, vec![SceneMaterial::new("*", model)], sensor).unwrap()
+}
+
+fn sigmas(s: &Scene) -> Vec<f64> {
+    lrcs(s, &|| {}).aspects.iter().map(|a| a.lrcs).collect()
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs().max(f64::MIN_POSITIVE)
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+fn unit(a: [f64; 3]) -> [f64; 3] {
+    let n = norm(a);
+    [a[0] / n, a[1] / n, a[2] / n]
+}
+fn angle(a: [f64; 3], b: [f64; 3]) -> f64 {
+    norm(cross(a, b)).atan2(dot(a, b))
+}
+
+/// Bound on `|sum_k A_k g(n_k.v) - integral over the sphere of g(n.v)|` for `g(mu) =
+/// max(0, mu)^2`, for a mesh whose vertices all lie on the sphere of radius `r` about the
+/// origin. Each facet `k` projects radially onto a spherical triangle `P_k` (area `S_k`,
+/// vector area `V_k = integral of n over P_k`); these tile the sphere. On `P_k` the normal
+/// is within `delta_k` (the largest angle between `n_k` and the facet's vertex directions)
+/// of `n_k`, and `g'` is 2-Lipschitz, so `g(n.v) = g(mu_k) + g'(mu_k) (n - n_k).v + R` with
+/// `|R| <= delta_k^2`. Summing:
+///
+/// ```text
+/// error = sum (A_k - S_k) g(mu_k) - sum g'(mu_k) v.(V_k - S_k n_k) - sum integral R
+/// |error| <= |T1 - T2| + sum S_k delta_k^2
+/// ```
+///
+/// over the facets whose patch reaches `mu > 0` (`mu_k + delta_k > 0`). Both sums are
+/// computed exactly: `S_k` by Van Oosterom–Strackee, `V_k = (r^2 / 2) sum_edges theta_e m_e`
+/// (Stokes: `integral n dS = 1/2 loop r x dr`, and along a great-circle arc `r x dr` is the
+/// arc's unit axis `m_e` times `d theta`). First-order in the facet size term by term, the
+/// bound is second order overall because `T1` and `T2` are.
+fn sphere_bound(mesh: &Mesh, r: f64, v: [f64; 3]) -> f64 {
+    let (mut t1, mut t2, mut rem) = (0.0, 0.0, 0.0);
+    for f in &mesh.facets {
+        let p = f.vertices.map(|i| unit(mesh.vertices[i as usize]));
+        let mu = dot(f.normal, v);
+        let delta = p.iter().map(|q| angle(f.normal, *q)).fold(0.0, f64::max);
+        if mu + delta <= 0.0 {
+            continue;
+        }
+        let triple = dot(p[0], cross(p[1], p[2])).abs();
+        let excess = 2.0 * triple.atan2(1.0 + dot(p[0], p[1]) + dot(p[1], p[2]) + dot(p[2], p[0]));
+        let s = r * r * excess;
+        let mut vec_area = [0.0; 3];
+        for (a, b) in [(p[0], p[1]), (p[1], p[2]), (p[2], p[0])] {
+            let m = unit(cross(a, b));
+            let th = angle(a, b);
+            for c in 0..3 {
+                vec_area[c] += 0.5 * r * r * th * m[c];
+            }
+        }
+        let g = mu.max(0.0).powi(2);
+        let dg = 2.0 * mu.max(0.0);
+        t1 += (f.area - s) * g;
+        t2 += dg
+            * dot(
+                v,
+                sub(vec_area, [s * f.normal[0], s * f.normal[1], s * f.normal[2]]),
+            );
+        rem += s * delta * delta;
+    }
+    (t1 - t2).abs() + rem
+}
+
+#[test]
+fn lambertian_sphere_is_8_3_pi_rho_r2_within_the_mesh_bound() {
+    let (r, rho) = (1.3, 0.4);
+    let exact = 8.0 / 3.0 * PI * rho * r * r;
+    let az: Vec<f64> = (0..10).map(|k| 7.0 + 37.0 * k as f64).collect();
+    let el = [-61.0, -23.0, 0.0, 17.0, 44.0, 89.0];
+    let mut worst_prev: Option<f64> = None;
+    for level in 2..=5 {
+        let mut b = MeshBuilder::new();
+        b.icosphere(r, level, "ball");
+        let mesh = b.build("icosphere").unwrap();
+        let n = mesh.facets.len();
+        let s = scene(mesh.clone(), lambert(rho), sensor(Mode::Monostatic, &az, &el));
+        let got = sigmas(&s);
+        let (mut worst, mut worst_bound) = (0.0f64, 0.0f64);
+        for (k, a) in s.aspects().iter().enumerate() {
+            let bound = 4.0 * rho * sphere_bound(&mesh, r, a.receiver());
+            let err = (got[k] - exact).abs();
+            assert!(
+                err <= bound * (1.0 + 1e-9),
+                "level {level}, aspect {a:?}: error {err:e} exceeds the bound {bound:e}"
+            );
+            worst = worst.max(err / exact);
+            worst_bound = worst_bound.max(bound / exact);
+        }
+        println!(
+            "icosphere level {level} ({n} facets): worst relative error {worst:.3e}, bound {worst_bound:.3e}"
+        );
+        // Second order: each level halves the facet size.
+        if let Some(p) = worst_prev {
+            assert!(
+                worst <= p / 3.0,
+                "level {level}: {worst:e} after {p:e} is not second order"
+            );
+        }
+        worst_prev = Some(worst);
+    }
+}
+
+#[test]
+fn lambertian_plate_is_4_rho_a_cos2() {
+    let rho = 0.3;
+    let mut b = MeshBuilder::new();
+    // 2 m x 3 m in the plane x = 0.5, facing +x.
+    b.plate(
+        [0.5, -1.0, -1.5],
+        [0.0, 2.0, 0.0],
+        [0.0, 0.0, 3.0],
+        (3, 2),
+        "plate",
+    );
+    let area = 6.0;
+    let az: Vec<f64> = (-8..=8)
+        .map(|k| 10.0 * k as f64 + 1.5)
+        .chain([180.0, 95.0])
+        .collect();
+    let el = [0.0, 20.0, 40.0, -55.0];
+    let s = scene(
+        b.build("plate").unwrap(),
+        lambert(rho),
+        sensor(Mode::Monostatic, &az, &el),
+    );
+    let got = sigmas(&s);
+    for (k, a) in s.aspects().iter().enumerate() {
+        let c = a.elevation_deg.to_radians().cos() * a.azimuth_deg.to_radians().cos();
+        let want = 4.0 * rho * area * c.max(0.0).powi(2);
+        if want == 0.0 {
+            assert_eq!(got[k], 0.0, "{a:?}: the plate's back side reflects nothing");
+        } else {
+            assert!(
+                rel(got[k], want) <= F64_REFORMULATION_REL,
+                "{a:?}: {} against {want}",
+                got[k]
+            );
+        }
+    }
+}
+
+/// A face of a box: outward normal, tangents u and w (u x w = normal), area.
+type Face = ([f64; 3], [f64; 3], [f64; 3], f64);
+
+/// The six faces of the box `[lo, hi]`.
+fn box_faces(lo: [f64; 3], hi: [f64; 3]) -> Vec<Face> {
+    let d = sub(hi, lo);
+    let e = |k: usize, s: f64| {
+        let mut v = [0.0; 3];
+        v[k] = s;
+        v
+    };
+    let mut out = Vec::new();
+    for k in 0..3 {
+        let (u, w) = ((k + 1) % 3, (k + 2) % 3);
+        for s in [1.0, -1.0] {
+            out.push((e(k, s), e(u, 1.0), e(w, s), d[u] * d[w]));
+        }
+    }
+    out
+}
+
+#[test]
+fn a_box_is_the_sum_over_the_faces_both_directions_see() {
+    let (lo, hi) = ([-0.7, -0.4, -1.1], [1.3, 0.6, 0.2]);
+    let model = six(KHAKI);
+    let az: Vec<f64> = (0..24).map(|k| 15.0 * k as f64 + 3.0).collect();
+    let el = [-40.0, 0.0, 25.0, 60.0];
+    for mode in [
+        Mode::Monostatic,
+        Mode::Bistatic { separation_deg: 30.0 },
+        Mode::Bistatic {
+            separation_deg: -75.0,
+        },
+    ] {
+        let mut b = MeshBuilder::new();
+        b.cuboid(lo, hi, [4, 3, 2], "box");
+        let s = scene(b.build("box").unwrap(), model, sensor(mode, &az, &el));
+        let got = sigmas(&s);
+        for (k, a) in s.aspects().iter().enumerate() {
+            let (src, rcv) = (a.source(mode), a.receiver());
+            let mut want = 0.0;
+            for (n, u, w, area) in box_faces(lo, hi) {
+                let wi = [dot(src, u), dot(src, w), dot(src, n)];
+                let wr = [dot(rcv, u), dot(rcv, w), dot(rcv, n)];
+                if wi[2] > 0.0 && wr[2] > 0.0 {
+                    want += 4.0 * PI * model.eval_vectors(wi, wr) * wi[2] * wr[2] * area;
+                }
+            }
+            assert!(
+                rel(got[k], want) <= F64_REFORMULATION_REL,
+                "{mode:?} {a:?}: {} against {want}",
+                got[k]
+            );
+        }
+    }
+}
+
+#[test]
+fn a_plate_hidden_behind_another_counts_only_where_it_shows() {
+    // Two 1 m x 1 m plates facing +x, one 1 m behind the other.
+    let rho = 0.5;
+    let mut b = MeshBuilder::new();
+    b.plate(
+        [1.0, -0.5, -0.5],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        (1, 1),
+        "front",
+    );
+    b.plate(
+        [0.0, -0.5, -0.5],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        (20, 20),
+        "back",
+    );
+    // Head-on the back plate is hidden; from 50 deg its shadow (shifted by tan 50 > 1 m) misses it.
+    let s = scene(
+        b.build("plates").unwrap(),
+        lambert(rho),
+        sensor(Mode::Monostatic, &[0.0, 50.0], &[0.0]),
+    );
+    let got = sigmas(&s);
+    assert!(rel(got[0], 4.0 * rho) <= F64_REFORMULATION_REL, "{}", got[0]);
+    let c = 50f64.to_radians().cos();
+    assert!(
+        rel(got[1], 4.0 * rho * 2.0 * c * c) <= F64_REFORMULATION_REL,
+        "{}",
+        got[1]
+    );
+}
+
+/// A ray-triangle test written apart from the library's: the ray meets the triangle's plane
+/// at `t`, and the hit point is inside when the three edge functions agree in sign.
+fn brute_hit(p: [[f64; 3]; 3], o: [f64; 3], d: [f64; 3], t_min: f64) -> bool {
+    let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+    let dn = dot(d, n);
+    if dn.abs() <= 1e-14 * norm(n) {
+        return false;
+    }
+    let t = dot(sub(p[0], o), n) / dn;
+    if t <= t_min {
+        return false;
+    }
+    let x = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
+    let area2 = dot(n, n);
+    let slack = EDGE_SLACK * area2;
+    (0..3).all(|e| dot(cross(sub(p[(e + 1) % 3], p[e]), sub(x, p[e])), n) >= -slack)
+}
+
+/// σ by testing every ray against every facet; also returns the facets seen per aspect.
+fn brute_force(s: &Scene, model: &AnyModel<f64>, occlude: bool) -> Vec<(f64, usize)> {
+    let m = &s.mesh;
+    let t_min = T_MIN * m.diagonal();
+    let tris: Vec<[[f64; 3]; 3]> = m
+        .facets
+        .iter()
+        .map(|f| f.vertices.map(|i| m.vertices[i as usize]))
+        .collect();
+    let clear = |k: usize, d: [f64; 3]| {
+        !occlude || !(0..tris.len()).any(|j| j != k && brute_hit(tris[j], m.facets[k].centroid, d, t_min))
+    };
+    s.aspects()
+        .iter()
+        .map(|a| {
+            let (src, rcv) = (a.source(s.sensor.mode), a.receiver());
+            let (mut sigma, mut seen) = (0.0, 0);
+            for (k, f) in m.facets.iter().enumerate() {
+                let n = f.normal;
+                // A local frame on the facet for the core's unit-vector path.
+                let t = unit(if n[0].abs() < 0.9 {
+                    cross(n, [1.0, 0.0, 0.0])
+                } else {
+                    cross(n, [0.0, 1.0, 0.0])
+                });
+                let b = cross(n, t);
+                let wi = [dot(src, t), dot(src, b), dot(src, n)];
+                let wr = [dot(rcv, t), dot(rcv, b), dot(rcv, n)];
+                if wi[2] > 0.0 && wr[2] > 0.0 && clear(k, rcv) && clear(k, src) {
+                    sigma += 4.0 * PI * model.eval_vectors(wi, wr) * wi[2] * wr[2] * f.area;
+                    seen += 1;
+                }
+            }
+            (sigma, seen)
+        })
+        .collect()
+}
+
+#[test]
+fn a_non_convex_target_matches_the_brute_force_reference_and_occlusion_matters() {
+    let spec = TargetSpec {
+        segments: 16,
+        rings: 4,
+        fin_cells_per_m: 4.0,
+        ..TargetSpec::BUNDLED
+    };
+    let mesh = target(spec).build("target").unwrap();
+    let model = six(KHAKI);
+    let az: Vec<f64> = (0..24).map(|k| 15.0 * k as f64 + 2.0).collect();
+    for mode in [Mode::Monostatic, Mode::Bistatic { separation_deg: 35.0 }] {
+        let s = scene(mesh.clone(), model, sensor(mode, &az, &[-20.0, 10.0, 40.0]));
+        let got = lrcs(&s, &|| {});
+        let reference = brute_force(&s, &model, true);
+        let unoccluded = brute_force(&s, &model, false);
+        let mut largest_effect = 0.0f64;
+        for ((g, (want, seen)), (free, _)) in got.aspects.iter().zip(&reference).zip(&unoccluded) {
+            assert_eq!(
+                g.facets_seen, *seen,
+                "{mode:?} at ({}, {})",
+                g.azimuth, g.elevation
+            );
+            assert!(
+                rel(g.lrcs, *want) <= F64_REFORMULATION_REL,
+                "{mode:?}: {} against {want}",
+                g.lrcs
+            );
+            largest_effect = largest_effect.max(rel(*free, *want));
+        }
+        println!(
+            "{mode:?}: occlusion changes sigma by up to {:.1}%",
+            100.0 * largest_effect
+        );
+        assert!(
+            largest_effect > 0.05,
+            "{mode:?}: occlusion should matter on this target"
+        );
+    }
+}
+
+#[test]
+fn swapping_source_and_receiver_leaves_sigma_unchanged_for_reciprocal_models() {
+    let mesh = target(TargetSpec {
+        segments: 24,
+        rings: 6,
+        fin_cells_per_m: 5.0,
+        ..TargetSpec::BUNDLED
+    })
+    .build("target")
+    .unwrap();
+    let sep = 40.0;
+    let az: Vec<f64> = (0..36).map(|k| 10.0 * k as f64 + 1.0).collect();
+    let swapped_az: Vec<f64> = az.iter().map(|a| a + sep).collect();
+    let el = [0.0, 25.0];
+    let five = AnyModel::new(ModelKind::Five, &KHAKI[..5]).unwrap();
+    for (model, reciprocal) in [
+        (six(KHAKI), true),
+        (AnyModel::new(ModelKind::Minnaert, &[0.4, 0.7]).unwrap(), true),
+        (lambert(0.3), true),
+        (five, false),
+    ] {
+        let a = sigmas(&scene(
+            mesh.clone(),
+            model,
+            sensor(Mode::Bistatic { separation_deg: sep }, &az, &el),
+        ));
+        let b = sigmas(&scene(
+            mesh.clone(),
+            model,
+            sensor(Mode::Bistatic { separation_deg: -sep }, &swapped_az, &el),
+        ));
+        let worst = a.iter().zip(&b).map(|(x, y)| rel(*x, *y)).fold(0.0, f64::max);
+        println!("{:?}: worst relative change on swapping {worst:e}", model.kind());
+        if reciprocal {
+            assert!(worst <= F64_REFORMULATION_REL, "{:?}: {worst:e}", model.kind());
+        } else {
+            assert!(
+                worst > 1e-3,
+                "the five-parameter model is not reciprocal: {worst:e}"
+            );
+        }
+    }
+    // The two sweeps really swap the directions.
+    let d = direction(az[3] + sep, 25.0);
+    assert!(norm(sub(d, direction(swapped_az[3], 25.0))) < 1e-15);
+}

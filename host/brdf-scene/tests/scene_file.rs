@@ -1,0 +1,209 @@
+//! Scene files: the bundled example, material sources (params, fit JSON, blob), STL meshes,
+//! and the errors a bad scene or mesh gets (file, line, field).
+
+use std::path::{Path, PathBuf};
+
+use brdf_scene::scene::{Mode, Scene, SceneError, Source};
+use brdf_scene::shapes::{target, TargetSpec};
+
+fn bundled() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes")
+}
+
+const KHAKI: &str = "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2";
+
+/// A scratch directory holding the bundled mesh and `scene.toml` with `text`.
+fn scene_with(text: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(bundled().join("target.obj"), dir.path().join("target.obj")).unwrap();
+    let p = dir.path().join("scene.toml");
+    std::fs::write(&p, text).unwrap();
+    (dir, p)
+}
+
+fn err(text: &str) -> String {
+    let (_d, p) = scene_with(text);
+    Scene::load(&p).unwrap_err().to_string()
+}
+
+const SENSOR: &str =
+    "[sensor]\nmode = \"monostatic\"\nazimuth_deg = [0, 360, 90]\nelevation_deg = [0, 1, 1]\n";
+
+#[test]
+fn the_bundled_scene_loads_and_its_mesh_is_what_the_generator_makes() {
+    let s = Scene::load(&bundled().join("target.toml")).unwrap();
+    assert_eq!(s.mesh.parts, vec!["hull", "caps", "fin"]);
+    assert_eq!(s.mesh.facets.len(), TargetSpec::BUNDLED.facets());
+    assert_eq!(s.aspects().len(), 72 * 3);
+    assert_eq!(s.sensor.mode, Mode::Monostatic);
+    assert_eq!(s.sensor.elevation_deg, vec![0.0, 15.0, 30.0]);
+    // `cargo run -p brdf-scene --example make_target` regenerates the file exactly.
+    let text = std::fs::read_to_string(bundled().join("target.obj")).unwrap();
+    let mut made = Vec::new();
+    target(TargetSpec::BUNDLED).write_obj(&mut made, "x").unwrap();
+    let body = |t: &str| {
+        t.lines()
+            .filter(|l| !l.starts_with('#'))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    assert_eq!(body(&text), body(&String::from_utf8(made).unwrap()));
+}
+
+#[test]
+fn materials_come_from_params_a_fit_result_or_a_blob() {
+    let (dir, p) = scene_with("");
+    let fit = r#"[{"model": "lambert", "params": {"rho0": 0.3}}, {"model": "minnaert", "params": {"rho0": 0.3, "k": 0.8}}]"#;
+    std::fs::write(dir.path().join("fits.json"), fit).unwrap();
+    let mut buf = [0u8; 4096];
+    let n = brdf_wire::blob::table1_blob().encode(&mut buf).unwrap();
+    std::fs::write(dir.path().join("p.bin"), &buf[..n]).unwrap();
+    std::fs::write(
+        &p,
+        format!(
+            "mesh = \"target.obj\"\n[[material]]\npart = \"hull\"\nmodel = \"six\"\nparams = \"{KHAKI}\"\n\
+             [[material]]\npart = \"fin\"\nfit = \"fits.json\"\nindex = 1\n\
+             [[material]]\npart = \"*\"\nblob = \"p.bin\"\nindex = 2\n{SENSOR}"
+        ),
+    )
+    .unwrap();
+    let s = Scene::load(&p).unwrap();
+    assert_eq!(s.materials[0].source, Source::Params);
+    assert_eq!(s.materials[1].model.kind().name(), "minnaert");
+    assert_eq!(
+        s.materials[1].source,
+        Source::Fit(dir.path().join("fits.json"), 1)
+    );
+    assert_eq!(s.materials[2].model.to_params()[0], f64::from(49.3261f32));
+    // The caps take the `*` entry.
+    let caps = s.mesh.parts.iter().position(|p| p == "caps").unwrap() as u32;
+    let k = s.mesh.facets.iter().position(|f| f.part == caps).unwrap();
+    assert_eq!(s.facet_material[k], 2);
+    // Index errors name the file and the line.
+    std::fs::write(
+        &p,
+        format!("mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nblob = \"p.bin\"\nindex = 5\n{SENSOR}"),
+    )
+    .unwrap();
+    let e = Scene::load(&p).unwrap_err().to_string();
+    assert!(
+        e.contains("line 4") && e.contains("holds 3 materials; there is no index 5"),
+        "{e}"
+    );
+    std::fs::write(
+        &p,
+        format!("mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nfit = \"fits.json\"\n{SENSOR}"),
+    )
+    .unwrap();
+    let e = Scene::load(&p).unwrap_err().to_string();
+    assert!(e.contains("line 4") && e.contains("holds 2 fits"), "{e}");
+}
+
+#[test]
+fn bad_scenes_are_refused_with_file_line_and_field() {
+    let head =
+        format!("mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nmodel = \"six\"\nparams = \"{KHAKI}\"\n");
+    // A part no material covers: named with the mesh file and the facet's line.
+    let e = err(&format!(
+        "mesh = \"target.obj\"\n[[material]]\npart = \"hull\"\nmodel = \"lambert\"\nparams = \"rho0=0.3\"\n\
+         [[material]]\npart = \"fin\"\nmodel = \"lambert\"\nparams = \"rho0=0.3\"\n{SENSOR}"
+    ));
+    assert!(
+        e.contains("target.obj") && e.contains("part `caps`") && e.contains("line "),
+        "{e}"
+    );
+    let e = err(&format!(
+        "{head}[[material]]\npart = \"keel\"\nmodel = \"lambert\"\nparams = \"rho0=0.3\"\n{SENSOR}"
+    ));
+    assert!(e.contains("scene.toml: line 7: part: no part `keel`"), "{e}");
+    let e = err(&format!(
+        "mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nmodel = \"six\"\nparams = \"kb=1\"\n{SENSOR}"
+    ));
+    assert!(e.contains("line 5: params: missing parameter kr"), "{e}");
+    let e = err(&format!("mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nmodel = \"lambert\"\nparams = \"rho0=-1\"\n{SENSOR}"));
+    assert!(e.contains("line 5: params: invalid parameters"), "{e}");
+    let e = err(&format!(
+        "mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nmodel = \"sixx\"\nparams = \"rho0=1\"\n{SENSOR}"
+    ));
+    assert!(e.contains("line 4: model: unknown model `sixx`"), "{e}");
+    let e = err(&format!(
+        "{head}[sensor]\nmode = \"bistatic\"\nazimuth_deg = [0, 360, 5]\nelevation_deg = [0, 1, 1]\n"
+    ));
+    assert!(e.contains("separation_deg: missing"), "{e}");
+    let e = err(&format!(
+        "{head}[sensor]\nmode = \"monostatic\"\nazimuth_deg = [0, 360, 0]\nelevation_deg = [0, 1, 1]\n"
+    ));
+    assert!(e.contains("line 8: azimuth_deg: step 0 must be positive"), "{e}");
+    let e = err(&format!(
+        "{head}[sensor]\nmode = \"monostatic\"\nazimuth_deg = [0, 360, 5]\nelevation_deg = [60, 121, 30]\n"
+    ));
+    assert!(
+        e.contains("line 9: elevation_deg: 120 is outside [-90, 90]"),
+        "{e}"
+    );
+    let e = err(&format!(
+        "{head}[sensor]\nmode = \"sideways\"\nazimuth_deg = [0, 360, 5]\nelevation_deg = [0, 1, 1]\n"
+    ));
+    assert!(e.contains("line 7: mode: `sideways`"), "{e}");
+    let e = err(&format!("{head}colour = 3\n{SENSOR}"));
+    assert!(e.contains("scene.toml") && e.contains("colour"), "{e}");
+    let e = err(&format!(
+        "mesh = \"nothere.obj\"\n{}{SENSOR}",
+        &head[head.find('[').unwrap()..]
+    ));
+    assert!(e.contains("nothere.obj") && e.contains("cannot read"), "{e}");
+}
+
+fn ascii_stl(facets: &[[[f32; 3]; 3]]) -> String {
+    let mut s = String::from("solid t\n");
+    for f in facets {
+        s += "facet normal 0 0 0\nouter loop\n";
+        for v in f {
+            s += &format!("vertex {} {} {}\n", v[0], v[1], v[2]);
+        }
+        s += "endloop\nendfacet\n";
+    }
+    s + "endsolid t\n"
+}
+
+fn load_stl(
+    dir: &Path,
+    facets: &[[[f32; 3]; 3]],
+) -> Result<brdf_scene::mesh::Mesh, brdf_scene::mesh::MeshError> {
+    let p = dir.join("shape.stl");
+    std::fs::write(&p, ascii_stl(facets)).unwrap();
+    brdf_scene::mesh::Mesh::load(&p)
+}
+
+#[test]
+fn stl_meshes_are_one_part_named_after_the_file_and_checked_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    let (o, x, y, z) = (
+        [0.0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    );
+    let tetra = [[o, y, x], [o, x, z], [x, y, z], [o, z, y]];
+    let m = load_stl(dir.path(), &tetra).unwrap();
+    assert_eq!(m.parts, vec!["shape"]);
+    assert_eq!(m.facets.len(), 4);
+    assert_eq!(m.vertices.len(), 4, "shared corners are welded");
+    let mut flipped = tetra;
+    flipped[2] = [x, z, y];
+    let e = load_stl(dir.path(), &flipped).unwrap_err().to_string();
+    assert!(
+        e.contains("shape.stl") && e.contains("facet 3") && e.contains("inconsistent winding"),
+        "{e}"
+    );
+    let e = load_stl(dir.path(), &[[o, x, [2.0, 0.0, 0.0]]])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("facet 1") && e.contains("degenerate"), "{e}");
+}
+
+#[test]
+fn a_scene_error_is_a_scene_error() {
+    let e = Scene::load(Path::new("/nonexistent/scene.toml")).unwrap_err();
+    assert!(matches!(e, SceneError::Io { .. }));
+}
