@@ -9,11 +9,15 @@ fn main() {
     let ch = match ch.as_str() { "G" => Channel::G, "B" => Channel::B, _ => Channel::R };
     let imp = import(std::path::Path::new(file), fmt, ch).unwrap();
     let d = &imp.datasets[args.get(6).map_or(0, |s| s.parse().unwrap())];
-    let d = Dataset { name: d.name.clone(), points: d.points.iter().copied().filter(|p| ti < 0.0 || (p.theta_i.to_degrees() - ti).abs() < 1e-3).collect() };
+    let d = Dataset { name: d.name.clone(), points: d.points.iter().copied().filter(|p| ti < 0.0 || (p.theta_i.to_degrees() - ti).abs() < 0.01).collect() };
     let kind = ModelKind::from_name(model).unwrap();
     let problem = Problem::from_dataset(kind, Residual::Relative, &d);
     let _ = Format::Cornell;
-    for seed in 1..=20 {
+    for q in brdf_fit::grid::grid_starts(&problem, 8) {
+        let r = brdf_fit::lm::minimise(&problem, &q, &problem.bounds().0, &problem.bounds().1, Default::default());
+        println!("grid start {:?} cost {:.6e} -> polished {:.6e} {:?}", &q[..6], problem.cost(&q), r.cost, &r.q[..6]);
+    }
+    for seed in 1..=if std::env::var("ONE").is_ok() { 1 } else { 20 } {
         let r = fit(&problem, &FitOptions { seed, ..FitOptions::default() });
         println!("seed {seed:2} cost {:.9e} conv {} chains {} hops {} agree {} params {:?} {:?} costs {:?}", r.cost, r.converged, r.search.chains, r.search.hops, r.search.agreeing, &r.params[..kind.param_count()], r.search.not_converged, r.chain_costs.iter().map(|c| format!("{c:.4}")).collect::<Vec<_>>());
     }

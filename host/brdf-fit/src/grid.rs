@@ -20,17 +20,19 @@ const KR: [f64; 7] = [0.01, 0.0681, 0.464, 3.16, 21.5, 147.0, 1000.0];
 const BETA: [f64; 6] = [0.0, 2.0, 8.0, 25.0, 70.0, 200.0];
 /// `a` nodes over [0.05, 4].
 const A: [f64; 6] = [0.05, 0.25, 0.6, 1.2, 2.2, 4.0];
-/// `c` nodes over [0, 5], and below 0 with brightening.
-const C: [f64; 6] = [0.0, 0.3, 0.8, 1.5, 3.0, 5.0];
+/// `c` nodes over [0, 5], and below 0 with brightening (denser at small `c`, where diffuse
+/// materials sit and where the lobe can stand in for a wrong `c`).
+const C: [f64; 9] = [0.0, 0.15, 0.3, 0.5, 0.8, 1.2, 1.8, 3.0, 5.0];
 const C_BRIGHT: [f64; 3] = [-0.9, -0.6, -0.3];
 /// Minnaert `k` nodes over [0.01, 1].
 const K: [f64; 8] = [0.01, 0.1, 0.25, 0.4, 0.55, 0.7, 0.85, 1.0];
 
 /// Starting points per fit taken from the grid.
-pub const GRID_STARTS: usize = 4;
+pub const GRID_STARTS: usize = 6;
 
-/// The best grid nodes of up to `starts` distinct basins (no two adjacent on the grid), best
-/// first, as internal parameter vectors with their linear parameters solved.
+/// The best grid nodes of up to `starts` distinct basins (no two adjacent on the grid, at most
+/// one with the lobe off), best first, as internal parameter vectors with their linear
+/// parameters solved.
 pub fn grid_starts(problem: &Problem, starts: usize) -> Vec<[f64; MAX_PARAMS]> {
     let kind = problem.kind();
     let c_nodes: Vec<f64> = if problem.brightening() {
@@ -56,10 +58,23 @@ pub fn grid_starts(problem: &Problem, starts: usize) -> Vec<[f64; MAX_PARAMS]> {
     };
     let mut order: Vec<usize> = (0..nodes.len()).filter(|&i| nodes[i].2.is_finite()).collect();
     order.sort_by(|&a, &b| nodes[a].2.total_cmp(&nodes[b].2));
+    // With the lobe off (kb = 0) the lobe's shape has no effect: every such node is the same
+    // optimum, however far apart on the grid, so at most one of them is taken.
+    let lobe_off = |i: usize| kind != ModelKind::Minnaert && kind != ModelKind::Lambert && nodes[i].1[0] <= 0.0;
     let mut picked: Vec<usize> = Vec::new();
     for i in order {
         if picked.len() >= starts {
             break;
+        }
+        if lobe_off(i) && picked.iter().any(|&p| lobe_off(p)) {
+            continue;
+        }
+        // Equal cost: the same model (e.g. any `a` when `|b| = 0`).
+        if picked
+            .iter()
+            .any(|&p| (nodes[p].2 - nodes[i].2).abs() <= 1e-12 * nodes[i].2.abs())
+        {
+            continue;
         }
         let adjacent = picked.iter().any(|&p| {
             nodes[p]
