@@ -383,3 +383,33 @@ fn invalid_lanes_are_reported_like_the_scalar_path_and_get_nan() {
     assert_eq!(out, [5.0; 3]);
     assert!(b.angles(&[0.1; 3], &[0.1; 3], &[0.1; 3], &mut [0.0; 4]).is_err());
 }
+
+#[test]
+fn albedo_through_the_batch_path_matches_the_scalar_rule() {
+    use brdf_core::checks::{albedo, albedo_batch, AlbedoRule};
+    let mut rng = SplitMix(0xa1be_d0);
+    let mut models: Vec<AnyModel<f64>> = TABLE1
+        .iter()
+        .map(|(_, p)| AnyModel::new(ModelKind::Six, p).unwrap())
+        .collect();
+    for kind in ModelKind::ALL {
+        models.push(AnyModel::new(kind, &random_params(kind, &mut rng)).unwrap());
+    }
+    let mut worst = 0.0_f64;
+    for m in &models {
+        for ti in [0.0, 0.3, 1.0, 1.5] {
+            let (a, b) = (
+                albedo(m, ti, AlbedoRule::DEFAULT),
+                albedo_batch(&Batch::new(m), ti, AlbedoRule::DEFAULT),
+            );
+            let e = rel_err(b, a);
+            worst = worst.max(e);
+            assert!(e <= BATCH_F64_REL, "{:?} at {ti}: {b} vs {a}", m.kind());
+        }
+    }
+    // A rule with more azimuth nodes than one call takes.
+    let m = &models[0];
+    let fine = AlbedoRule { panels: 40 };
+    assert!(rel_err(albedo_batch(&Batch::new(m), 0.5, fine), albedo(m, 0.5, fine)) <= BATCH_F64_REL);
+    println!("albedo, batch against scalar rule: max rel {worst:.2e}");
+}

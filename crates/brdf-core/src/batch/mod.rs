@@ -407,6 +407,19 @@ impl<T: Float> Batch<T> {
     }
 }
 
+/// `e^x` of every element of `x`, in place, with this module's kernel (within 2 ulp of
+/// libm's `exp`; 0 below -745.2, infinity above 709.8; NaN stays NaN) at `level` — the
+/// building block of host code that vectorises its own loops (the fitting kernels).
+/// A `level` this CPU cannot run falls back to [`Level::Portable`].
+pub fn exp_in_place(x: &mut [f64], level: Level) {
+    let level = if level.is_available() {
+        level
+    } else {
+        Level::Portable
+    };
+    dispatch::exp_slice(level, x)
+}
+
 /// Checks that every slice has `expected` elements and `out` too.
 fn lengths(inputs: &[(&'static str, usize)], expected: usize, out: usize) -> Result<(), BatchError> {
     for &(what, len) in inputs.iter().chain(&[("out", out)]) {
@@ -646,9 +659,36 @@ fn chunk_body<A: Arith>(kernel: &Kernel, input: Input<'_>, n: usize, out: &mut [
     }
 }
 
+/// `exp` over a slice, branch-free so that the loop vectorises.
+#[inline(always)]
+fn exp_body<A: Arith>(x: &mut [f64]) {
+    for v in x.iter_mut() {
+        // NaN must stay NaN (the kernel clamps its argument first).
+        let e = lanes::exp::<A>(*v);
+        *v = if v.is_nan() { *v } else { e };
+    }
+}
+
 /// Run-time choice of the compiled copy (x86-64 with `std`), or the portable copy alone.
 mod dispatch {
-    use super::{chunk_body, Input, Kernel, Level, CHUNK};
+    use super::{chunk_body, exp_body, Input, Kernel, Level, CHUNK};
+
+    pub(super) fn exp_slice(level: Level, x: &mut [f64]) {
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        {
+            // SAFETY: as in `chunk`: callers pass only levels `available` confirmed.
+            #[allow(unsafe_code)]
+            unsafe {
+                match level {
+                    Level::Avx512 => return x86::exp_avx512(x),
+                    Level::Avx2 => return x86::exp_avx2(x),
+                    Level::Portable => {}
+                }
+            }
+        }
+        let _ = level;
+        exp_body::<super::lanes::Plain>(x)
+    }
 
     pub(super) fn chunk(level: Level, kernel: &Kernel, input: Input<'_>, n: usize, out: &mut [f64; CHUNK]) {
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
@@ -672,7 +712,17 @@ mod dispatch {
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
     mod x86 {
         use super::super::lanes::Fused;
-        use super::super::{chunk_body, Input, Kernel, CHUNK};
+        use super::super::{chunk_body, exp_body, Input, Kernel, CHUNK};
+
+        #[target_feature(enable = "avx2,fma")]
+        pub(in super::super) fn exp_avx2(x: &mut [f64]) {
+            exp_body::<Fused>(x)
+        }
+
+        #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx512bw,avx2,fma")]
+        pub(in super::super) fn exp_avx512(x: &mut [f64]) {
+            exp_body::<Fused>(x)
+        }
 
         #[target_feature(enable = "avx2,fma")]
         pub(in super::super) fn avx2(kernel: &Kernel, input: Input<'_>, n: usize, out: &mut [f64; CHUNK]) {
