@@ -387,7 +387,7 @@ fn invalid_lanes_are_reported_like_the_scalar_path_and_get_nan() {
 #[test]
 fn albedo_through_the_batch_path_matches_the_scalar_rule() {
     use brdf_core::checks::{albedo, albedo_batch, AlbedoRule};
-    let mut rng = SplitMix(0xa1be_d0);
+    let mut rng = SplitMix(0x00a1_bed0);
     let mut models: Vec<AnyModel<f64>> = TABLE1
         .iter()
         .map(|(_, p)| AnyModel::new(ModelKind::Six, p).unwrap())

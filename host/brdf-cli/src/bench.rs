@@ -218,13 +218,16 @@ fn refs<T>(c: &[Vec<T>; 3]) -> [&[T]; 3] {
     [&c[0][..], &c[1][..], &c[2][..]]
 }
 
+/// Records one variant: name, threads, ns per evaluation, its values (for the error).
+type Recorder<'a> = dyn FnMut(String, usize, f64, &[f64]) + 'a;
+
 /// Times the scalar and batch paths of `model` in one precision, one core and all cores.
 fn paths<T: Float + Send + Sync>(
     precision: &str,
     model: &AnyModel<T>,
     g: &Grid<T>,
     reps: usize,
-    add: &mut dyn FnMut(String, usize, f64, &[f64]),
+    add: &mut Recorder<'_>,
 ) -> Result<()> {
     let n = g.angles[0].len();
     let threads = rayon::current_num_threads();
@@ -427,7 +430,6 @@ impl EvalBench {
                 add("numpy f64".into(), 1, ns, &values);
             }
         }
-        drop(add);
 
         let numpy = rows.iter().find(|r| r.name == "numpy f64").map(|r| r.ns_per_eval);
         let level = Level::detected().name();

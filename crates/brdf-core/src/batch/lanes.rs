@@ -5,6 +5,10 @@
 //! polynomials and reductions are fdlibm's (as in `libm`), so each function errs by about
 //! 1 ulp, like the scalar path's `libm` calls.
 
+// fdlibm's constants are kept digit for digit as published (each rounds to the double fdlibm
+// lists in hex), so that they can be checked against the source.
+#![allow(clippy::excessive_precision)]
+
 /// How a lane computes `a * b + c`: rounded twice (portable) or fused (the FMA levels). The
 /// fused form changes results by about an ulp, never the error bounds.
 pub(crate) trait Arith: Copy {
@@ -56,7 +60,7 @@ const TWO54: f64 = 18_014_398_509_481_984.0;
 
 const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-1;
 const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
-const INV_LN2: f64 = 1.442_695_040_888_963_387_00;
+const INV_LN2: f64 = core::f64::consts::LOG2_E;
 
 /// `round(x)` for `|x| < 2^51`, and that integer's low bits.
 #[inline(always)]
@@ -175,7 +179,7 @@ pub(crate) const SIN_COS_MAX: f64 = 1024.0;
 /// `|r| <= pi/4` with the reduction's tail; within 1 ulp.
 #[inline(always)]
 pub(crate) fn sin_cos<A: Arith>(x: f64) -> (f64, f64) {
-    const INV_PIO2: f64 = 6.366_197_723_675_813_824_33e-1;
+    const INV_PIO2: f64 = core::f64::consts::FRAC_2_PI;
     const PIO2_1: f64 = 1.570_796_326_734_125_614_17;
     const PIO2_2: f64 = 6.077_100_506_303_965_976_60e-11;
     const PIO2_2T: f64 = 2.022_266_248_795_950_631_54e-21;
