@@ -36,14 +36,19 @@ fn main() {
             }
         }
     }
-    let wi = [a[0].iter().map(|t| t.sin()).collect(), vec![0.0; a[0].len()], a[0].iter().map(|t| t.cos()).collect()];
+    let wi = [
+        a[0].iter().map(|t| t.sin()).collect(),
+        vec![0.0; a[0].len()],
+        a[0].iter().map(|t| t.cos()).collect(),
+    ];
     let wr: [Vec<f64>; 3] = [
         a[1].iter().zip(&a[2]).map(|(t, p)| t.sin() * p.cos()).collect(),
         a[1].iter().zip(&a[2]).map(|(t, p)| t.sin() * p.sin()).collect(),
         a[1].iter().map(|t| t.cos()).collect(),
     ];
     let v = |w: &[Vec<f64>; 3]| -> [&[f64]; 3] { [&w[0][..], &w[1][..], &w[2][..]] };
-    let six = AnyModel::<f64>::new(ModelKind::Six, &[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
+    let six =
+        AnyModel::<f64>::new(ModelKind::Six, &[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
     let lambert = AnyModel::<f64>::new(ModelKind::Lambert, &[0.5]).unwrap();
     let mut out = vec![0.0; a[0].len()];
     let mut x = vec![0.0; a[0].len()];
@@ -54,7 +59,11 @@ fn main() {
         let six_vectors = best(|| b6.vectors(v(&wi), v(&wr), &mut out).unwrap());
         let lambert_angles = best(|| bl.angles(&a[0], &a[1], &a[2], &mut out).unwrap());
         let lambert_vectors = best(|| bl.vectors(v(&wi), v(&wr), &mut out).unwrap());
-        let refill = |x: &mut [f64]| x.iter_mut().enumerate().for_each(|(k, v)| *v = -(k as f64) * 1e-4);
+        let refill = |x: &mut [f64]| {
+            x.iter_mut()
+                .enumerate()
+                .for_each(|(k, v)| *v = -(k as f64) * 1e-4)
+        };
         let with_exp = best(|| {
             refill(&mut x);
             exp_in_place(&mut x, level);
