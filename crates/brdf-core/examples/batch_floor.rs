@@ -23,6 +23,10 @@ fn best(mut f: impl FnMut()) -> f64 {
     b * 1e9 / 1e6
 }
 
+fn v(w: &[Vec<f64>; 3]) -> [&[f64]; 3] {
+    [&w[0][..], &w[1][..], &w[2][..]]
+}
+
 fn main() {
     let n = 100usize;
     let axis = |k: usize, span: f64| ((k as f64 + 0.5) / n as f64 * span).to_radians();
@@ -46,7 +50,6 @@ fn main() {
         a[1].iter().zip(&a[2]).map(|(t, p)| t.sin() * p.sin()).collect(),
         a[1].iter().map(|t| t.cos()).collect(),
     ];
-    let v = |w: &[Vec<f64>; 3]| -> [&[f64]; 3] { [&w[0][..], &w[1][..], &w[2][..]] };
     let six =
         AnyModel::<f64>::new(ModelKind::Six, &[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
     let lambert = AnyModel::<f64>::new(ModelKind::Lambert, &[0.5]).unwrap();
