@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
-# Evaluation speed: brdf-core (f64/f32, from angles/cosines) against numpy on the same
-# 10^6-point grid in the same run, plus the flash cost of an eval-only Cortex-M4F program.
+# Evaluation speed and accuracy of every path (scalar and batch, f64 and f32, angles, cosines
+# and vectors, one core and all cores) against numpy on the same 10^6-point grid in the same
+# run (`brdf bench eval`; add --json for one JSON object), plus the flash cost of an eval-only
+# Cortex-M4F program. Extra arguments go to `brdf bench eval`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if ! python3 -c "import numpy" 2>/dev/null; then
   python3 -m pip install --quiet numpy || echo "numpy could not be installed; the peer will be skipped"
 fi
-cargo run --quiet --release -p brdf-bench
+cargo run --quiet --release -p brdf-cli -- bench eval "$@"
 
 echo
 echo "Flash cost of brdf-core on thumbv7em-none-eabihf (release, LTO): eval-only programs"

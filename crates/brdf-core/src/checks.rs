@@ -1,6 +1,7 @@
 //! Physical checks: reciprocity, the analytic energy bound and the directional-hemispherical
 //! reflectance (albedo) by heap-free quadrature.
 
+use crate::batch::Batch;
 use crate::float::Float;
 use crate::model::{Brdf, Model};
 
@@ -89,23 +90,66 @@ fn gl8<T: Float>(lo: T, hi: T, mut f: impl FnMut(T, T)) {
 
 /// Directional-hemispherical reflectance `rho(theta_i) = int f_r cos(theta_r) d omega_r`
 /// (dimensionless) at incidence `theta_i` (radians), by the composite rule `rule`.
-/// No heap; evaluate in f64 for reference figures.
+/// No heap; evaluate in f64 for reference figures. [`albedo_batch`] is the same rule through
+/// the batch path.
 pub fn albedo<T: Float, M: Brdf<T>>(model: &M, theta_i: T, rule: AlbedoRule) -> T {
+    albedo_by(theta_i, rule, |theta_r, phi, out| {
+        for (o, &p) in out.iter_mut().zip(phi) {
+            *o = model.eval_angles(theta_i, theta_r, p);
+        }
+    })
+}
+
+/// [`albedo`] through the batch path ([`crate::batch`]): each ring's azimuth nodes in one
+/// call. Agrees with [`albedo`] to [`crate::tolerance::BATCH_F64_REL`] in f64.
+pub fn albedo_batch<T: Float>(model: &Batch<T>, theta_i: T, rule: AlbedoRule) -> T {
+    let ti = [theta_i; RING];
+    albedo_by(theta_i, rule, |theta_r, phi, out| {
+        let n = phi.len();
+        let tr = [theta_r; RING];
+        // An invalid lane (a NaN theta_r from a NaN theta_i) leaves NaN, which the sum carries.
+        let _ = model.angles(&ti[..n], &tr[..n], phi, out);
+    })
+}
+
+/// Azimuth nodes evaluated per call in [`albedo_by`].
+const RING: usize = 256;
+
+/// The rule, with `eval_ring(theta_r, phis, out)` evaluating the model at `theta_i` and one
+/// `theta_r` for up to [`RING`] azimuths; sums in node order.
+fn albedo_by<T: Float>(theta_i: T, rule: AlbedoRule, mut eval_ring: impl FnMut(T, &[T], &mut [T])) -> T {
     let panels = rule.panels.max(2);
     let half_pi = T::PI * T::HALF;
     let mut total = T::ZERO;
     // Inner integral over phi in [0, pi], times sin(theta_r) cos(theta_r); refined towards
     // phi = 0 (retro) and phi = pi (mirror).
-    let ring = |theta_r: T| -> T {
+    let mut ring = |theta_r: T| -> T {
         let (s, c) = theta_r.sin_cos();
         let mut inner = T::ZERO;
+        let mut phis = [T::ZERO; RING];
+        let mut weights = [T::ZERO; RING];
+        let mut values = [T::ZERO; RING];
+        let mut n = 0;
+        let mut flush = |phis: &[T], weights: &[T], values: &mut [T], inner: &mut T| {
+            eval_ring(theta_r, phis, values);
+            for (&w, &v) in weights.iter().zip(values.iter()) {
+                *inner = *inner + w * v;
+            }
+        };
         let mut add = |a: T, b: T| {
             gl8(a, b, |phi, wp| {
-                inner = inner + wp * model.eval_angles(theta_i, theta_r, phi);
+                phis[n] = phi;
+                weights[n] = wp;
+                n += 1;
+                if n == RING {
+                    flush(&phis, &weights, &mut values, &mut inner);
+                    n = 0;
+                }
             });
         };
         refined_panels(T::ZERO, half_pi, false, panels / 2, &mut add);
         refined_panels(half_pi, T::PI, true, panels / 2, &mut add);
+        flush(&phis[..n], &weights[..n], &mut values[..n], &mut inner);
         s * c * inner
     };
     // theta_r in [0, theta_i], refined towards theta_i.

@@ -242,7 +242,7 @@ impl<T: Float> Geometry<T> {
     }
 }
 
-fn check_zenith<T: Float>(theta: T, what: &'static str) -> Result<(), DomainError> {
+pub(crate) fn check_zenith<T: Float>(theta: T, what: &'static str) -> Result<(), DomainError> {
     if !theta.is_finite() {
         return Err(DomainError::NotFinite { what });
     }
@@ -256,7 +256,7 @@ fn check_zenith<T: Float>(theta: T, what: &'static str) -> Result<(), DomainErro
     Ok(())
 }
 
-fn check_cosine<T: Float>(c: T, what: &'static str) -> Result<(), DomainError> {
+pub(crate) fn check_cosine<T: Float>(c: T, what: &'static str) -> Result<(), DomainError> {
     if !c.is_finite() {
         return Err(DomainError::NotFinite { what });
     }
@@ -270,7 +270,7 @@ fn check_cosine<T: Float>(c: T, what: &'static str) -> Result<(), DomainError> {
     Ok(())
 }
 
-fn check_unit<T: Float>(w: [T; 3], what: &'static str) -> Result<(), DomainError> {
+pub(crate) fn check_unit<T: Float>(w: [T; 3], what: &'static str) -> Result<(), DomainError> {
     if !(w[0].is_finite() && w[1].is_finite() && w[2].is_finite()) {
         return Err(DomainError::NotFinite { what });
     }

@@ -30,7 +30,12 @@
 #![no_std]
 #![deny(missing_docs)]
 
+// The `std` feature adds run-time instruction-set detection to the batch path (host only).
+#[cfg(feature = "std")]
+extern crate std;
+
 pub mod anneal;
+pub mod batch;
 pub mod checks;
 pub mod cost;
 mod error;

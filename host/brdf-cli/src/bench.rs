@@ -6,13 +6,17 @@ use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
+use brdf_core::batch::{Batch, Level};
 use brdf_core::fast::FastSix;
 use brdf_core::table::{fill_six_table, table_len, SixTable, TABLE_SIZES};
 use brdf_core::tolerance::F32_FLOOR_OF_MAX;
-use brdf_core::{AnyModel, Brdf, ModelKind, SixParam, SixParams};
+use brdf_core::{AnyModel, Brdf, Float, ModelKind, SixParam, SixParams};
 use brdf_fit::{Dataset, Point};
 use brdf_plot::{pareto_front, tradeoff, TradePoint};
 use clap::{Args, Subcommand};
+use rayon::prelude::*;
+
+use crate::batch::Inputs;
 
 /// Benchmarks that chart cost against accuracy.
 #[derive(Debug, Args)]
@@ -46,46 +50,64 @@ const MATERIALS: [(&str, [f64; 6]); 3] = [
     ("white", [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415]),
 ];
 
-/// Every evaluation variant on one material: the exact model in f64 and f32 (from angles and
-/// from cosines), the f32 path with this crate's own exp2/log2, the tables at each promised
-/// size, and Minnaert and Lambert fitted to the six-parameter model standing in for it.
-/// Accuracy is against the f64 six-parameter model from angles on a grid of zeniths up to
-/// `--max-theta` and all azimuths; host cost is measured in this run; device cost is counted
-/// under QEMU (`firmware/brdf-fw/src/bin/cost.rs`, khaki parameters) when QEMU is present.
+/// Every evaluation path on one material, timed in one run: the scalar path (the device's
+/// code) and the batch path (`brdf_core::batch`), f64 and f32, from angles, cosines and unit
+/// vectors, on one core and on all cores; the f32 path with this crate's own exp2/log2; the
+/// tables at each promised size; Minnaert and Lambert fitted to the six-parameter model
+/// standing in for it; and numpy's vectorised f64 evaluation of the same grid
+/// (`bench/numpy_eval.py`, run when python3 and numpy are present). Accuracy of every variant
+/// is against the f64 scalar path from angles on the same grid (an `N^3` grid of zeniths up
+/// to `--max-theta` and azimuths over the circle), where the value is at least 1e-6 of its
+/// maximum. Device cost is counted under QEMU (`firmware/brdf-fw/src/bin/cost.rs`, khaki
+/// parameters) when QEMU is present.
 #[derive(Debug, Args)]
 pub struct EvalBench {
     /// Table 1 material: khaki, yellow or white.
     #[arg(long, default_value = "khaki")]
     material: String,
-    /// Largest zenith of the accuracy domain, degrees.
+    /// Largest zenith of the grid, degrees.
     #[arg(long, default_value_t = 85.0)]
     max_theta: f64,
+    /// Grid points per axis (theta_i x theta_r x phi = N^3 directions).
+    #[arg(long, default_value_t = 100)]
+    points: usize,
+    /// Timed repetitions of each variant; the fastest counts.
+    #[arg(long, default_value_t = 5)]
+    reps: usize,
     /// Output directory for eval.csv and the charts.
     #[arg(long, default_value = "docs/bench")]
     out: PathBuf,
     /// Do not count device instructions under QEMU.
     #[arg(long)]
     no_qemu: bool,
+    /// Do not run the numpy peer.
+    #[arg(long)]
+    no_numpy: bool,
+    /// Print one JSON object `{"variants": [{name, ns_per_eval, threads, max_rel_error}, ...]}`
+    /// instead of the table.
+    #[arg(long)]
+    json: bool,
 }
 
 /// One variant's figures.
+#[derive(Debug, serde::Serialize)]
 struct Row {
     name: String,
-    host_ns: f64,
-    device: Option<f64>,
-    max_rel: f64,
-    rms_rel: f64,
+    ns_per_eval: f64,
+    threads: usize,
+    max_rel_error: f64,
+    rms_rel_error: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    device_instructions: Option<f64>,
 }
 
-fn time_ns(n: usize, f: &dyn Fn(usize) -> f64) -> f64 {
+/// Best-of-`reps` nanoseconds per direction of `run`, which evaluates all `n` directions into
+/// its output.
+fn time_ns(n: usize, reps: usize, run: &mut dyn FnMut()) -> f64 {
     let mut best = f64::INFINITY;
-    for _ in 0..5 {
+    for _ in 0..reps.max(1) {
         let t = Instant::now();
-        let mut acc = 0.0;
-        for k in 0..n {
-            acc += f(black_box(k));
-        }
-        black_box(acc);
+        run();
         best = best.min(t.elapsed().as_secs_f64());
     }
     best * 1e9 / n as f64
@@ -120,42 +142,191 @@ fn stand_in(kind: ModelKind, points: &[Point]) -> Result<AnyModel<f32>> {
     AnyModel::new(kind, &p).map_err(|e| anyhow!("{kind:?} stand-in: {e}"))
 }
 
+/// The numpy peer on the same grid: best ns per point, and its values (read back from the
+/// raw f64 file it writes). `None`, with the reason on standard error, when it cannot run.
+fn numpy_peer(points: usize, max_theta: f64, p: &[f64; 6], dir: &Path) -> Option<(f64, Vec<f64>)> {
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/../../bench/numpy_eval.py");
+    let values = dir.join("numpy-values.f64");
+    let params = p.map(|v| v.to_string()).join(",");
+    let out = match Command::new("python3")
+        .arg(script)
+        .arg(points.to_string())
+        .arg(max_theta.to_string())
+        .arg(&params)
+        .arg(&values)
+        .output()
+    {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("numpy peer: SKIPPED (cannot run python3: {e})");
+            return None;
+        }
+    };
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        eprintln!(
+            "numpy peer: SKIPPED ({})",
+            err.lines().last().unwrap_or("python3 failed")
+        );
+        return None;
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let ns = text.split_whitespace().next().and_then(|t| t.parse::<f64>().ok());
+    let bytes = std::fs::read(&values).ok();
+    let _ = std::fs::remove_file(&values);
+    match (ns, bytes) {
+        (Some(ns), Some(b)) => Some((
+            ns,
+            b.chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+                .collect(),
+        )),
+        _ => {
+            eprintln!("numpy peer: SKIPPED (unexpected output {text:?})");
+            None
+        }
+    }
+}
+
+/// Structure-of-arrays inputs in one precision.
+struct Grid<T> {
+    angles: [Vec<T>; 3],
+    cosines: [Vec<T>; 3],
+    wi: [Vec<T>; 3],
+    wr: [Vec<T>; 3],
+}
+
+fn columns<T: Float>(dirs: &[[f64; 3]], f: impl Fn(&[f64; 3]) -> [f64; 3]) -> [Vec<T>; 3] {
+    let rows: Vec<[f64; 3]> = dirs.iter().map(f).collect();
+    [0, 1, 2].map(|k| rows.iter().map(|r| T::from_f64(r[k])).collect())
+}
+
+fn grid<T: Float>(dirs: &[[f64; 3]]) -> Grid<T> {
+    Grid {
+        angles: columns(dirs, |a| *a),
+        cosines: columns(dirs, |a| a.map(f64::cos)),
+        wi: columns(dirs, |a| [a[0].sin(), 0.0, a[0].cos()]),
+        wr: columns(dirs, |a| {
+            [a[1].sin() * a[2].cos(), a[1].sin() * a[2].sin(), a[1].cos()]
+        }),
+    }
+}
+
+fn refs<T>(c: &[Vec<T>; 3]) -> [&[T]; 3] {
+    [&c[0][..], &c[1][..], &c[2][..]]
+}
+
+/// Records one variant: name, threads, ns per evaluation, its values (for the error).
+type Recorder<'a> = dyn FnMut(String, usize, f64, &[f64]) + 'a;
+
+/// Times the scalar and batch paths of `model` in one precision, one core and all cores.
+fn paths<T: Float + Send + Sync>(
+    precision: &str,
+    model: &AnyModel<T>,
+    g: &Grid<T>,
+    reps: usize,
+    add: &mut Recorder<'_>,
+) -> Result<()> {
+    let n = g.angles[0].len();
+    let threads = rayon::current_num_threads();
+    let mut out = vec![T::ZERO; n];
+    let scalar = |input: &str, k: usize| -> T {
+        match input {
+            "angles" => model.eval_angles(g.angles[0][k], g.angles[1][k], g.angles[2][k]),
+            "cosines" => model.eval_cosines(g.cosines[0][k], g.cosines[1][k], g.cosines[2][k]),
+            _ => model.eval_vectors(
+                [g.wi[0][k], g.wi[1][k], g.wi[2][k]],
+                [g.wr[0][k], g.wr[1][k], g.wr[2][k]],
+            ),
+        }
+    };
+    for input in ["angles", "cosines", "vectors"] {
+        for parallel in [false, true] {
+            let ns = time_ns(n, reps, &mut || {
+                if parallel {
+                    out.par_iter_mut()
+                        .enumerate()
+                        .for_each(|(k, o)| *o = scalar(input, k));
+                } else {
+                    for (k, o) in out.iter_mut().enumerate() {
+                        *o = scalar(input, k);
+                    }
+                }
+                black_box(&out);
+            });
+            let values: Vec<f64> = out.iter().map(|v| v.to_f64()).collect();
+            add(
+                format!("{precision} scalar {input}"),
+                if parallel { threads } else { 1 },
+                ns,
+                &values,
+            );
+        }
+    }
+    let b = Batch::new(model);
+    for input in ["angles", "cosines", "vectors"] {
+        let inputs = match input {
+            "angles" => Inputs::Angles(refs(&g.angles)),
+            "cosines" => Inputs::Cosines(refs(&g.cosines)),
+            _ => Inputs::Vectors(refs(&g.wi), refs(&g.wr)),
+        };
+        for parallel in [false, true] {
+            let mut result = Ok(());
+            let ns = time_ns(n, reps, &mut || {
+                result = crate::batch::eval(&b, inputs, &mut out, parallel);
+                black_box(&out);
+            });
+            result.map_err(|e| anyhow!("{precision} batch {input}: {e}"))?;
+            let values: Vec<f64> = out.iter().map(|v| v.to_f64()).collect();
+            add(
+                format!("{precision} batch {input}"),
+                if parallel { threads } else { 1 },
+                ns,
+                &values,
+            );
+        }
+    }
+    Ok(())
+}
+
 impl EvalBench {
     pub fn run(self) -> Result<()> {
         let (name, p) = MATERIALS
             .iter()
             .find(|m| m.0 == self.material)
             .ok_or_else(|| anyhow!("--material {}: use khaki, yellow or white", self.material))?;
+        if self.points < 2 {
+            bail!("--points must be at least 2");
+        }
         let six32 = SixParams::from_array(p.map(|v| v as f32));
         let six64 = six32.widen();
-        // Grid: 40 x 40 zeniths in (0, max], 36 azimuths in [0, 360).
-        let zmax = self.max_theta.to_radians();
-        let mut ang = Vec::new();
-        for i in 1..=40 {
-            for j in 1..=40 {
-                for k in 0..36 {
-                    ang.push([
-                        zmax * f64::from(i) / 40.0,
-                        zmax * f64::from(j) / 40.0,
-                        (f64::from(k) * 10.0).to_radians(),
-                    ]);
+        let p64 = six64.as_array();
+        // The grid of bench/numpy_eval.py: zeniths (k + 1/2)/N of --max-theta, azimuths
+        // (k + 1/2)/N of 360 degrees.
+        let n_axis = self.points;
+        let axis = |k: usize, span: f64| ((k as f64 + 0.5) / n_axis as f64 * span).to_radians();
+        let mut dirs = Vec::with_capacity(n_axis.pow(3));
+        for i in 0..n_axis {
+            for r in 0..n_axis {
+                for k in 0..n_axis {
+                    dirs.push([axis(i, self.max_theta), axis(r, self.max_theta), axis(k, 360.0)]);
                 }
             }
         }
-        let n = ang.len();
-        let a32: Vec<[f32; 3]> = ang.iter().map(|a| a.map(|v| v as f32)).collect();
-        let c32: Vec<[f32; 3]> = ang.iter().map(|a| a.map(|v| v.cos() as f32)).collect();
-        let exact64 = SixParam::new(six64)?;
-        let exact32 = SixParam::new(six32)?;
+        let n = dirs.len();
+        let g64 = grid::<f64>(&dirs);
+        let g32 = grid::<f32>(&dirs);
+        let exact64 = AnyModel::Six(SixParam::new(six64)?);
+        let exact32 = AnyModel::Six(SixParam::new(six32)?);
         let fast = FastSix::new(six32)?;
-        let reference: Vec<f64> = ang
-            .iter()
-            .map(|a| exact64.eval_angles(a[0], a[1], a[2]))
+        let reference: Vec<f64> = (0..n)
+            .map(|k| exact64.eval_angles(g64.angles[0][k], g64.angles[1][k], g64.angles[2][k]))
             .collect();
-        let points: Vec<Point> = ang
+        let floor = F32_FLOOR_OF_MAX * reference.iter().copied().fold(0.0, f64::max);
+        let points: Vec<Point> = dirs
             .iter()
             .zip(&reference)
-            .step_by(7)
+            .step_by((n / 8000).max(1))
             .map(|(a, &f)| Point {
                 theta_i: a[0],
                 theta_r: a[1],
@@ -174,7 +345,6 @@ impl EvalBench {
             fill_six_table(&six64, nodes, &mut bytes)?;
             tables.push((nodes, bytes));
         }
-
         let counts = if self.no_qemu {
             Vec::new()
         } else {
@@ -184,93 +354,104 @@ impl EvalBench {
             })
         };
         let device = |path: &str| counts.iter().find(|c| c.0 == path).map(|c| c.1);
+        // Variant name -> the cost binary's path name.
+        let device_of = |name: &str| match name {
+            "f32 scalar angles" => device("six exact from angles"),
+            "f32 scalar cosines" => device("six exact from cosines"),
+            "f32 own exp2/log2 cosines" => device("six fast from cosines"),
+            "Minnaert for six, cosines" => device("minnaert exact from cosines"),
+            "Lambert for six, cosines" => device("lambert exact from cosines"),
+            t if t.starts_with("f32 table ") => {
+                let nodes = t.trim_start_matches("f32 table ").trim_end_matches(" cosines");
+                device(&format!("six table {nodes} from cosines"))
+            }
+            _ => None,
+        };
 
-        let floor = F32_FLOOR_OF_MAX * reference.iter().copied().fold(0.0, f64::max);
-        let mut rows = Vec::new();
-        let mut add = |name: String, device: Option<f64>, f: &dyn Fn(usize) -> f64| {
+        let mut rows: Vec<Row> = Vec::new();
+        let mut add = |name: String, threads: usize, ns: f64, values: &[f64]| {
             let (mut max, mut sum, mut m) = (0.0f64, 0.0, 0usize);
-            for (k, &r) in reference.iter().enumerate() {
+            for (&v, &r) in values.iter().zip(&reference) {
                 if r > floor {
-                    let e = ((f(k) - r) / r).abs();
-                    max = max.max(e);
+                    let e = ((v - r) / r).abs();
+                    max = max.max(if e.is_nan() { f64::INFINITY } else { e });
                     sum += e * e;
                     m += 1;
                 }
             }
+            let device_instructions = if threads == 1 { device_of(&name) } else { None };
             rows.push(Row {
                 name,
-                host_ns: time_ns(n, f),
-                device,
-                max_rel: max,
-                rms_rel: (sum / m as f64).sqrt(),
+                ns_per_eval: ns,
+                threads,
+                max_rel_error: max,
+                rms_rel_error: (sum / m.max(1) as f64).sqrt(),
+                device_instructions,
             });
         };
-        add("f64 exact, angles".into(), None, &|k| {
-            let a = ang[k];
-            exact64.eval_angles(a[0], a[1], a[2])
+        paths("f64", &exact64, &g64, self.reps, &mut add)?;
+        paths("f32", &exact32, &g32, self.reps, &mut add)?;
+        let c32 = &g32.cosines;
+        let mut single = |name: String, eval: &dyn Fn(usize) -> f32| {
+            let mut out = vec![0.0f32; n];
+            let ns = time_ns(n, self.reps, &mut || {
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = eval(k);
+                }
+                black_box(&out);
+            });
+            let values: Vec<f64> = out.iter().map(|&v| f64::from(v)).collect();
+            add(name, 1, ns, &values);
+        };
+        single("f32 own exp2/log2 cosines".into(), &|k| {
+            fast.eval_cosines(c32[0][k], c32[1][k], c32[2][k])
         });
-        add(
-            "f32 exact, angles".into(),
-            device("six exact from angles"),
-            &|k| {
-                let a = a32[k];
-                f64::from(exact32.eval_angles(a[0], a[1], a[2]))
-            },
-        );
-        add(
-            "f32 exact, cosines".into(),
-            device("six exact from cosines"),
-            &|k| {
-                let c = c32[k];
-                f64::from(exact32.eval_cosines(c[0], c[1], c[2]))
-            },
-        );
-        add(
-            "f32 own exp2/log2, cosines".into(),
-            device("six fast from cosines"),
-            &|k| {
-                let c = c32[k];
-                f64::from(fast.eval_cosines(c[0], c[1], c[2]))
-            },
-        );
         for (nodes, bytes) in &tables {
             let t = SixTable::new(six32, bytes)?;
-            add(
-                format!("f32 table {nodes}, cosines"),
-                device(&format!("six table {nodes} from cosines")),
-                &|k| {
-                    let c = c32[k];
-                    f64::from(t.eval_cosines(c[0], c[1], c[2]))
-                },
-            );
+            single(format!("f32 table {nodes} cosines"), &|k| {
+                t.eval_cosines(c32[0][k], c32[1][k], c32[2][k])
+            });
         }
-        add(
-            "Minnaert for six, cosines".into(),
-            device("minnaert exact from cosines"),
-            &|k| {
-                let c = c32[k];
-                f64::from(minnaert.eval_cosines(c[0], c[1], c[2]))
-            },
-        );
-        add(
-            "Lambert for six, cosines".into(),
-            device("lambert exact from cosines"),
-            &|k| {
-                let c = c32[k];
-                f64::from(lambert.eval_cosines(c[0], c[1], c[2]))
-            },
-        );
-
+        single("Minnaert for six, cosines".into(), &|k| {
+            minnaert.eval_cosines(c32[0][k], c32[1][k], c32[2][k])
+        });
+        single("Lambert for six, cosines".into(), &|k| {
+            lambert.eval_cosines(c32[0][k], c32[1][k], c32[2][k])
+        });
         std::fs::create_dir_all(&self.out)
             .with_context(|| format!("cannot create {}", self.out.display()))?;
-        // The f64 path is the reference (error 0 by definition): in the table, not the charts.
-        let host: Vec<TradePoint> = rows
+        if !self.no_numpy {
+            if let Some((ns, values)) = numpy_peer(self.points, self.max_theta, &p64, &self.out) {
+                if values.len() != n {
+                    bail!("numpy peer returned {} values for {n} directions", values.len());
+                }
+                add("numpy f64".into(), 1, ns, &values);
+            }
+        }
+
+        let numpy = rows.iter().find(|r| r.name == "numpy f64").map(|r| r.ns_per_eval);
+        let level = Level::detected().name();
+        if self.json {
+            let v = serde_json::json!({
+                "material": name,
+                "directions": n,
+                "max_theta_deg": self.max_theta,
+                "batch_level": level,
+                "variants": rows,
+            });
+            println!("{}", serde_json::to_string_pretty(&v)?);
+        }
+        // The reference (error 0 by definition) and the all-core rows stay off the charts.
+        let charted: Vec<&Row> = rows
             .iter()
-            .skip(1)
+            .filter(|r| r.threads == 1 && r.name != "f64 scalar angles" && r.max_rel_error > 0.0)
+            .collect();
+        let host: Vec<TradePoint> = charted
+            .iter()
             .map(|r| TradePoint {
                 label: r.name.clone(),
-                cost: r.host_ns,
-                error: r.max_rel,
+                cost: r.ns_per_eval,
+                error: r.max_rel_error,
                 worst: None,
             })
             .collect();
@@ -279,67 +460,82 @@ impl EvalBench {
             .filter_map(|r| {
                 Some(TradePoint {
                     label: r.name.clone(),
-                    cost: r.device?,
-                    error: r.max_rel,
+                    cost: r.device_instructions?,
+                    error: r.max_rel_error,
                     worst: None,
                 })
             })
             .collect();
         let host_front = pareto_front(&host);
         let dev_front = pareto_front(&dev);
+        let on = |points: &[TradePoint], front: &[usize], r: &Row| {
+            r.threads == 1
+                && points
+                    .iter()
+                    .position(|d| d.label == r.name)
+                    .is_some_and(|j| front.contains(&j))
+        };
         let csv_path = self.out.join("eval.csv");
         let mut csv = csv::Writer::from_path(&csv_path)
             .with_context(|| format!("cannot write {}", csv_path.display()))?;
         csv.write_record([
             "variant",
             "host_ns",
+            "threads",
             "device_instructions",
             "max_rel",
             "rms_rel",
             "pareto_host",
             "pareto_device",
         ])?;
-        println!(
-            "{name}, {n} directions (zeniths to {} deg, all azimuths); errors against f64 from angles",
-            self.max_theta
+        let mut text = format!(
+            "{name}, {n} directions ({}^3 grid, zeniths to {} deg, all azimuths); errors against f64 scalar from angles; batch kernel: {level}\n{:<28} {:>7} {:>9} {:>12} {:>10} {:>10} {:>8}  pareto\n",
+            self.points, self.max_theta, "variant", "threads", "host ns", "M4F instr", "max rel", "rms rel", "numpy/x"
         );
-        println!(
-            "{:<28} {:>9} {:>12} {:>10} {:>10}  pareto",
-            "variant", "host ns", "M4F instr", "max rel", "rms rel"
-        );
-        for (i, r) in rows.iter().enumerate() {
-            let on_dev = dev
-                .iter()
-                .position(|d| d.label == r.name)
-                .is_some_and(|j| dev_front.contains(&j));
-            let on_host = i > 0 && host_front.contains(&(i - 1));
+        for r in &rows {
+            let (h, d) = (on(&host, &host_front, r), on(&dev, &dev_front, r));
             csv.write_record([
                 r.name.clone(),
-                format!("{:.2}", r.host_ns),
-                r.device.map_or(String::new(), |d| format!("{d}")),
-                format!("{:.3e}", r.max_rel),
-                format!("{:.3e}", r.rms_rel),
-                on_host.to_string(),
-                on_dev.to_string(),
+                format!("{:.3}", r.ns_per_eval),
+                r.threads.to_string(),
+                r.device_instructions.map_or(String::new(), |d| format!("{d}")),
+                format!("{:.3e}", r.max_rel_error),
+                format!("{:.3e}", r.rms_rel_error),
+                h.to_string(),
+                d.to_string(),
             ])?;
-            println!(
-                "{:<28} {:>9.2} {:>12} {:>10.2e} {:>10.2e}  {}{}",
+            text += &format!(
+                "{:<28} {:>7} {:>9.2} {:>12} {:>10.2e} {:>10.2e} {:>8}  {}{}\n",
                 r.name,
-                r.host_ns,
-                r.device.map_or("-".into(), |d| format!("{d}")),
-                r.max_rel,
-                r.rms_rel,
-                if i == 0 {
+                r.threads,
+                r.ns_per_eval,
+                r.device_instructions.map_or("-".into(), |d| format!("{d}")),
+                r.max_rel_error,
+                r.rms_rel_error,
+                numpy.map_or("-".into(), |np| format!("{:.1}x", np / r.ns_per_eval)),
+                if r.name == "f64 scalar angles" && r.threads == 1 {
                     "reference"
-                } else if on_host {
+                } else if h {
                     "host "
                 } else {
                     ""
                 },
-                if on_dev { "device" } else { "" }
+                if d { "device" } else { "" }
             );
         }
         csv.flush()?;
+        if let Some(np) = numpy {
+            let ratio = |name: &str| {
+                rows.iter()
+                    .find(|r| r.name == name && r.threads == 1)
+                    .map_or(f64::NAN, |r| np / r.ns_per_eval)
+            };
+            text += &format!(
+                "goals, one core, numpy f64 / this: f64 batch angles {:.1}x (goal 10x), f32 batch angles {:.1}x (goal 20x)\n",
+                ratio("f64 batch angles"),
+                ratio("f32 batch angles")
+            );
+        }
         let title = |what: &str| {
             format!(
                 "{name} plate, six-parameter model: {what} against max relative error (zeniths to {} deg)",
@@ -362,10 +558,15 @@ impl EvalBench {
                 )?;
             }
         }
-        println!(
+        text += &format!(
             "wrote {}/eval.csv and eval-host, eval-device (.svg, .png)",
             self.out.display()
         );
+        if self.json {
+            eprintln!("{text}");
+        } else {
+            println!("{text}");
+        }
         Ok(())
     }
 }

@@ -4,10 +4,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use brdf_core::Brdf;
 use brdf_core::ModelKind;
 use brdf_fit::import::{Channel, Format};
 use brdf_fit::report::FitReport;
-use brdf_core::Brdf;
 use brdf_fit::{Dataset, Loss, LossKind};
 use clap::Args;
 
@@ -250,7 +250,10 @@ impl ReportCmd {
                 "Lowest RMS relative error: **{best}**; lowest BIC: **{best_bic}**.\n"
             )?;
             if let Some(p) = fits.iter().find(|r| r.model == "six").and_then(|r| {
-                r.influence.points.first().map(|p| (p, r.influence.dominant, r.influence.dominant_above))
+                r.influence
+                    .points
+                    .first()
+                    .map(|p| (p, r.influence.dominant, r.influence.dominant_above))
             }) {
                 let (p, dominant, above) = p;
                 writeln!(
@@ -319,7 +322,11 @@ impl ReportCmd {
         )?;
         writeln!(head, "|---|---|---|---|")?;
         for (title, best, bic, chosen) in &summary {
-            writeln!(head, "| {title} | {best} | {bic} | {} |", chosen.as_deref().unwrap_or("none"))?;
+            writeln!(
+                head,
+                "| {title} | {best} | {bic} | {} |",
+                chosen.as_deref().unwrap_or("none")
+            )?;
         }
         writeln!(head)?;
         head.push_str(&self.robust_section(&entries)?);
@@ -343,7 +350,10 @@ impl ReportCmd {
         let Some(without) = entries.iter().find(|e| e.note.is_some()) else {
             return Ok(md);
         };
-        let Some(with) = entries.iter().find(|e| without.slug == format!("{}-without-outliers", e.slug)) else {
+        let Some(with) = entries
+            .iter()
+            .find(|e| without.slug == format!("{}-without-outliers", e.slug))
+        else {
             return Ok(md);
         };
         let kept: std::collections::HashSet<u64> = without.data.points.iter().map(|p| p.line).collect();
@@ -361,7 +371,12 @@ impl ReportCmd {
             "| fitted to | loss | kb | kr | b | a | kd | c | RMS rel % (all points) | RMS rel % (without outliers) |"
         )?;
         writeln!(md, "|---|---|---|---|---|---|---|---|---|---|")?;
-        let losses = [LossKind::Linear, LossKind::Huber, LossKind::SoftL1, LossKind::Cauchy];
+        let losses = [
+            LossKind::Linear,
+            LossKind::Huber,
+            LossKind::SoftL1,
+            LossKind::Cauchy,
+        ];
         let mut rows: Vec<(&Entry, LossKind)> = losses.iter().map(|&l| (with, l)).collect();
         rows.push((without, LossKind::Linear));
         for (e, loss) in rows {
@@ -387,7 +402,11 @@ impl ReportCmd {
             writeln!(
                 md,
                 "| {} | {} | {} | {} | {} |",
-                if e.note.is_some() { "without outliers" } else { "all points" },
+                if e.note.is_some() {
+                    "without outliers"
+                } else {
+                    "all points"
+                },
                 loss.name(),
                 params.join(" | "),
                 pct(all),

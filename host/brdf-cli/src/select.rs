@@ -159,7 +159,11 @@ impl SelectCmd {
                 .collect(),
         };
         let beyond_i = d.points.iter().filter(|p| p.theta_i > limit_i).count();
-        let beyond_r = d.points.iter().filter(|p| p.theta_i <= limit_i && p.theta_r > limit_r).count();
+        let beyond_r = d
+            .points
+            .iter()
+            .filter(|p| p.theta_i <= limit_i && p.theta_r > limit_r)
+            .count();
         if beyond_i + beyond_r > 0 {
             eprintln!(
                 "{}: left out {} of {} points: {beyond_i} with theta_i > {max_i} deg, {beyond_r} more with \

@@ -3,6 +3,8 @@
 use std::path::PathBuf;
 use std::process::Command;
 
+use brdf_core::tolerance::BATCH_F64_REL;
+
 fn repo(p: &str) -> String {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../..")
@@ -28,34 +30,78 @@ fn run(args: &[&str]) -> String {
 fn eval_bench_writes_csv_charts_and_a_pareto_front() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
-    run(&["bench", "eval", "--no-qemu", "--out", out, "--material", "yellow"]);
+    let small = ["--points", "12", "--reps", "1", "--no-qemu", "--no-numpy"];
+    run(&[
+        &["bench", "eval", "--out", out, "--material", "yellow"],
+        &small[..],
+    ]
+    .concat());
     let csv = std::fs::read_to_string(dir.path().join("eval.csv")).unwrap();
     let rows: Vec<Vec<String>> = csv::Reader::from_reader(csv.as_bytes())
         .records()
         .map(|r| r.unwrap().iter().map(str::to_owned).collect())
         .collect();
-    assert_eq!(rows.len(), 9, "{csv}");
+    // Scalar and batch, f64 and f32, three inputs, one core and all cores; the fast path,
+    // three tables and two stand-ins.
+    assert_eq!(rows.len(), 2 * 2 * 3 * 2 + 1 + 3 + 2, "{csv}");
     let err = |name: &str| -> f64 {
         rows.iter()
             .find(|r| r[0] == name)
-            .unwrap_or_else(|| panic!("{name}"))[3]
+            .unwrap_or_else(|| panic!("{name}"))[4]
             .parse()
             .unwrap()
     };
     // The orderings the chart is about: tables converge with size, the stand-ins are far off.
-    assert!(err("f32 table 1024, cosines") < err("f32 table 256, cosines"));
-    assert!(err("f32 table 256, cosines") < err("f32 table 64, cosines"));
-    assert!(err("f32 exact, cosines") < 2e-6 && err("f32 own exp2/log2, cosines") < 4e-6);
+    assert!(err("f32 table 1024 cosines") < err("f32 table 256 cosines"));
+    assert!(err("f32 table 256 cosines") < err("f32 table 64 cosines"));
+    assert!(err("f32 scalar angles") < 2e-6 && err("f32 own exp2/log2 cosines") < 4e-6);
+    assert!(err("f64 batch angles") <= BATCH_F64_REL && err("f32 batch angles") < 2e-6);
     assert!(err("Lambert for six, cosines") > 1e-2);
     // The f64 reference (error 0 by definition) is kept out of the front; without QEMU no
     // device figures and no device front. (The front itself is tested in brdf-plot.)
     assert_eq!(
-        (rows[0][0].as_str(), rows[0][5].as_str()),
-        ("f64 exact, angles", "false")
+        (rows[0][0].as_str(), rows[0][2].as_str(), rows[0][6].as_str()),
+        ("f64 scalar angles", "1", "false")
     );
-    assert!(rows.iter().all(|r| r[2].is_empty() && r[6] == "false"), "{csv}");
+    assert!(rows.iter().all(|r| r[3].is_empty() && r[7] == "false"), "{csv}");
     for f in ["eval-host.svg", "eval-host.png"] {
         assert!(std::fs::metadata(dir.path().join(f)).unwrap().len() > 1000, "{f}");
+    }
+}
+
+#[test]
+fn eval_bench_json_lists_every_variant() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let text = run(&[
+        "bench",
+        "eval",
+        "--json",
+        "--out",
+        out,
+        "--points",
+        "10",
+        "--reps",
+        "1",
+        "--no-qemu",
+        "--no-numpy",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let variants = v["variants"].as_array().unwrap();
+    for precision in ["f64", "f32"] {
+        for path in ["scalar", "batch"] {
+            for input in ["angles", "cosines", "vectors"] {
+                let name = format!("{precision} {path} {input}");
+                let rows: Vec<_> = variants.iter().filter(|r| r["name"] == name.as_str()).collect();
+                assert_eq!(rows.len(), 2, "{name}: one core and all cores");
+                assert_eq!(rows[0]["threads"], 1);
+                for r in rows {
+                    assert!(r["ns_per_eval"].as_f64().unwrap() > 0.0, "{r}");
+                    let e = r["max_rel_error"].as_f64().unwrap();
+                    assert!(e < if precision == "f64" { 1e-12 } else { 4e-6 }, "{r}");
+                }
+            }
+        }
     }
 }
 

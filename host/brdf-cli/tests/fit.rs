@@ -240,7 +240,13 @@ fn select_chooses_a_nonphysical_model_only_when_asked() {
     let v = select(&["--allow-nonphysical"]);
     assert_eq!(v["chosen"], "minnaert exact", "{}", v["reason"]);
     // One decision, one reason in the text output.
-    let table = ok(&["select", path.to_str().unwrap(), "--max-theta", "40", "--allow-nonphysical"]);
+    let table = ok(&[
+        "select",
+        path.to_str().unwrap(),
+        "--max-theta",
+        "40",
+        "--allow-nonphysical",
+    ]);
     assert_eq!(table.matches("chosen:").count(), 1, "{table}");
     assert!(table.contains("chosen: minnaert exact: the cheapest"), "{table}");
 }
@@ -358,10 +364,19 @@ fn angular_limits_keep_points_at_the_limit_and_say_what_they_drop() {
         ]);
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-        (v["n"].as_u64().unwrap(), String::from_utf8_lossy(&out.stderr).into_owned())
+        (
+            v["n"].as_u64().unwrap(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
     };
     let (at, said) = n("40");
     let (below, _) = n("39.99");
-    assert!(at > below + 100, "40 deg keeps the 40 deg incidence: {at} against {below}");
-    assert!(said.contains("left out") && said.contains("theta_i > 40 deg"), "{said}");
+    assert!(
+        at > below + 100,
+        "40 deg keeps the 40 deg incidence: {at} against {below}"
+    );
+    assert!(
+        said.contains("left out") && said.contains("theta_i > 40 deg"),
+        "{said}"
+    );
 }

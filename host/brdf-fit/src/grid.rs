@@ -60,7 +60,8 @@ pub fn grid_starts(problem: &Problem, starts: usize) -> Vec<[f64; MAX_PARAMS]> {
     order.sort_by(|&a, &b| nodes[a].2.total_cmp(&nodes[b].2));
     // With the lobe off (kb = 0) the lobe's shape has no effect: every such node is the same
     // optimum, however far apart on the grid, so at most one of them is taken.
-    let lobe_off = |i: usize| kind != ModelKind::Minnaert && kind != ModelKind::Lambert && nodes[i].1[0] <= 0.0;
+    let lobe_off =
+        |i: usize| kind != ModelKind::Minnaert && kind != ModelKind::Lambert && nodes[i].1[0] <= 0.0;
     let mut picked: Vec<usize> = Vec::new();
     for i in order {
         if picked.len() >= starts {
@@ -118,7 +119,9 @@ fn lobe_grid(problem: &Problem, axes: &[Vec<f64>]) -> Vec<(Vec<usize>, [f64; 2],
         .collect();
     // The second basis: (cos ti cos tr)^c for the six-parameter models, 1/cos ti for five.
     let seconds: Vec<Vec<f64>> = if kind == ModelKind::Five {
-        vec![(0..n).map(|i| s[i] * factors::second(kind, 0.0, &pts[i])).collect()]
+        vec![(0..n)
+            .map(|i| s[i] * factors::second(kind, 0.0, &pts[i]))
+            .collect()]
     } else {
         axes[3]
             .iter()
@@ -183,7 +186,12 @@ mod tests {
 
     #[test]
     fn grid_costs_equal_full_projections() {
-        for kind in [ModelKind::Six, ModelKind::SixCos2, ModelKind::Five, ModelKind::Minnaert] {
+        for kind in [
+            ModelKind::Six,
+            ModelKind::SixCos2,
+            ModelKind::Five,
+            ModelKind::Minnaert,
+        ] {
             let p: Vec<f64> = match kind {
                 ModelKind::Five => vec![0.2545, 1.8, -27.5721, 0.6705, 0.3676],
                 ModelKind::Minnaert => vec![0.6, 0.7],

@@ -4,7 +4,10 @@ use brdf_core::{ModelKind, MAX_PARAMS};
 use serde::Serialize;
 
 use crate::data::{Dataset, Point};
-use crate::kernel::{bases, eval, nonlinear_count, Prepared};
+use crate::kernel::{bases, eval_many, nonlinear_count, Prepared};
+
+/// Points per call of [`eval_many`] in the passes over the data.
+const CHUNK: usize = 1024;
 
 /// Residual form. `f` is the model, `y` the measurement.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default)]
@@ -237,7 +240,7 @@ impl Problem {
         }
         let q = &q[..self.dim()];
         for i in 0..self.pts.len() {
-            let r = self.residual_at(i, eval(self.kind, q, &self.pts[i], None));
+            let r = self.residual_at(i, crate::kernel::eval(self.kind, q, &self.pts[i], None));
             self.irls[i] = if r.is_finite() {
                 self.loss.eval(r * r).1
             } else {
@@ -312,9 +315,13 @@ impl Problem {
     pub fn cost(&self, q: &[f64]) -> f64 {
         let q = &q[..self.dim()];
         let mut s = 0.0;
-        for (i, pt) in self.pts.iter().enumerate() {
-            let r = self.residual_at(i, eval(self.kind, q, pt, None));
-            s += self.loss.eval(r * r).0;
+        let mut f = [0.0; CHUNK];
+        for (c, pts) in self.pts.chunks(CHUNK).enumerate() {
+            eval_many(self.kind, q, pts, &mut f[..pts.len()], None);
+            for (k, &fk) in f[..pts.len()].iter().enumerate() {
+                let r = self.residual_at(c * CHUNK + k, fk);
+                s += self.loss.eval(r * r).0;
+            }
         }
         0.5 * s
     }
@@ -331,27 +338,54 @@ impl Problem {
         *jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
         *jtr = [0.0; MAX_PARAMS];
         let mut cost = 0.0;
-        let mut g = [0.0; MAX_PARAMS];
-        for (i, pt) in self.pts.iter().enumerate() {
-            let f = eval(self.kind, q, pt, Some(&mut g[..n]));
-            let r = self.residual_at(i, f);
-            let (y, w) = (self.y[i], self.w[i]);
-            let scale = match self.residual {
-                Residual::Relative => w / y,
-                Residual::Absolute => w,
-                Residual::Log => w / f,
-            };
-            // Robust loss: scipy's scaling of the residual and the Jacobian row, so that
-            // Gauss-Newton sees the loss's curvature (exact for the linear loss).
-            let (rho, d1, d2) = self.loss.eval(r * r);
-            cost += rho;
-            let curvature = (d1 + 2.0 * d2 * r * r).max(f64::EPSILON);
-            for a in 0..n {
-                let ja = scale * g[a];
-                jtr[a] += ja * r * d1;
-                for b in 0..=a {
-                    jtj[a][b] += ja * scale * g[b] * curvature;
+        let mut fs = [0.0; CHUNK];
+        let mut gs = [[0.0; MAX_PARAMS]; CHUNK];
+        let linear = self.loss.is_linear();
+        for (c, pts) in self.pts.chunks(CHUNK).enumerate() {
+            eval_many(
+                self.kind,
+                q,
+                pts,
+                &mut fs[..pts.len()],
+                Some(&mut gs[..pts.len()]),
+            );
+            // Residuals and Jacobian rows in place, then the sums with the parameter count
+            // known at compile time (the accumulators stay in registers).
+            for (k, (f, g)) in fs.iter_mut().zip(&mut gs).take(pts.len()).enumerate() {
+                let i = c * CHUNK + k;
+                let r = self.residual_at(i, *f);
+                let (y, w) = (self.y[i], self.w[i]);
+                let mut scale = match self.residual {
+                    Residual::Relative => w / y,
+                    Residual::Absolute => w,
+                    Residual::Log => w / *f,
+                };
+                *f = r;
+                if !linear {
+                    // Robust loss, scaled as scipy's least_squares does: residual
+                    // `r rho' / sqrt(k)` and row `J sqrt(k)` with the curvature
+                    // `k = rho' + 2 rho'' r^2`, so that Gauss-Newton sees the loss.
+                    let (rho, d1, d2) = self.loss.eval(r * r);
+                    cost += rho;
+                    let k = (d1 + 2.0 * d2 * r * r).max(f64::EPSILON).sqrt();
+                    *f = r * d1 / k;
+                    scale *= k;
                 }
+                for v in g.iter_mut() {
+                    *v *= scale;
+                }
+            }
+            let (fs, gs) = (&fs[..pts.len()], &gs[..pts.len()]);
+            let squares = match n {
+                6 => accumulate::<6>(fs, gs, jtj, jtr),
+                5 => accumulate::<5>(fs, gs, jtj, jtr),
+                2 => accumulate::<2>(fs, gs, jtj, jtr),
+                1 => accumulate::<1>(fs, gs, jtj, jtr),
+                _ => accumulate::<MAX_PARAMS>(fs, gs, jtj, jtr),
+            };
+            // Under a robust loss the cost was summed above (the scaled residuals are not it).
+            if linear {
+                cost += squares;
             }
         }
         for a in 0..n {
@@ -367,10 +401,10 @@ impl Problem {
     /// there, as the polish sees it).
     pub fn jacobian(&self, q: &[f64]) -> Vec<[f64; MAX_PARAMS]> {
         let n = self.dim();
-        let mut out = Vec::with_capacity(self.len());
-        for (i, pt) in self.pts.iter().enumerate() {
-            let mut g = [0.0; MAX_PARAMS];
-            let f = eval(self.kind, &q[..n], pt, Some(&mut g[..n]));
+        let mut out = vec![[0.0; MAX_PARAMS]; self.len()];
+        let mut f = vec![0.0; self.len()];
+        eval_many(self.kind, &q[..n], &self.pts, &mut f, Some(&mut out));
+        for (i, (g, &f)) in out.iter_mut().zip(&f).enumerate() {
             let robust = if self.loss.is_linear() {
                 1.0
             } else {
@@ -387,17 +421,15 @@ impl Problem {
             for v in g.iter_mut() {
                 *v *= scale;
             }
-            out.push(g);
         }
         out
     }
 
     /// Model values at `q`, one per point.
     pub fn values(&self, q: &[f64]) -> Vec<f64> {
-        self.pts
-            .iter()
-            .map(|pt| eval(self.kind, &q[..self.dim()], pt, None))
-            .collect()
+        let mut f = vec![0.0; self.len()];
+        eval_many(self.kind, &q[..self.dim()], &self.pts, &mut f, None);
+        f
     }
 
     /// Prepared points.
@@ -435,6 +467,36 @@ impl Problem {
         }
         sums.solve(nb)
     }
+}
+
+/// Adds `sum r^2`, `J^T r` and the lower triangle of `J^T J` over rows `j` with residuals
+/// `r`, for the first `N` parameters; returns `sum r^2`.
+#[inline]
+fn accumulate<const N: usize>(
+    r: &[f64],
+    j: &[[f64; MAX_PARAMS]],
+    jtj: &mut [[f64; MAX_PARAMS]; MAX_PARAMS],
+    jtr: &mut [f64; MAX_PARAMS],
+) -> f64 {
+    let mut a_jtj = [[0.0; N]; N];
+    let mut a_jtr = [0.0; N];
+    let mut rr = 0.0;
+    for (&r, row) in r.iter().zip(j) {
+        rr += r * r;
+        for a in 0..N {
+            a_jtr[a] += row[a] * r;
+            for b in 0..=a {
+                a_jtj[a][b] += row[a] * row[b];
+            }
+        }
+    }
+    for a in 0..N {
+        jtr[a] += a_jtr[a];
+        for b in 0..=a {
+            jtj[a][b] += a_jtj[a][b];
+        }
+    }
+    rr
 }
 
 /// Normal equations of the projected problem `min || s (B lin - y) ||^2` with at most two

@@ -1,8 +1,10 @@
 //! What a fit says: metrics (overall and per incidence), parameter uncertainty with plain
 //! flags on what the data do not determine, and the energy check.
 
-use brdf_core::checks::{albedo, AlbedoRule};
+use brdf_core::batch::Batch;
+use brdf_core::checks::{albedo_batch, AlbedoRule};
 use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
+use rayon::prelude::*;
 use serde::ser::SerializeMap;
 use serde::{Serialize, Serializer};
 
@@ -138,27 +140,32 @@ fn profile_rise(problem: &Problem, outcome: &FitOutcome, j: usize, s2: f64) -> O
     if !log_param && q0 == 0.0 {
         return None;
     }
-    let mut rise: Option<f64> = None;
-    for target in moves {
-        let v = target.clamp(lo[j], hi[j]);
-        if !v.is_finite() || (v - q0).abs() <= 1e-12 * (1.0 + q0.abs()) {
-            continue;
-        }
-        let (mut flo, mut fhi) = (lo, hi);
-        flo[j] = v;
-        fhi[j] = v;
-        let mut start = outcome.q;
-        start[j] = v;
-        let r = crate::lm::minimise(problem, &start, &flo, &fhi, crate::lm::LmOptions::default());
-        let d = 2.0 * (r.cost - outcome.cost).max(0.0) / s2;
-        rise = Some(rise.map_or(d, |x: f64| x.min(d)));
-    }
-    rise
+    // The refits are independent: all of them at once, on all cores.
+    moves
+        .par_iter()
+        .filter_map(|&target| {
+            let v = target.clamp(lo[j], hi[j]);
+            if !v.is_finite() || (v - q0).abs() <= 1e-12 * (1.0 + q0.abs()) {
+                return None;
+            }
+            let (mut flo, mut fhi) = (lo, hi);
+            flo[j] = v;
+            fhi[j] = v;
+            let mut start = outcome.q;
+            start[j] = v;
+            let r = crate::lm::minimise(problem, &start, &flo, &fhi, crate::lm::LmOptions::default());
+            Some(2.0 * (r.cost - outcome.cost).max(0.0) / s2)
+        })
+        .reduce_with(f64::min)
 }
 
 /// `x` with six significant digits and no trailing zeros (1000, not 999.9999999999998).
 fn short(x: f64) -> String {
-    let s = format!("{:.*}", (5 - x.abs().log10().floor() as i32).clamp(0, 12) as usize, x);
+    let s = format!(
+        "{:.*}",
+        (5 - x.abs().log10().floor() as i32).clamp(0, 12) as usize,
+        x
+    );
     if s.contains('.') {
         s.trim_end_matches('0').trim_end_matches('.').to_owned()
     } else {
@@ -362,6 +369,18 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
         }
     }
     let d = natural_per_internal(kind, &outcome.q);
+    // Profile refits of every parameter that gets a standard error, all in parallel.
+    let rises: Vec<Option<f64>> = (0..p)
+        .into_par_iter()
+        .map(|j| {
+            let estimated = note[j].is_none() && cov[j][j].is_finite() && cov[j][j] >= 0.0;
+            if estimated && s2 > 0.0 {
+                profile_rise(problem, outcome, j, s2)
+            } else {
+                None
+            }
+        })
+        .collect();
     let mut params = Vec::with_capacity(p);
     for j in 0..p {
         let value = outcome.params[j];
@@ -381,11 +400,7 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
             } else {
                 f64::INFINITY
             };
-            let flat = if s2 > 0.0 {
-                profile_rise(problem, outcome, j, s2)
-            } else {
-                None
-            };
+            let flat = rises[j];
             if rel > UNDETERMINED_REL_SE {
                 let note = format!(
                     "standard error is {:.0}% of the value: the data do not determine {}",
@@ -457,11 +472,12 @@ pub struct Energy {
 /// Energy check of `model` at the incidences (radians) of a dataset.
 pub fn energy(model: &AnyModel<f64>, incidences: &[f64]) -> Energy {
     let bound = model.energy_bound();
+    let batch = Batch::new(model);
     let albedo: Vec<IncidenceAlbedo> = incidences
-        .iter()
+        .par_iter()
         .map(|&ti| IncidenceAlbedo {
             theta_i: degrees(ti),
-            albedo: albedo(model, ti, AlbedoRule::DEFAULT),
+            albedo: albedo_batch(&batch, ti, AlbedoRule::DEFAULT),
         })
         .collect();
     Energy {
