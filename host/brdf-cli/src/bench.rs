@@ -60,7 +60,7 @@ pub struct EvalBench {
     #[arg(long, default_value = "khaki")]
     material: String,
     /// Largest zenith of the accuracy domain, degrees.
-    #[arg(long, default_value_t = 85.0)]
+    #[arg(long, default_value_t = 85.0, value_parser = crate::common::degrees(1.0, 90.0))]
     max_theta: f64,
     /// Output directory for eval.csv and the charts.
     #[arg(long, default_value = "docs/bench")]

@@ -3,15 +3,16 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use brdf_core::{AnyModel, Brdf, Float, ModelKind, MAX_PARAMS};
 use clap::{Args, ValueEnum};
 
+use crate::angles::{f32_text, f64_text, radians, AngleReader, AngleWriter, Chunk, CHUNK_ROWS};
 use crate::params::{build, parse_kind, parse_params};
 
 /// Evaluate a model at every row of a CSV with columns `theta_i,theta_r,phi` (degrees,
 /// canonical convention: phi = 180 is the mirror direction). Writes the input columns plus
-/// the BRDF in 1/sr to standard output.
+/// the BRDF in 1/sr to standard output, as it reads (4,096 rows at a time).
 #[derive(Debug, Args)]
 pub struct EvalCmd {
     /// Model: six, six-cos2, five, minnaert, lambert.
@@ -41,95 +42,47 @@ pub enum Precision {
     F32,
 }
 
+/// Evaluates `model` at every direction (radians) of one chunk into `values`. The one place
+/// the chunk is evaluated: a batch evaluation replaces this loop.
+pub fn evaluate_chunk<T: Float>(model: &AnyModel<T>, directions: &[[T; 3]], values: &mut Vec<T>) {
+    values.clear();
+    values.extend(directions.iter().map(|&[ti, tr, phi]| model.eval_angles(ti, tr, phi)));
+}
+
 impl EvalCmd {
     pub fn run(self) -> Result<()> {
         let params = parse_params(self.model, &self.params)?;
         let stdout = std::io::stdout();
-        let out = std::io::BufWriter::new(stdout.lock());
+        let out = stdout.lock();
         match self.precision {
-            Precision::F64 => self.eval::<f64>(&params, out, |v| format!("{v:.16e}")),
-            Precision::F32 => self.eval::<f32>(&params, out, |v| format!("{v:.8e}")),
+            Precision::F64 => self.eval::<f64>(&params, out, f64_text),
+            Precision::F32 => self.eval::<f32>(&params, out, f32_text),
         }
     }
 
-    fn eval<T: Float>(
-        &self,
-        params: &[f64; MAX_PARAMS],
-        out: impl Write,
-        fmt: impl Fn(T) -> String,
-    ) -> Result<()> {
+    fn eval<T: Float>(&self, params: &[f64; MAX_PARAMS], out: impl Write, text: fn(T) -> String) -> Result<()> {
         let model: AnyModel<T> = build(self.model, params)?;
-        let file = self.angles.display();
-        let mut reader = csv::ReaderBuilder::new()
-            .has_headers(true)
-            .from_path(&self.angles)
-            .with_context(|| format!("cannot open {file}"))?;
-        let headers = reader
-            .headers()
-            .with_context(|| format!("{file}: cannot read the header row"))?
-            .clone();
-        if headers.iter().all(|h| h.trim().is_empty()) {
-            bail!("{file}: empty file (no header row)");
-        }
-        let column = |name: &str| -> Result<usize> {
-            let mut found = headers.iter().enumerate().filter(|(_, h)| h.trim() == name);
-            match (found.next(), found.next()) {
-                (Some((i, _)), None) => Ok(i),
-                (None, _) => bail!("{file}: line 1: missing column `{name}` in header"),
-                (Some(_), Some(_)) => bail!("{file}: line 1: column `{name}` appears twice in header"),
-            }
-        };
-        let cols = [column("theta_i")?, column("theta_r")?, column("phi")?];
-        if headers.iter().any(|h| h.trim() == self.output_column) {
-            bail!(
-                "{file}: line 1: input already has a column `{}`; choose another with --output-column",
-                self.output_column
-            );
-        }
-        // Rows are written to memory first, so a bad row leaves no partial CSV behind.
-        let mut writer = csv::Writer::from_writer(Vec::new());
-        let mut header_out = headers.clone();
-        header_out.push_field(&self.output_column);
-        writer.write_record(&header_out)?;
-        let mut record = csv::StringRecord::new();
-        loop {
-            match reader.read_record(&mut record) {
-                Ok(false) => break,
-                Ok(true) => {}
-                Err(e) => return Err(anyhow::Error::new(e).context(format!("{file}: malformed CSV"))),
-            }
-            let line = record.position().map_or(0, |p| p.line());
-            let mut deg = [0.0_f64; 3];
-            for (k, (&c, name)) in cols.iter().zip(["theta_i", "theta_r", "phi"]).enumerate() {
-                let text = record[c].trim();
-                let v: f64 = text.parse().map_err(|_| {
-                    anyhow::anyhow!("{file}: line {line}: column {name}: `{text}` is not a number")
-                })?;
-                if !v.is_finite() {
-                    bail!("{file}: line {line}: column {name}: `{text}` is not finite");
-                }
-                if k < 2 && !(0.0..=90.0).contains(&v) {
-                    bail!("{file}: line {line}: column {name}: zenith {v} deg is outside [0, 90]");
-                }
-                deg[k] = v;
-            }
-            let [ti, tr, phi] = deg.map(|d| T::from_f64(d.to_radians()));
-            let f = model.eval_angles(ti, tr, phi);
-            if !f.is_finite() {
+        let mut reader = AngleReader::open(&self.angles, &self.output_column)?;
+        let mut writer = AngleWriter::new(out, &reader, &self.output_column)?;
+        let mut chunk = Chunk::default();
+        let mut directions: Vec<[T; 3]> = Vec::with_capacity(CHUNK_ROWS);
+        let mut values: Vec<T> = Vec::with_capacity(CHUNK_ROWS);
+        while reader.next_chunk(&mut chunk)? > 0 {
+            directions.clear();
+            directions.extend(chunk.degrees().iter().map(|&d| radians::<T>(d)));
+            evaluate_chunk(&model, &directions, &mut values);
+            if let Some(i) = values.iter().position(|f| !f.is_finite()) {
                 bail!(
-                    "{file}: line {line}: the model is not finite here ({f}); {} diverges at this \
-                     geometry (five-parameter and Minnaert models grow without bound at grazing)",
+                    "{}: line {}: the model is not finite here ({}); {} diverges at this geometry \
+                     (five-parameter and Minnaert models grow without bound at grazing)",
+                    reader.file(),
+                    chunk.line(i),
+                    values[i],
                     self.model.name()
                 );
             }
-            let mut row = record.clone();
-            row.push_field(&fmt(f));
-            writer.write_record(&row)?;
+            writer.write_chunk(&chunk, values.iter().map(|&v| text(v)))?;
         }
-        let bytes = writer.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
-        let mut out = out;
-        out.write_all(&bytes).context("cannot write to standard output")?;
-        out.flush().context("cannot write to standard output")?;
-        Ok(())
+        writer.finish()
     }
 }

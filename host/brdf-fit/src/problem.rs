@@ -191,10 +191,11 @@ impl Problem {
         0.5 * cost
     }
 
-    /// Jacobian of the residuals with respect to the internal parameters, row per point.
-    pub fn jacobian(&self, q: &[f64]) -> Vec<[f64; MAX_PARAMS]> {
+    /// `J^T J` of the residuals' Jacobian with respect to the internal parameters, summed
+    /// row by row without holding the Jacobian (constant memory however many points).
+    pub fn jacobian_gram(&self, q: &[f64]) -> [[f64; MAX_PARAMS]; MAX_PARAMS] {
         let n = self.dim();
-        let mut out = Vec::with_capacity(self.len());
+        let mut jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
         for (i, pt) in self.pts.iter().enumerate() {
             let mut g = [0.0; MAX_PARAMS];
             let f = eval(self.kind, &q[..n], pt, Some(&mut g[..n]));
@@ -206,9 +207,13 @@ impl Problem {
             for v in g.iter_mut() {
                 *v *= scale;
             }
-            out.push(g);
+            for a in 0..n {
+                for b in 0..n {
+                    jtj[a][b] += g[a] * g[b];
+                }
+            }
         }
-        out
+        jtj
     }
 
     /// Model values at `q`, one per point.

@@ -164,15 +164,7 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
     let p = kind.param_count();
     let names = kind.param_names();
     let (lo, hi) = bounds(kind);
-    let jac = problem.jacobian(&outcome.q);
-    let mut jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
-    for row in &jac {
-        for a in 0..p {
-            for b in 0..p {
-                jtj[a][b] += row[a] * row[b];
-            }
-        }
-    }
+    let jtj = problem.jacobian_gram(&outcome.q);
     let at_bound: Vec<bool> = (0..p)
         .map(|j| {
             let tol = 1e-7 * (hi[j] - lo[j]);
