@@ -11,6 +11,7 @@ use std::time::Duration;
 
 use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox};
 use brdf_core::ranges::six_max_value;
+use brdf_core::tolerance::F32_MAX_REL;
 use brdf_core::{AnyModel, Brdf, ModelKind, SixParam, MAX_PARAMS};
 use brdf_link::{decode_defmt, Link, LinkError, Qemu, FLASH_IMAGE};
 use brdf_tests::qemu::firmware;
@@ -156,7 +157,8 @@ fn the_device_applies_the_hosts_parameter_ranges() {
         let dirs = [[1.0f32, 1.0, 1.0], [0.9, 0.9, 1.0], [0.9, 0.9, -1.0], [0.5, 0.2, 0.3]];
         let host = AnyModel::<f32>::new(ModelKind::Six, &p).unwrap();
         for (x, v) in dirs.iter().zip(dev.eval(0, Input::Cosines, &dirs).unwrap()) {
-            assert!(v.is_finite() && f64::from(v) <= bound, "{p:?} at {x:?}: {v:e}");
+            // The bound holds in exact arithmetic; f32 may round past it by its tolerance.
+            assert!(v.is_finite() && f64::from(v) <= bound * (1.0 + F32_MAX_REL), "{p:?} at {x:?}: {v:e}");
             assert_eq!(v.to_bits(), host.eval_cosines(x[0], x[1], x[2]).to_bits());
             worst = worst.max(f64::from(v));
         }

@@ -121,7 +121,8 @@ impl ModelKind {
 
 /// Largest value the six-parameter model (eq. 3) takes for weights `kb`, `kd`: the facet
 /// term, the lobe and `ln(1 + cos ti cos tr) / ln 2` are at most 1 and `(cos ti cos tr)^c`
-/// is at most 1, so `f_r <= (kb + kd) / pi`.
+/// is at most 1, so `f_r <= (kb + kd) / pi` (in exact arithmetic; an f32 evaluation may
+/// round past it by [`crate::tolerance::F32_MAX_REL`]).
 pub fn six_max_value(kb: f64, kd: f64) -> f64 {
     (kb + kd) / core::f64::consts::PI
 }

@@ -149,7 +149,7 @@ fn a_file_that_is_not_the_firmware_is_named() {
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains(elf.to_str().unwrap()) && err.contains("QEMU exited"), "{err}");
-    assert!(err.contains("qemu-system-arm: "), "QEMU's own message: {err}");
+    assert!(err.contains("QEMU's standard error: qemu"), "QEMU's own message: {err}");
 }
 
 /// Inodes of the sockets process `pid` holds.
@@ -572,9 +572,11 @@ fn pack_applies_the_core_ranges_with_and_without_tables() {
     println!("{checked} pack runs at the parameter bounds agree with the core's ranges");
 }
 
-/// The fitter's search box lies inside the ranges, so every fit packs; and `check --blob`
+/// The fitter's search box lies inside the ranges, so every fit packs; `check --blob`
 /// takes a blob at the corners of the ranges (it may judge its accuracy, but never refuses
-/// its parameters).
+/// its parameters); and a blob beyond them (`kr = 1e-6` in f32, which the device used to
+/// accept while `check` refused it in f64 naming neither file nor material) is refused by
+/// name before anything is loaded.
 #[test]
 fn fits_pack_and_check_takes_blobs_at_the_range_corners() {
     use brdf_fit::problem::bounds;
@@ -618,6 +620,18 @@ fn fits_pack_and_check_takes_blobs_at_the_range_corners() {
     assert!(!err.contains("out of range") && !err.contains("refused"), "{err}");
     let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(rows.as_array().unwrap().len(), 5, "{err}");
+
+    let mut tiny = brdf_wire::blob::table1_blob();
+    tiny.materials.truncate(2);
+    tiny.materials[1].params[1] = 1e-6;
+    let mut buf = [0u8; brdf_wire::blob::MAX_BLOB_LEN];
+    let n = tiny.encode(&mut buf).unwrap();
+    let path = dir.path().join("tiny-kr.bin");
+    std::fs::write(&path, &buf[..n]).unwrap();
+    let out = run(&["check", "--qemu", "--blob", path.to_str().unwrap(), "--directions", "10"]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("tiny-kr.bin: material 1: parameters out of range"), "{err}");
 }
 
 /// Before: `brdf fit` fitted six parameters to ten copies of one measurement.

@@ -97,10 +97,15 @@ impl std::fmt::Display for QemuFailure {
         write!(f, "; command: {}", self.command)?;
         let err = self.stderr.trim();
         if err.is_empty() {
-            write!(f, "; QEMU wrote nothing on standard error")
-        } else {
-            write!(f, "; QEMU's standard error: {err}")
+            return write!(f, "; QEMU wrote nothing on standard error");
         }
+        // The first lines say what happened (a register dump may follow).
+        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+        write!(f, "; QEMU's standard error: {}", lines[..lines.len().min(4)].join(" / "))?;
+        if lines.len() > 4 {
+            write!(f, " / ({} more lines)", lines.len() - 4)?;
+        }
+        Ok(())
     }
 }
 
