@@ -69,7 +69,11 @@ fn sequence_numbers_wrap_across_restarts_without_locking() {
         drop(dev);
         // A restart boots from the slot just written.
         let mut dev = boot(&elf, dir.path());
-        assert_eq!(dev.info().unwrap().2, blob_crc(&blob), "after a restart, {sequence:#x}");
+        assert_eq!(
+            dev.info().unwrap().2,
+            blob_crc(&blob),
+            "after a restart, {sequence:#x}"
+        );
     }
     // The number before the newest is stale, across the wrap too.
     let mut dev = boot(&elf, dir.path());
@@ -154,11 +158,19 @@ fn the_device_applies_the_hosts_parameter_ranges() {
         };
         let p = [kb, pick(0, 1), pick(1, 2), pick(2, 3), kd, pick(3, 5)];
         dev.load(&raw_blob(1, &[material(ModelKind::Six, &p)])).unwrap();
-        let dirs = [[1.0f32, 1.0, 1.0], [0.9, 0.9, 1.0], [0.9, 0.9, -1.0], [0.5, 0.2, 0.3]];
+        let dirs = [
+            [1.0f32, 1.0, 1.0],
+            [0.9, 0.9, 1.0],
+            [0.9, 0.9, -1.0],
+            [0.5, 0.2, 0.3],
+        ];
         let host = AnyModel::<f32>::new(ModelKind::Six, &p).unwrap();
         for (x, v) in dirs.iter().zip(dev.eval(0, Input::Cosines, &dirs).unwrap()) {
             // The bound holds in exact arithmetic; f32 may round past it by its tolerance.
-            assert!(v.is_finite() && f64::from(v) <= bound * (1.0 + F32_MAX_REL), "{p:?} at {x:?}: {v:e}");
+            assert!(
+                v.is_finite() && f64::from(v) <= bound * (1.0 + F32_MAX_REL),
+                "{p:?} at {x:?}: {v:e}"
+            );
             assert_eq!(v.to_bits(), host.eval_cosines(x[0], x[1], x[2]).to_bits());
             worst = worst.max(f64::from(v));
         }
@@ -202,7 +214,10 @@ fn a_long_fit_keeps_the_link_alive_and_answers_busy() {
     let Some(elf) = firmware() else { return };
     let mut dev = Link::new(Qemu::spawn(&elf).unwrap());
     let samples = khaki_samples(MAX_FIT_SAMPLES);
-    let bytes: Vec<u8> = samples.iter().flat_map(|s| s.iter().flat_map(|v| v.to_le_bytes())).collect();
+    let bytes: Vec<u8> = samples
+        .iter()
+        .flat_map(|s| s.iter().flat_map(|v| v.to_le_bytes()))
+        .collect();
     // QEMU's speed on this machine, from a short FIT: seconds per evaluation.
     let started = std::time::Instant::now();
     dev.fit(ModelKind::Six, 600, &samples).unwrap();
@@ -232,9 +247,15 @@ fn a_long_fit_keeps_the_link_alive_and_answers_busy() {
                 assert!(done < b && b == budget);
                 progress += 1;
             }
-            (t, Response::Fitted { params, rms_rel, evals, .. }) if t == fit_tag => {
-                fitted = Some((params, rms_rel, evals))
-            }
+            (
+                t,
+                Response::Fitted {
+                    params,
+                    rms_rel,
+                    evals,
+                    ..
+                },
+            ) if t == fit_tag => fitted = Some((params, rms_rel, evals)),
             other => panic!("unexpected reply {other:?}"),
         }
     }
@@ -377,7 +398,8 @@ fn commit_fails_when_the_flash_file_cannot_be_written() {
     assert_eq!(dev.info().unwrap().2, before);
     let log = decode_defmt(&elf, &dev.into_transport().stop()).unwrap();
     assert!(
-        log.iter().any(|l| l.contains("flash: cannot write brdf-flash.bin")),
+        log.iter()
+            .any(|l| l.contains("flash: cannot write brdf-flash.bin")),
         "{log:?}"
     );
 }

@@ -256,7 +256,10 @@ pub struct AnnealOutcome<T, M> {
 /// Number of distinct geometries in `geometries`, counted up to `limit` (at most
 /// [`MAX_PARAMS`]): constant memory, `O(n limit)` comparisons. Directions with equal
 /// geometry (the same angles, or `phi` and `-phi`) are one direction to every model.
-pub fn distinct_geometries<T: Float>(geometries: impl IntoIterator<Item = Geometry<T>>, limit: usize) -> usize {
+pub fn distinct_geometries<T: Float>(
+    geometries: impl IntoIterator<Item = Geometry<T>>,
+    limit: usize,
+) -> usize {
     let limit = limit.min(MAX_PARAMS);
     let mut seen: [Option<Geometry<T>>; MAX_PARAMS] = [None; MAX_PARAMS];
     let mut n = 0;
@@ -264,7 +267,7 @@ pub fn distinct_geometries<T: Float>(geometries: impl IntoIterator<Item = Geomet
         if n >= limit {
             break;
         }
-        if !seen[..n].iter().any(|s| *s == Some(g)) {
+        if !seen[..n].contains(&Some(g)) {
             seen[n] = Some(g);
             n += 1;
         }
@@ -596,7 +599,10 @@ mod tests {
         let minnaert = SearchBox::for_kind(ModelKind::Minnaert);
         assert!(matches!(
             anneal::<f32, crate::models::Minnaert<f32>, _, 2>(&m, &minnaert, &cfg, &mut rng),
-            Err(AnnealError::TooFewDirections { distinct: 1, needed: 2 })
+            Err(AnnealError::TooFewDirections {
+                distinct: 1,
+                needed: 2
+            })
         ));
         // One sample fits Lambert's one parameter.
         let mut one: Samples<f32, 1> = Samples::new();

@@ -53,7 +53,11 @@ impl fmt::Display for ParamError {
             }
             ParamError::NotFinite { name } => write!(f, "parameter {name} is not finite"),
             ParamError::OutOfRange { name, value, range } => {
-                write!(f, "parameter {name} = {} is out of range (must be {range})", Compact(*value))
+                write!(
+                    f,
+                    "parameter {name} = {} is out of range (must be {range})",
+                    Compact(*value)
+                )
             }
         }
     }
@@ -96,7 +100,11 @@ impl fmt::Display for DomainError {
                 write!(f, "{what} = {} is outside {range}", Compact(*value))
             }
             DomainError::NotUnitVector { what, norm_squared } => {
-                write!(f, "{what} is not a unit vector (|{what}|^2 = {})", Compact(*norm_squared))
+                write!(
+                    f,
+                    "{what} is not a unit vector (|{what}|^2 = {})",
+                    Compact(*norm_squared)
+                )
             }
         }
     }

@@ -147,6 +147,16 @@ mod tests {
     }
 
     #[test]
+    fn the_on_sensor_search_box_lies_inside_the_ranges() {
+        for kind in ModelKind::ALL {
+            let b = crate::anneal::SearchBox::<f32>::for_kind(kind);
+            for (j, r) in kind.ranges().iter().enumerate() {
+                assert!(r.contains(b.lo[j]) && r.contains(b.hi[j]), "{kind:?} {}", r.name);
+            }
+        }
+    }
+
+    #[test]
     fn f32_and_f64_agree_at_every_bound() {
         for kind in ModelKind::ALL {
             for r in kind.ranges() {

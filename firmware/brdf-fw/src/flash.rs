@@ -134,7 +134,10 @@ mod qemu {
                 flash.fill_erased(slot);
             }
             let Some(h) = flash.handle else {
-                defmt::warn!("flash: cannot open {=str}: slots read as erased, COMMIT refused", name);
+                defmt::warn!(
+                    "flash: cannot open {=str}: slots read as erased, COMMIT refused",
+                    name
+                );
                 return flash;
             };
             // SAFETY: FLEN of the handle just opened.
@@ -156,7 +159,10 @@ mod qemu {
                 );
                 flash.handle = None;
             } else if !(flash.load(SlotId::A) && flash.load(SlotId::B)) {
-                defmt::warn!("flash: cannot read {=str}: slots read as erased, COMMIT refused", name);
+                defmt::warn!(
+                    "flash: cannot read {=str}: slots read as erased, COMMIT refused",
+                    name
+                );
                 for slot in [SlotId::A, SlotId::B] {
                     flash.fill_erased(slot);
                 }

@@ -147,9 +147,15 @@ fn fit<M: Model<f32>>(
         budget,
         ..AnnealConfig::default()
     };
-    anneal_with_progress::<f32, M, _, MAX_FIT_SAMPLES>(s, &SearchBox::for_kind(M::KIND), &cfg, &mut rng, progress)
-        .map(|o| (o.params, o.rms_rel, o.evals))
-        .map_err(|_| ErrorCode::FitFailed)
+    anneal_with_progress::<f32, M, _, MAX_FIT_SAMPLES>(
+        s,
+        &SearchBox::for_kind(M::KIND),
+        &cfg,
+        &mut rng,
+        progress,
+    )
+    .map(|o| (o.params, o.rms_rel, o.evals))
+    .map_err(|_| ErrorCode::FitFailed)
 }
 
 /// Runs a FIT (request tag `tag`). After every evaluation it answers the requests that have
@@ -371,7 +377,14 @@ fn serve<P: Port, F: Flash>(port: &mut P, flash: &mut F, mut active: Active) -> 
             None => continue,
             Some(Err(code)) => encode_response(&Response::Error(code), 0, &mut out),
             Some(Ok(())) => match parse_request(reader.payload()) {
-                Ok((tag, Request::Fit { model, budget, samples })) => {
+                Ok((
+                    tag,
+                    Request::Fit {
+                        model,
+                        budget,
+                        samples,
+                    },
+                )) => {
                     let resp = match FitJob::new(model, budget, samples) {
                         Ok(job) => run_fit(&job, tag, port, &mut reader, &mut out),
                         Err(e) => Response::Error(e),

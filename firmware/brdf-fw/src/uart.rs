@@ -46,7 +46,9 @@ impl Uart {
     /// A byte if one has arrived.
     pub fn try_read_byte(&self) -> Option<u8> {
         // SAFETY: as in `init`.
-        unsafe { (read_volatile(self.reg(STATE)) & RX_FULL != 0).then(|| read_volatile(self.reg(DATA)) as u8) }
+        unsafe {
+            (read_volatile(self.reg(STATE)) & RX_FULL != 0).then(|| read_volatile(self.reg(DATA)) as u8)
+        }
     }
 
     /// Sends every byte, waiting while the transmitter is full.

@@ -113,7 +113,9 @@ impl AngleReader {
         };
         let cols = [column("theta_i")?, column("theta_r")?, column("phi")?];
         if headers.iter().any(|h| h.trim() == output) {
-            bail!("{file}: line 1: input already has a column `{output}`; choose another with --output-column");
+            bail!(
+                "{file}: line 1: input already has a column `{output}`; choose another with --output-column"
+            );
         }
         Ok(AngleReader {
             file,
@@ -193,7 +195,8 @@ impl<W: Write> AngleWriter<W> {
     pub fn write_chunk(&mut self, chunk: &Chunk, values: impl IntoIterator<Item = String>) -> Result<()> {
         self.write_header()?;
         for (record, v) in chunk.records[..chunk.len()].iter().zip(values) {
-            self.w.write_record(record.iter().chain(std::iter::once(v.as_str())))?;
+            self.w
+                .write_record(record.iter().chain(std::iter::once(v.as_str())))?;
         }
         self.w.flush().context("cannot write to standard output")?;
         Ok(())

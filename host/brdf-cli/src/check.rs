@@ -234,11 +234,7 @@ impl CheckCmd {
                 .map(|&v| f64::from(v))
                 .collect();
             let host = AnyModel::<f64>::new(mat.kind, &p64).with_context(|| {
-                format!(
-                    "{}: material {m} ({})",
-                    self.device.blob_name(),
-                    mat.kind.name()
-                )
+                format!("{}: material {m} ({})", self.device.blob_name(), mat.kind.name())
             })?;
             // A tabulated material is held to its table's bound within the promised zenith
             // range; beyond it the errors are reported, not judged.

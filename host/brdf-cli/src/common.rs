@@ -120,7 +120,9 @@ pub fn parse_seconds(text: &str) -> Result<std::time::Duration, String> {
         .parse()
         .map_err(|_| format!("`{text}` is not a number of seconds"))?;
     if !(v.is_finite() && v > 0.0 && v <= 86_400.0) {
-        return Err(format!("`{text}` seconds: need a number above 0 and at most 86400"));
+        return Err(format!(
+            "`{text}` seconds: need a number above 0 and at most 86400"
+        ));
     }
     std::time::Duration::try_from_secs_f64(v).map_err(|e| format!("`{text}` seconds: {e}"))
 }

@@ -46,7 +46,11 @@ pub enum Precision {
 /// the chunk is evaluated: a batch evaluation replaces this loop.
 pub fn evaluate_chunk<T: Float>(model: &AnyModel<T>, directions: &[[T; 3]], values: &mut Vec<T>) {
     values.clear();
-    values.extend(directions.iter().map(|&[ti, tr, phi]| model.eval_angles(ti, tr, phi)));
+    values.extend(
+        directions
+            .iter()
+            .map(|&[ti, tr, phi]| model.eval_angles(ti, tr, phi)),
+    );
 }
 
 impl EvalCmd {
@@ -60,7 +64,12 @@ impl EvalCmd {
         }
     }
 
-    fn eval<T: Float>(&self, params: &[f64; MAX_PARAMS], out: impl Write, text: fn(T) -> String) -> Result<()> {
+    fn eval<T: Float>(
+        &self,
+        params: &[f64; MAX_PARAMS],
+        out: impl Write,
+        text: fn(T) -> String,
+    ) -> Result<()> {
         let model: AnyModel<T> = build(self.model, params)?;
         let mut reader = AngleReader::open(&self.angles, &self.output_column)?;
         let mut writer = AngleWriter::new(out, &reader, &self.output_column)?;

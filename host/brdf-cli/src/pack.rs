@@ -21,7 +21,8 @@ pub struct PackCmd {
     /// Output blob.
     #[arg(short = 'o', long)]
     output: PathBuf,
-    /// Sequence number: a device keeps the valid blob with the larger one.
+    /// Sequence number: a device keeps the valid blob with the newer one, in serial-number
+    /// order (N + 1 is always newer than N; 0 follows 4294967295).
     #[arg(long, default_value_t = 1)]
     sequence: u32,
     /// Add lookup tables with this many nodes to every six-parameter material (the
@@ -176,12 +177,8 @@ impl PackCmd {
                 if m.six_params().is_none() {
                     continue;
                 }
-                let (bytes, worst, n) = add_tables(m, nodes).with_context(|| {
-                    format!(
-                        "{}: material {i}: {nodes}-node tables",
-                        origin[i]
-                    )
-                })?;
+                let (bytes, worst, n) = add_tables(m, nodes)
+                    .with_context(|| format!("{}: material {i}: {nodes}-node tables", origin[i]))?;
                 eprintln!(
                     "material {i}: {nodes}-node tables, measured max relative error {worst:.2e} over {n} \
                      directions up to {TABLE_MAX_ZENITH_DEG} degrees zenith"

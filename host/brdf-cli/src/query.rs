@@ -39,7 +39,9 @@ fn ask(link: &mut Device, material: u8, xs: &[[f32; 3]], at: impl Fn(usize) -> S
         Ok(v) => Ok(v),
         Err(LinkError::Device(code)) => {
             for (i, x) in xs.iter().enumerate() {
-                if let Err(LinkError::Device(code)) = link.eval(material, Input::Angles, std::slice::from_ref(x)) {
+                if let Err(LinkError::Device(code)) =
+                    link.eval(material, Input::Angles, std::slice::from_ref(x))
+                {
                     bail!("{}: the device refused this direction ({code:?})", at(i));
                 }
             }
@@ -59,7 +61,9 @@ impl QueryCmd {
                 };
                 let deg = parse_direction("--angles", [ti, tr, phi])?;
                 let (mut link, _) = self.device.connect()?;
-                let v = ask(&mut link, self.material, &[radians::<f32>(deg)], |_| "--angles".into())?;
+                let v = ask(&mut link, self.material, &[radians::<f32>(deg)], |_| {
+                    "--angles".into()
+                })?;
                 println!("{}", f32_text(v[0]));
                 Ok(())
             }

@@ -71,7 +71,11 @@ fn fake_qemu(body: &str) -> (tempfile::TempDir, String) {
     let exe = dir.path().join("qemu-system-arm");
     std::fs::write(&exe, format!("#!/bin/sh\n{body}\n")).unwrap();
     std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
-    let path = format!("{}:{}", dir.path().display(), std::env::var("PATH").unwrap_or_default());
+    let path = format!(
+        "{}:{}",
+        dir.path().display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
     (dir, path)
 }
 
@@ -116,7 +120,15 @@ fn a_firmware_that_never_answers_is_reported_after_the_timeout() {
     let elf = any_file(dir.path());
     let started = Instant::now();
     let child = brdf()
-        .args(["query", "--qemu", "--timeout", "1", "--angles", "10,10,0", "--elf"])
+        .args([
+            "query",
+            "--qemu",
+            "--timeout",
+            "1",
+            "--angles",
+            "10,10,0",
+            "--elf",
+        ])
         .arg(&elf)
         .env("PATH", &path)
         .stdout(Stdio::piped())
@@ -126,7 +138,10 @@ fn a_firmware_that_never_answers_is_reported_after_the_timeout() {
     let out = finish_within(child, Duration::from_secs(20), "brdf with a silent QEMU");
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains("no reply within 1s") && err.contains("QEMU is still running"), "{err}");
+    assert!(
+        err.contains("no reply within 1s") && err.contains("QEMU is still running"),
+        "{err}"
+    );
     assert!(started.elapsed() < Duration::from_secs(15));
 }
 
@@ -145,11 +160,21 @@ fn a_file_that_is_not_the_firmware_is_named() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let out = finish_within(child, Duration::from_secs(60), "brdf with a file that is not an ELF");
+    let out = finish_within(
+        child,
+        Duration::from_secs(60),
+        "brdf with a file that is not an ELF",
+    );
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains(elf.to_str().unwrap()) && err.contains("QEMU exited"), "{err}");
-    assert!(err.contains("QEMU's standard error: qemu"), "QEMU's own message: {err}");
+    assert!(
+        err.contains(elf.to_str().unwrap()) && err.contains("QEMU exited"),
+        "{err}"
+    );
+    assert!(
+        err.contains("QEMU's standard error: qemu"),
+        "QEMU's own message: {err}"
+    );
 }
 
 /// Inodes of the sockets process `pid` holds.
@@ -175,7 +200,10 @@ fn listeners() -> Vec<(u64, Result<u16, String>)> {
         for line in std::fs::read_to_string(table).unwrap_or_default().lines().skip(1) {
             let f: Vec<&str> = line.split_whitespace().collect();
             if f.len() > 9 && f[3] == "0A" {
-                let port = f[1].rsplit(':').next().and_then(|p| u16::from_str_radix(p, 16).ok());
+                let port = f[1]
+                    .rsplit(':')
+                    .next()
+                    .and_then(|p| u16::from_str_radix(p, 16).ok());
                 if let (Some(port), Ok(inode)) = (port, f[9].parse()) {
                     out.push((inode, Ok(port)));
                 }
@@ -216,12 +244,15 @@ fn no_local_process_can_pose_as_the_device() {
     let (_dir, path) = fake_qemu(&format!("sleep 1\nexec {real} \"$@\""));
     let mut forged = Vec::new();
     for (tag, resp) in [
-        (0u8, Response::Info {
-            build_id: 1,
-            format_version: 2,
-            active_crc: 0,
-            materials: 3,
-        }),
+        (
+            0u8,
+            Response::Info {
+                build_id: 1,
+                format_version: 2,
+                active_crc: 0,
+                materials: 3,
+            },
+        ),
         (1, Response::Values(&1234.5f32.to_le_bytes())),
     ] {
         let mut f = vec![0u8; MAX_FRAME];
@@ -264,11 +295,20 @@ fn no_local_process_can_pose_as_the_device() {
     }
     let out = finish_within(child, Duration::from_secs(60), "brdf query");
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert!(attacked.is_empty(), "brdf query listened on {} socket(s)", attacked.len());
-    let p: Vec<f32> = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2].map(|v: f64| v as f32).to_vec();
+    assert!(
+        attacked.is_empty(),
+        "brdf query listened on {} socket(s)",
+        attacked.len()
+    );
+    let p: Vec<f32> = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]
+        .map(|v: f64| v as f32)
+        .to_vec();
     let m = AnyModel::<f32>::new(ModelKind::Six, &p).unwrap();
     let x = [10f64, 10.0, 0.0].map(|d| d.to_radians() as f32);
-    assert_eq!(text(&out.stdout).trim(), format!("{:.8e}", m.eval_angles(x[0], x[1], x[2])));
+    assert_eq!(
+        text(&out.stdout).trim(),
+        format!("{:.8e}", m.eval_angles(x[0], x[1], x[2]))
+    );
 }
 
 /// Before: `--timeout -1|nan|inf|1e300` panicked (exit 101), `check --directions 0` printed
@@ -284,27 +324,71 @@ fn numeric_flags_refuse_what_they_cannot_mean() {
     let bad_counts = ["-1", "1e3", "nan", "x", "18446744073709551616"];
     let cases: Vec<(Vec<&str>, &str, Vec<&str>)> = vec![
         (vec!["check", "--qemu"], "--timeout", bad_seconds.to_vec()),
-        (vec!["query", "--qemu", "--angles", "0,0,0"], "--timeout", bad_seconds.to_vec()),
-        (vec!["check", "--qemu"], "--directions", [&bad_counts[..], &["0", "10000001"]].concat()),
-        (vec!["check", "--qemu"], "--edge", [&bad_counts[..], &["1000001"]].concat()),
-        (vec!["check", "--serial", "/dev/null"], "--baud", vec!["0", "-1", "nan"]),
+        (
+            vec!["query", "--qemu", "--angles", "0,0,0"],
+            "--timeout",
+            bad_seconds.to_vec(),
+        ),
+        (
+            vec!["check", "--qemu"],
+            "--directions",
+            [&bad_counts[..], &["0", "10000001"]].concat(),
+        ),
+        (
+            vec!["check", "--qemu"],
+            "--edge",
+            [&bad_counts[..], &["1000001"]].concat(),
+        ),
+        (
+            vec!["check", "--serial", "/dev/null"],
+            "--baud",
+            vec!["0", "-1", "nan"],
+        ),
         (vec!["check", "--qemu"], "--seed", vec!["-1", "nan"]),
-        (vec!["query", "--qemu", "--angles", "0,0,0"], "--material", vec!["256", "-1"]),
-        (vec!["fit", d], "--chains", [&bad_counts[..], &["0", "65"]].concat()),
+        (
+            vec!["query", "--qemu", "--angles", "0,0,0"],
+            "--material",
+            vec!["256", "-1"],
+        ),
+        (
+            vec!["fit", d],
+            "--chains",
+            [&bad_counts[..], &["0", "65"]].concat(),
+        ),
         (vec!["fit", d], "--agree", vec!["0", "-1", "nan"]),
         (vec!["fit", d], "--anneal-evals", vec!["0", "-5", "1e9"]),
-        (vec!["fit", d], "--budget-evals", vec!["0", "64", "-1", "nan", "10000001"]),
+        (
+            vec!["fit", d],
+            "--budget-evals",
+            vec!["0", "64", "-1", "nan", "10000001"],
+        ),
         (vec!["fit", d], "--seed", vec!["-1", "1.5"]),
-        (vec!["pack", d, "-o", "x.bin"], "--table-nodes", vec!["0", "1", "100000", "-1"]),
-        (vec!["pack", d, "-o", "x.bin"], "--sequence", vec!["-1", "4294967296", "nan"]),
+        (
+            vec!["pack", d, "-o", "x.bin"],
+            "--table-nodes",
+            vec!["0", "1", "100000", "-1"],
+        ),
+        (
+            vec!["pack", d, "-o", "x.bin"],
+            "--sequence",
+            vec!["-1", "4294967296", "nan"],
+        ),
         (vec!["select", d], "--max-theta", vec!["nan", "-1", "91", "inf"]),
         (vec!["select", d], "--max-theta-i", vec!["nan", "-1", "91"]),
         (vec!["select", d], "--max-theta-r", vec!["nan", "95"]),
         (vec!["select", d], "--budget", vec!["-1", "nan", "inf"]),
-        (vec!["plot", "map", d, "-o", "x.svg"], "--theta-i", vec!["95", "-1", "nan"]),
+        (
+            vec!["plot", "map", d, "-o", "x.svg"],
+            "--theta-i",
+            vec!["95", "-1", "nan"],
+        ),
         (vec!["bench", "eval"], "--max-theta", vec!["0", "nan", "100"]),
         (vec!["bench", "fit", d], "--seeds", vec!["0", "-1", "10001"]),
-        (vec!["synth", "--model", "lambert", "--params", "rho0=0.5"], "--noise", vec!["-1", "nan"]),
+        (
+            vec!["synth", "--model", "lambert", "--params", "rho0=0.5"],
+            "--noise",
+            vec!["-1", "nan"],
+        ),
     ];
     let mut n = 0;
     for (args, flag, values) in &cases {
@@ -317,14 +401,24 @@ fn numeric_flags_refuse_what_they_cannot_mean() {
                 .unwrap();
             let err = text(&out.stderr);
             assert_eq!(out.status.code(), Some(2), "{args:?} {flag} {v}: {err}");
-            assert!(err.contains(flag) && !err.contains("panicked"), "{args:?} {flag} {v}: {err}");
+            assert!(
+                err.contains(flag) && !err.contains("panicked"),
+                "{args:?} {flag} {v}: {err}"
+            );
             n += 1;
         }
     }
     // Steps of `synth` are checked when it runs: a clear error, no panic, no endless loop.
-    for (flag, v) in [("--step", "0"), ("--step", "nan"), ("--phi-step", "-1"), ("--phi-step", "inf")] {
+    for (flag, v) in [
+        ("--step", "0"),
+        ("--step", "nan"),
+        ("--phi-step", "-1"),
+        ("--phi-step", "inf"),
+    ] {
         let child = brdf()
-            .args(["synth", "--model", "lambert", "--params", "rho0=0.5", "--form", "full"])
+            .args([
+                "synth", "--model", "lambert", "--params", "rho0=0.5", "--form", "full",
+            ])
             .arg(format!("{flag}={v}"))
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
@@ -371,7 +465,12 @@ fn query_prints_what_eval_prints_byte_for_byte() {
     }
     // More than one chunk of rows.
     for k in 0..5000 {
-        csv.push_str(&format!("r{k},{},{k},{},{}\n", k % 90, (k * 7) % 91, k as f64 * 0.37 - 400.0));
+        csv.push_str(&format!(
+            "r{k},{},{k},{},{}\n",
+            k % 90,
+            (k * 7) % 91,
+            k as f64 * 0.37 - 400.0
+        ));
     }
     let f = dir.path().join("angles.csv");
     std::fs::write(&f, &csv).unwrap();
@@ -393,7 +492,9 @@ fn query_prints_what_eval_prints_byte_for_byte() {
     assert!(q.status.success(), "{}", text(&q.stderr));
     assert_eq!(e.stdout.len(), q.stdout.len());
     assert!(e.stdout == q.stdout, "query and eval --precision f32 differ");
-    assert!(text(&q.stdout).starts_with("label,theta_i,note,theta_r,phi,brdf\n\"a, quoted\",1e1,x,10.000, 0,"));
+    assert!(
+        text(&q.stdout).starts_with("label,theta_i,note,theta_r,phi,brdf\n\"a, quoted\",1e1,x,10.000, 0,")
+    );
 
     // Files eval refuses: query refuses them with the same message, and prints nothing.
     let bad = [
@@ -420,7 +521,11 @@ fn query_prints_what_eval_prints_byte_for_byte() {
     for angles in ["95,0,0", "0,nan,0", "0,-1e-7,0", "1,2"] {
         let q = run(&["query", "--qemu", "--angles", angles]);
         assert_eq!(q.status.code(), Some(1), "{angles}");
-        assert!(text(&q.stderr).contains("--angles"), "{angles}: {}", text(&q.stderr));
+        assert!(
+            text(&q.stderr).contains("--angles"),
+            "{angles}: {}",
+            text(&q.stderr)
+        );
     }
 }
 
@@ -511,11 +616,24 @@ fn messages_say_each_thing_once_and_numbers_briefly() {
     let dir = tempfile::tempdir().unwrap();
     let f = dir.path().join("t.csv");
     std::fs::write(&f, "theta_i,theta_r,phi\n0,-1e-300,0\n").unwrap();
-    let err = text(&run(&["eval", "--model", "lambert", "--params", "rho0=1", f.to_str().unwrap()]).stderr);
+    let err = text(
+        &run(&[
+            "eval",
+            "--model",
+            "lambert",
+            "--params",
+            "rho0=1",
+            f.to_str().unwrap(),
+        ])
+        .stderr,
+    );
     assert!(err.contains("zenith -1e-300 deg") && err.len() < 200, "{err}");
     let params = "kb=0.2,kr=2,b=-3,a=0.5,kd=-1e-300,c=1";
     let err = text(&run(&["eval", "--model", "six", "--params", params, f.to_str().unwrap()]).stderr);
-    assert!(err.contains("kd = -1e-300 is out of range") && err.len() < 200, "{err}");
+    assert!(
+        err.contains("kd = -1e-300 is out of range") && err.len() < 200,
+        "{err}"
+    );
     let data = dir.path().join("d.csv");
     std::fs::write(&data, "theta_i,theta_r,phi,brdf\n0,-1e-300,0,0.1\n").unwrap();
     let err = text(&run(&["fit", data.to_str().unwrap()]).stderr);
@@ -525,7 +643,11 @@ fn messages_say_each_thing_once_and_numbers_briefly() {
 fn fit_json(dir: &Path, name: &str, model: &str, params: &[(&str, f64)]) -> PathBuf {
     let p = dir.join(name);
     let body: Vec<String> = params.iter().map(|(k, v)| format!("\"{k}\":{v:e}")).collect();
-    std::fs::write(&p, format!("{{\"model\":\"{model}\",\"params\":{{{}}}}}", body.join(","))).unwrap();
+    std::fs::write(
+        &p,
+        format!("{{\"model\":\"{model}\",\"params\":{{{}}}}}", body.join(",")),
+    )
+    .unwrap();
     p
 }
 
@@ -537,7 +659,14 @@ fn fit_json(dir: &Path, name: &str, model: &str, params: &[(&str, f64)]) -> Path
 fn pack_applies_the_core_ranges_with_and_without_tables() {
     let dir = tempfile::tempdir().unwrap();
     let six = ModelKind::Six.ranges();
-    let base = [("kb", 0.25), ("kr", 21.8), ("b", -27.6), ("a", 0.67), ("kd", 0.37), ("c", 1.2)];
+    let base = [
+        ("kb", 0.25),
+        ("kr", 21.8),
+        ("b", -27.6),
+        ("a", 0.67),
+        ("kd", 0.37),
+        ("c", 1.2),
+    ];
     let mut checked = 0;
     for (j, r) in six.iter().enumerate() {
         let edges = [
@@ -561,7 +690,12 @@ fn pack_applies_the_core_ranges_with_and_without_tables() {
                 }
                 let out = run(&args);
                 let err = text(&out.stderr);
-                assert_eq!(out.status.success(), ok, "{} = {v:e}, tables {tables}: {err}", r.name);
+                assert_eq!(
+                    out.status.success(),
+                    ok,
+                    "{} = {v:e}, tables {tables}: {err}",
+                    r.name
+                );
                 if !ok {
                     assert!(err.contains("f.json: fit 0") && err.contains(r.name), "{err}");
                 }
@@ -579,8 +713,8 @@ fn pack_applies_the_core_ranges_with_and_without_tables() {
 /// name before anything is loaded.
 #[test]
 fn fits_pack_and_check_takes_blobs_at_the_range_corners() {
-    use brdf_fit::problem::bounds;
     use brdf_fit::kernel::to_natural;
+    use brdf_fit::problem::bounds;
     for kind in ModelKind::ALL {
         let (lo, hi) = bounds(kind);
         let n = kind.param_count();
@@ -628,10 +762,20 @@ fn fits_pack_and_check_takes_blobs_at_the_range_corners() {
     let n = tiny.encode(&mut buf).unwrap();
     let path = dir.path().join("tiny-kr.bin");
     std::fs::write(&path, &buf[..n]).unwrap();
-    let out = run(&["check", "--qemu", "--blob", path.to_str().unwrap(), "--directions", "10"]);
+    let out = run(&[
+        "check",
+        "--qemu",
+        "--blob",
+        path.to_str().unwrap(),
+        "--directions",
+        "10",
+    ]);
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains("tiny-kr.bin: material 1: parameters out of range"), "{err}");
+    assert!(
+        err.contains("tiny-kr.bin: material 1: parameters out of range"),
+        "{err}"
+    );
 }
 
 /// Before: `brdf fit` fitted six parameters to ten copies of one measurement.
@@ -650,7 +794,10 @@ fn fit_refuses_repeated_directions() {
     let out = run(&["fit", f.to_str().unwrap()]);
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains("5 distinct direction(s) cannot determine 6 parameters"), "{err}");
+    assert!(
+        err.contains("5 distinct direction(s) cannot determine 6 parameters"),
+        "{err}"
+    );
     let out = run(&["fit", "--model", "lambert", f.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
 }

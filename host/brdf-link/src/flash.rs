@@ -161,7 +161,13 @@ pub fn flash_blob<T: SlotTarget + ?Sized>(
     target.read(map.b, &mut images[1])?;
     let (a, b) = (read_slot(&images[0]).0, read_slot(&images[1]).0);
     let newest = select(&a, &b);
-    let newest_sequence = newest.and_then(|id| if id == SlotId::A { a.sequence() } else { b.sequence() });
+    let newest_sequence = newest.and_then(|id| {
+        if id == SlotId::A {
+            a.sequence()
+        } else {
+            b.sequence()
+        }
+    });
     let mut image = vec![0u8; SLOT_IMAGE_LEN];
     let (n, decoded) = slot_image(blob, newest_sequence, &mut image).map_err(FlashError::Refused)?;
     image.truncate(n);
@@ -319,7 +325,10 @@ mod tests {
         // The one before the newest is stale.
         assert!(matches!(
             flash_blob(&mut f, &MAP, &blob(0), false),
-            Err(FlashError::Refused(brdf_wire::slots::CommitError::Stale { sequence: 0, active: 1 }))
+            Err(FlashError::Refused(brdf_wire::slots::CommitError::Stale {
+                sequence: 0,
+                active: 1
+            }))
         ));
     }
 

@@ -101,7 +101,11 @@ impl std::fmt::Display for QemuFailure {
         }
         // The first lines say what happened (a register dump may follow).
         let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-        write!(f, "; QEMU's standard error: {}", lines[..lines.len().min(4)].join(" / "))?;
+        write!(
+            f,
+            "; QEMU's standard error: {}",
+            lines[..lines.len().min(4)].join(" / ")
+        )?;
         if lines.len() > 4 {
             write!(f, " / ({} more lines)", lines.len() - 4)?;
         }
@@ -159,7 +163,11 @@ pub const FLASH_IMAGE: &str = "brdf-flash.bin";
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(30);
 
 /// Copies everything `from` yields into `into` (at most `cap` bytes kept) until EOF.
-fn drain(mut from: impl Read + Send + 'static, into: Arc<Mutex<Vec<u8>>>, cap: usize) -> std::thread::JoinHandle<()> {
+fn drain(
+    mut from: impl Read + Send + 'static,
+    into: Arc<Mutex<Vec<u8>>>,
+    cap: usize,
+) -> std::thread::JoinHandle<()> {
     std::thread::spawn(move || {
         let mut buf = [0u8; 4096];
         while let Ok(n) = from.read(&mut buf) {
@@ -201,20 +209,30 @@ impl Qemu {
             Some(_) => None,
             None => Some(tempfile::tempdir().map_err(LinkError::Io)?),
         };
-        let workdir = dir.or(private.as_ref().map(|d| d.path())).unwrap_or(Path::new("."));
+        let workdir = dir
+            .or(private.as_ref().map(|d| d.path()))
+            .unwrap_or(Path::new("."));
         let (ours, theirs) = UnixStream::pair().map_err(LinkError::Io)?;
         let mut child = {
             // The command (holding QEMU's end of the pair) is dropped right after the spawn,
             // so that QEMU's exit closes the link.
             let mut cmd = qemu_command();
-            cmd.args(["-chardev", "socket,id=uart,fd=0", "-serial", "chardev:uart", "-kernel"])
-                .arg(&elf)
-                .current_dir(workdir)
-                .stdin(Stdio::from(OwnedFd::from(theirs)))
-                .stdout(Stdio::piped())
-                .stderr(Stdio::piped());
+            cmd.args([
+                "-chardev",
+                "socket,id=uart,fd=0",
+                "-serial",
+                "chardev:uart",
+                "-kernel",
+            ])
+            .arg(&elf)
+            .current_dir(workdir)
+            .stdin(Stdio::from(OwnedFd::from(theirs)))
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped());
             let command = command_line(&cmd);
-            let child = cmd.spawn().map_err(|e| LinkError::QemuMissing(e, command.clone()))?;
+            let child = cmd
+                .spawn()
+                .map_err(|e| LinkError::QemuMissing(e, command.clone()))?;
             (child, command)
         };
         let (log, stderr) = (Arc::new(Mutex::new(Vec::new())), Arc::new(Mutex::new(Vec::new())));
@@ -255,12 +273,16 @@ impl Qemu {
                         return match parse_response(reader.payload()) {
                             Ok((0, Response::Info { .. })) => Ok(()),
                             other => Err(self
-                                .failure(format!("the first reply to INFO is not INFO but {other:?}: not a brdf-fw build?"))
+                                .failure(format!(
+                                    "the first reply to INFO is not INFO but {other:?}: not a brdf-fw build?"
+                                ))
                                 .into()),
                         }
                     }
                     Some(Err(e)) => {
-                        return Err(self.failure(format!("a corrupted first reply ({e:?}): not a brdf-fw build?")).into())
+                        return Err(self
+                            .failure(format!("a corrupted first reply ({e:?}): not a brdf-fw build?"))
+                            .into())
                     }
                     None => {}
                 }
@@ -427,11 +449,17 @@ impl Transport for Qemu {
             .map_err(|e| self.failure(format!("cannot send to the firmware's UART ({e})")))
     }
     fn recv(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        self.stream.set_read_timeout(Some(self.timeout.max(Duration::from_millis(1))))?;
+        self.stream
+            .set_read_timeout(Some(self.timeout.max(Duration::from_millis(1))))?;
         match self.stream.read(buf) {
             Ok(0) => Err(self.failure("the firmware's UART closed".into())),
             Ok(n) => Ok(n),
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
                 Err(self.failure(format!("no reply within {:?}", self.timeout)))
             }
             Err(e) => Err(self.failure(format!("reading the firmware's UART failed ({e})"))),
