@@ -92,7 +92,7 @@ fn commit_persists_and_each_fault_falls_back() {
     );
     assert!(
         log.iter()
-            .any(|l| l.contains("commit refused: sequence 5 not above 5")),
+            .any(|l| l.contains("commit refused: sequence 5 not newer than 5")),
         "{log:?}"
     );
 

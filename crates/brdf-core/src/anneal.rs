@@ -213,6 +213,13 @@ pub enum AnnealError {
     NoValidStart,
     /// The model rejected the best parameters (cannot happen inside valid bounds).
     Param(ParamError),
+    /// Fewer distinct directions than the model has parameters ([`check_directions`]).
+    TooFewDirections {
+        /// Distinct directions among the samples (counted up to `needed`).
+        distinct: usize,
+        /// Directions the model needs: one per parameter.
+        needed: usize,
+    },
 }
 
 impl core::fmt::Display for AnnealError {
@@ -223,6 +230,10 @@ impl core::fmt::Display for AnnealError {
             AnnealError::BudgetTooSmall => write!(f, "budget does not cover the screen plus one move"),
             AnnealError::NoValidStart => write!(f, "no valid starting point"),
             AnnealError::Param(e) => write!(f, "{e}"),
+            AnnealError::TooFewDirections { distinct, needed } => write!(
+                f,
+                "{distinct} distinct direction(s) cannot determine {needed} parameters"
+            ),
         }
     }
 }
@@ -240,6 +251,43 @@ pub struct AnnealOutcome<T, M> {
     pub rms_rel: T,
     /// Evaluations used.
     pub evals: u32,
+}
+
+/// Number of distinct geometries in `geometries`, counted up to `limit` (at most
+/// [`MAX_PARAMS`]): constant memory, `O(n limit)` comparisons. Directions with equal
+/// geometry (the same angles, or `phi` and `-phi`) are one direction to every model.
+pub fn distinct_geometries<T: Float>(
+    geometries: impl IntoIterator<Item = Geometry<T>>,
+    limit: usize,
+) -> usize {
+    let limit = limit.min(MAX_PARAMS);
+    let mut seen: [Option<Geometry<T>>; MAX_PARAMS] = [None; MAX_PARAMS];
+    let mut n = 0;
+    for g in geometries {
+        if n >= limit {
+            break;
+        }
+        if !seen[..n].contains(&Some(g)) {
+            seen[n] = Some(g);
+            n += 1;
+        }
+    }
+    n
+}
+
+/// The rule every fit applies, on the device and on the host: the samples must hold at least
+/// one distinct direction per parameter of `kind`, since fewer (or repeated) directions
+/// cannot determine the parameters.
+pub fn check_directions<T: Float>(
+    kind: ModelKind,
+    geometries: impl IntoIterator<Item = Geometry<T>>,
+) -> Result<(), AnnealError> {
+    let needed = kind.param_count();
+    let distinct = distinct_geometries(geometries, needed);
+    if distinct < needed {
+        return Err(AnnealError::TooFewDirections { distinct, needed });
+    }
+    Ok(())
 }
 
 /// Sum of squared relative residuals of `model` over `samples` (infinite if not finite).
@@ -309,17 +357,31 @@ fn normal<T: Float, R: RngCore>(rng: &mut R) -> T {
 }
 
 /// Runs the annealer for model `M` on `samples` within `bounds`, with the generator it is
-/// handed. Deterministic for a given generator state.
+/// handed. Deterministic for a given generator state. Refuses samples with fewer distinct
+/// directions than `M` has parameters ([`check_directions`]).
 pub fn anneal<T: Float, M: Model<T>, R: RngCore, const N: usize>(
     samples: &Samples<T, N>,
     bounds: &SearchBox<T>,
     cfg: &AnnealConfig<T>,
     rng: &mut R,
 ) -> Result<AnnealOutcome<T, M>, AnnealError> {
+    anneal_with_progress(samples, bounds, cfg, rng, |_| {})
+}
+
+/// [`anneal`], calling `progress` with the number of evaluations done after each one (a
+/// device uses it to keep serving its port during a long fit). The result is the same.
+pub fn anneal_with_progress<T: Float, M: Model<T>, R: RngCore, const N: usize>(
+    samples: &Samples<T, N>,
+    bounds: &SearchBox<T>,
+    cfg: &AnnealConfig<T>,
+    rng: &mut R,
+    mut progress: impl FnMut(u32),
+) -> Result<AnnealOutcome<T, M>, AnnealError> {
     let data = samples.as_slice();
     if data.is_empty() {
         return Err(AnnealError::NoSamples);
     }
+    check_directions(M::KIND, data.iter().map(|s| s.geometry))?;
     let p = M::KIND.param_count();
     // Bounds in search coordinates.
     let mut lo = [T::ZERO; MAX_PARAMS];
@@ -396,7 +458,7 @@ pub fn anneal<T: Float, M: Model<T>, R: RngCore, const N: usize>(
     };
     let energy = |c: T| (c + T::from_f64(1e-30)).ln();
     let mut start: Option<([T; MAX_PARAMS], T)> = None;
-    for _ in 0..screen {
+    for i in 0..screen {
         let mut u = [T::ZERO; MAX_PARAMS];
         for v in u.iter_mut().take(d) {
             *v = unit(rng);
@@ -406,6 +468,7 @@ pub fn anneal<T: Float, M: Model<T>, R: RngCore, const N: usize>(
                 start = Some((u, c));
             }
         }
+        progress(i + 1);
     }
     let (mut u, mut cost) = start.ok_or(AnnealError::NoValidStart)?;
     let mut best = (u, cost);
@@ -439,6 +502,7 @@ pub fn anneal<T: Float, M: Model<T>, R: RngCore, const N: usize>(
                 }
             }
         }
+        progress(screen + k + 1);
     }
     let (model, _) = evaluate(&best.0).ok_or(AnnealError::NoValidStart)?;
     let params = model.to_params();
@@ -503,6 +567,76 @@ mod tests {
         let r =
             anneal::<f32, Lambert<f32>, _, 2>(&s, &SearchBox::for_kind(ModelKind::Lambert), &tiny, &mut rng);
         assert_eq!(r.unwrap_err(), AnnealError::BudgetTooSmall);
+    }
+
+    #[test]
+    fn too_few_or_repeated_directions_are_refused() {
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(1);
+        let cfg = AnnealConfig::default();
+        let six = SearchBox::for_kind(ModelKind::Six);
+        let mut s: Samples<f32, 16> = Samples::new();
+        // Five distinct directions, then the first one twelve times more: still five.
+        for k in 0..5 {
+            s.push_angles(0.1, 0.1 + 0.1 * k as f32, 0.0, 0.2).unwrap();
+        }
+        for _ in 0..11 {
+            s.push_angles(0.1, 0.1, 0.0, 0.3).unwrap();
+        }
+        let r = anneal::<f32, SixParam<f32>, _, 16>(&s, &six, &cfg, &mut rng);
+        assert_eq!(
+            r.unwrap_err(),
+            AnnealError::TooFewDirections {
+                distinct: 5,
+                needed: 6
+            }
+        );
+        // phi and -phi are the same direction to every model.
+        let mut m: Samples<f32, 2> = Samples::new();
+        m.push_angles(0.1, 0.2, 0.5, 0.2).unwrap();
+        m.push_angles(0.1, 0.2, -0.5, 0.2).unwrap();
+        let g = m.as_slice().iter().map(|x| x.geometry);
+        assert_eq!(distinct_geometries(g, 6), 1);
+        let minnaert = SearchBox::for_kind(ModelKind::Minnaert);
+        assert!(matches!(
+            anneal::<f32, crate::models::Minnaert<f32>, _, 2>(&m, &minnaert, &cfg, &mut rng),
+            Err(AnnealError::TooFewDirections {
+                distinct: 1,
+                needed: 2
+            })
+        ));
+        // One sample fits Lambert's one parameter.
+        let mut one: Samples<f32, 1> = Samples::new();
+        one.push_angles(0.1, 0.2, 0.5, 0.2).unwrap();
+        let small = AnnealConfig { budget: 100, ..cfg };
+        let lambert = SearchBox::for_kind(ModelKind::Lambert);
+        assert!(anneal::<f32, Lambert<f32>, _, 1>(&one, &lambert, &small, &mut rng).is_ok());
+    }
+
+    #[test]
+    fn progress_is_reported_after_every_evaluation_and_changes_nothing() {
+        let m = SixParam::<f32>::from_params(&[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
+        let mut s: Samples<f32, 32> = Samples::new();
+        for k in 0..24 {
+            let (ti, tr) = ((k % 3) as f32 * 0.3, 0.05 + 0.06 * k as f32);
+            s.push_angles(ti, tr, 3.0, m.eval_angles(ti, tr, 3.0)).unwrap();
+        }
+        let cfg = AnnealConfig {
+            budget: 500,
+            ..AnnealConfig::default()
+        };
+        let b = SearchBox::for_kind(ModelKind::Six);
+        let plain = anneal::<f32, SixParam<f32>, _, 32>(&s, &b, &cfg, &mut rand_pcg::Pcg32::seed_from_u64(3));
+        let mut seen = heapless::Vec::<u32, 512>::new();
+        let reported = anneal_with_progress::<f32, SixParam<f32>, _, 32>(
+            &s,
+            &b,
+            &cfg,
+            &mut rand_pcg::Pcg32::seed_from_u64(3),
+            |n| seen.push(n).unwrap(),
+        );
+        assert_eq!(plain.unwrap(), reported.unwrap());
+        assert_eq!(seen.len(), 500);
+        assert!(seen.iter().enumerate().all(|(i, &n)| n == i as u32 + 1));
     }
 
     #[test]

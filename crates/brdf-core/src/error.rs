@@ -2,6 +2,22 @@
 
 use core::fmt;
 
+/// A number for a message: plain decimal where that is short (`0.25`, `1200`), otherwise
+/// scientific (`-1e-300`, `3e38`), so that no value prints as hundreds of digits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Compact(pub f64);
+
+impl fmt::Display for Compact {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-4..1e16).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
 /// A parameter set a model cannot be built from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[non_exhaustive]
@@ -37,7 +53,11 @@ impl fmt::Display for ParamError {
             }
             ParamError::NotFinite { name } => write!(f, "parameter {name} is not finite"),
             ParamError::OutOfRange { name, value, range } => {
-                write!(f, "parameter {name} = {value} is out of range (must be {range})")
+                write!(
+                    f,
+                    "parameter {name} = {} is out of range (must be {range})",
+                    Compact(*value)
+                )
             }
         }
     }
@@ -77,10 +97,14 @@ impl fmt::Display for DomainError {
         match self {
             DomainError::NotFinite { what } => write!(f, "{what} is not finite"),
             DomainError::OutOfRange { what, value, range } => {
-                write!(f, "{what} = {value} is outside {range}")
+                write!(f, "{what} = {} is outside {range}", Compact(*value))
             }
             DomainError::NotUnitVector { what, norm_squared } => {
-                write!(f, "{what} is not a unit vector (|{what}|^2 = {norm_squared})")
+                write!(
+                    f,
+                    "{what} is not a unit vector (|{what}|^2 = {})",
+                    Compact(*norm_squared)
+                )
             }
         }
     }

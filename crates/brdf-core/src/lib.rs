@@ -44,10 +44,11 @@ mod float;
 mod geometry;
 mod model;
 pub mod models;
+pub mod ranges;
 pub mod table;
 pub mod tolerance;
 
-pub use error::{DomainError, ParamError};
+pub use error::{Compact, DomainError, ParamError};
 pub use float::Float;
 pub use geometry::{Geometry, UNIT_NORM_TOLERANCE};
 pub use model::{AnyModel, Brdf, Model, ModelKind, MAX_PARAMS};

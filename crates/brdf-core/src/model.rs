@@ -233,69 +233,8 @@ pub(crate) fn check_count(values_len: usize, expected: usize) -> Result<(), Para
     Ok(())
 }
 
-pub(crate) fn finite<T: Float>(name: &'static str, v: T) -> Result<T, ParamError> {
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(ParamError::NotFinite { name })
-    }
-}
-
-pub(crate) fn non_negative<T: Float>(name: &'static str, v: T) -> Result<T, ParamError> {
-    let v = finite(name, v)?;
-    if v >= T::ZERO {
-        Ok(v)
-    } else {
-        Err(ParamError::OutOfRange {
-            name,
-            value: v.to_f64(),
-            range: ">= 0",
-        })
-    }
-}
-
-pub(crate) fn above_minus_one<T: Float>(name: &'static str, v: T) -> Result<T, ParamError> {
-    let v = finite(name, v)?;
-    if v > -T::ONE {
-        Ok(v)
-    } else {
-        Err(ParamError::OutOfRange {
-            name,
-            value: v.to_f64(),
-            range: "> -1",
-        })
-    }
-}
-
-pub(crate) fn positive<T: Float>(name: &'static str, v: T) -> Result<T, ParamError> {
-    let v = finite(name, v)?;
-    if v > T::ZERO {
-        Ok(v)
-    } else {
-        Err(ParamError::OutOfRange {
-            name,
-            value: v.to_f64(),
-            range: "> 0",
-        })
-    }
-}
-
 pub(crate) fn params_array<T: Float>(values: &[T]) -> [T; MAX_PARAMS] {
     let mut out = [T::ZERO; MAX_PARAMS];
     out[..values.len()].copy_from_slice(values);
     out
-}
-
-/// `kr` must keep `kr^2` a normal, finite number in f32 as well as f64.
-pub(crate) fn kr_in_range<T: Float>(v: T) -> Result<T, ParamError> {
-    let v = finite("kr", v)?;
-    if v >= T::from_f64(1e-6) && v <= T::from_f64(1e6) {
-        Ok(v)
-    } else {
-        Err(ParamError::OutOfRange {
-            name: "kr",
-            value: v.to_f64(),
-            range: "in [1e-6, 1e6]",
-        })
-    }
 }

@@ -9,12 +9,12 @@
 //! | 6 | 2 | flags (0; readers reject unknown flags) |
 //! | 8 | 4 | sequence number (newer blobs have larger numbers) |
 //! | 12 | 2 | material count (1 to [`MAX_MATERIALS`]) |
-//! | 14 | 2 | reserved (0) |
+//! | 14 | 2 | reserved (0; readers reject anything else) |
 //! | 16 | 4 + 4 n + 12 t | per material: model id, parameter count n, table node count t (u16), n f32 parameters, then t x 3 f32 table nodes ([`brdf_core::table`]; six-parameter model only, t = 0 for none) |
 //! | end - 4 | 4 | CRC-32 (ISO-HDLC) of every byte before it |
 //!
-//! A reader rejects a wrong magic, a version or flag it does not know, any length mismatch, a
-//! bad CRC, an unknown model id, a wrong parameter count, parameters outside the model's
+//! A reader rejects a wrong magic, a version or flag it does not know, a non-zero reserved
+//! field, any length mismatch, a bad CRC, an unknown model id, a wrong parameter count, parameters outside the model's
 //! valid ranges and a table that is malformed or belongs to other parameters (checked with
 //! [`SixTable::verify`]), each with its own [`BlobError`].
 
@@ -159,6 +159,8 @@ pub enum BlobError {
     Version(u16),
     /// Flags this reader does not know.
     Flags(u16),
+    /// A non-zero reserved field.
+    Reserved(u16),
     /// The CRC does not match.
     Crc,
     /// No material, or more than [`MAX_MATERIALS`].
@@ -183,6 +185,7 @@ impl core::fmt::Display for BlobError {
             BlobError::Magic => write!(f, "not a BRDF parameter blob"),
             BlobError::Version(v) => write!(f, "unknown blob version {v}"),
             BlobError::Flags(x) => write!(f, "unknown blob flags {x:#06x}"),
+            BlobError::Reserved(x) => write!(f, "reserved header field is {x:#06x}, not 0"),
             BlobError::Crc => write!(f, "blob CRC mismatch"),
             BlobError::MaterialCount(n) => write!(f, "material count {n} outside 1..={MAX_MATERIALS}"),
             BlobError::ModelId(i, id) => write!(f, "material {i}: unknown model id {id}"),
@@ -281,6 +284,10 @@ impl Blob {
         let flags = u16_at(6);
         if flags != 0 {
             return Err(BlobError::Flags(flags));
+        }
+        let reserved = u16_at(14);
+        if reserved != 0 {
+            return Err(BlobError::Reserved(reserved));
         }
         let body = bytes.len() - 4;
         let stored = u32::from_le_bytes([bytes[body], bytes[body + 1], bytes[body + 2], bytes[body + 3]]);
@@ -396,6 +403,12 @@ mod tests {
         assert_eq!(bad(&|c| c[0] = b'X'), BlobError::Magic);
         assert_eq!(bad(&|c| c[4] = 3), BlobError::Version(3));
         assert_eq!(bad(&|c| c[20] ^= 1), BlobError::Crc);
+        // A non-zero reserved field, even correctly signed, is refused.
+        let mut c = buf;
+        c[15] = 1;
+        let crc = crc32(&c[..n - 4]);
+        c[n - 4..n].copy_from_slice(&crc.to_le_bytes());
+        assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Reserved(0x0100));
         assert_eq!(Blob::decode(&buf[..n - 1]).unwrap_err(), BlobError::Crc);
         assert_eq!(Blob::decode(&buf[..10]).unwrap_err(), BlobError::Length);
         // Re-sign a blob whose first parameter (kb) is negative: refused by the model.

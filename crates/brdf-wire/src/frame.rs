@@ -21,7 +21,13 @@
 //! | 0x83 | VALUES | count u16, count × f32 |
 //! | 0x84 | DONE | CRC of the now active blob u32 |
 //! | 0x86 | FITTED | model id u8, 6 × f32 parameters, RMS relative error f32, evaluations u32 |
+//! | 0x87 | PROGRESS | evaluations done u32, budget u32 (sent during a FIT, with its tag) |
 //! | 0xEE | ERROR | [`ErrorCode`] u8 |
+//!
+//! A FIT can take minutes on a device. While it runs, the device sends a PROGRESS reply with
+//! the FIT's tag at least every [`PROGRESS_SAMPLE_EVALS`] sample evaluations (so a host's
+//! silence timeout never expires during a fit it is waiting for) and answers every other
+//! request with ERROR `Busy`; the FITTED reply ends it.
 
 use brdf_core::{ModelKind, MAX_PARAMS};
 
@@ -34,6 +40,13 @@ pub const FRAME_VERSION: u8 = 1;
 pub const MAX_BATCH: usize = 64;
 /// Most samples in one FIT request.
 pub const MAX_FIT_SAMPLES: usize = 256;
+/// Largest evaluation budget of one FIT: 256 samples at this budget take about 2.5 minutes
+/// under QEMU and 5 on a 168 MHz Cortex-M4F.
+pub const MAX_FIT_BUDGET: u32 = 100_000;
+/// A device busy with a FIT sends PROGRESS after at most this many sample evaluations
+/// (annealer evaluations times samples): about 0.75 s under QEMU, 1.5 s on a 168 MHz
+/// Cortex-M4F for the six-parameter model.
+pub const PROGRESS_SAMPLE_EVALS: u32 = 1 << 17;
 /// Largest payload (FIT with [`MAX_FIT_SAMPLES`] samples), without the CRC.
 pub const MAX_PAYLOAD: usize = 3 + 1 + 4 + 2 + 16 * MAX_FIT_SAMPLES;
 // A LOAD or COMMIT frame carries the largest blob.
@@ -173,6 +186,13 @@ pub enum Response<'a> {
         /// Evaluations used.
         evals: u32,
     },
+    /// A FIT is still running.
+    Progress {
+        /// Evaluations done so far.
+        done: u32,
+        /// The FIT's budget.
+        budget: u32,
+    },
     /// Refusal.
     Error(ErrorCode),
 }
@@ -304,6 +324,7 @@ pub fn encode_response(resp: &Response<'_>, tag: u8, out: &mut [u8]) -> Result<u
         Response::Values(_) => 0x83,
         Response::Done(_) => 0x84,
         Response::Fitted { .. } => 0x86,
+        Response::Progress { .. } => 0x87,
         Response::Error(_) => 0xEE,
     };
     w.put(&[FRAME_VERSION, kind, tag])?;
@@ -340,6 +361,10 @@ pub fn encode_response(resp: &Response<'_>, tag: u8, out: &mut [u8]) -> Result<u
             }
             w.put(&rms_rel.to_le_bytes())?;
             w.put(&evals.to_le_bytes())?;
+        }
+        Response::Progress { done, budget } => {
+            w.put(&done.to_le_bytes())?;
+            w.put(&budget.to_le_bytes())?;
         }
         Response::Error(code) => w.put(&[*code as u8])?,
     }
@@ -420,8 +445,12 @@ pub fn parse_response(payload: &[u8]) -> Result<(u8, Response<'_>), ErrorCode> {
                 evals: u32_at(body, 5 + 4 * MAX_PARAMS),
             }
         }
+        0x87 if body.len() == 8 => Response::Progress {
+            done: u32_at(body, 0),
+            budget: u32_at(body, 4),
+        },
         0xEE if body.len() == 1 => Response::Error(ErrorCode::from_u8(body[0]).ok_or(ErrorCode::Malformed)?),
-        0x81..=0x86 | 0xEE => return Err(ErrorCode::Malformed),
+        0x81..=0x87 | 0xEE => return Err(ErrorCode::Malformed),
         _ => return Err(ErrorCode::UnknownKind),
     };
     Ok((tag, resp))

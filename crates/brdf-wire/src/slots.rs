@@ -2,12 +2,16 @@
 //! a device without valid parameters.
 //!
 //! A slot image is a little-endian `u32` length followed by that many blob bytes; an erased
-//! slot reads `0xFFFF_FFFF` there. The device boots from the valid slot with the larger
-//! sequence number, falls back to the other, and then to its built-in default. A new blob is
-//! always written to the slot that is *not* active ([`commit_target`]), blob bytes first and
-//! the length word last, then read back and verified; only a complete, valid image with a
-//! larger sequence number than the active one ever wins the next boot. An interruption at
-//! any point therefore leaves the previously active slot as it was.
+//! slot reads `0xFFFF_FFFF` there. The device boots from the valid slot with the newer
+//! sequence number ([`is_newer`]), falls back to the other, and then to its built-in default.
+//! A new blob is always written to the slot that is *not* active ([`commit_target`]), blob
+//! bytes first and the length word last, then read back and verified; only a complete,
+//! valid image with a newer sequence number than the active one ever wins the next boot. An
+//! interruption at any point therefore leaves the previously active slot as it was.
+//!
+//! Sequence numbers compare in serial-number arithmetic (RFC 1982 for 32 bits), so that no
+//! number locks the slots: `s + 1` (mod 2^32) is always newer than `s`, and 0 follows
+//! 0xFFFF_FFFF. With two slots only the newest and the one before it are ever compared.
 //!
 //! The firmware and `brdf flash` share this logic; they differ only in how bytes reach flash.
 
@@ -104,11 +108,20 @@ pub fn read_slot(image: &[u8]) -> (SlotState, Option<(&[u8], Blob)>) {
     }
 }
 
-/// The slot to boot from: the valid one with the larger sequence number (A on a tie), or
-/// `None` for the built-in default.
+/// Whether sequence number `candidate` is newer than `current`: their difference
+/// `candidate - current` (mod 2^32) lies in `1..2^31`. One rule for the firmware's boot and
+/// COMMIT and for `brdf flash`. Numbers exactly 2^31 apart are neither newer nor older:
+/// such a blob is refused as stale and, between two such slots, A is used.
+pub const fn is_newer(candidate: u32, current: u32) -> bool {
+    let d = candidate.wrapping_sub(current);
+    d != 0 && d < 1 << 31
+}
+
+/// The slot to boot from: the valid one with the newer sequence number ([`is_newer`]; A when
+/// neither is newer), or `None` for the built-in default.
 pub fn select(a: &SlotState, b: &SlotState) -> Option<SlotId> {
     match (a.sequence(), b.sequence()) {
-        (Some(sa), Some(sb)) => Some(if sb > sa { SlotId::B } else { SlotId::A }),
+        (Some(sa), Some(sb)) => Some(if is_newer(sb, sa) { SlotId::B } else { SlotId::A }),
         (Some(_), None) => Some(SlotId::A),
         (None, Some(_)) => Some(SlotId::B),
         (None, None) => None,
@@ -128,11 +141,11 @@ pub fn commit_target(active: Option<SlotId>) -> SlotId {
 pub enum CommitError {
     /// The blob does not decode.
     Blob(BlobError),
-    /// Its sequence number is not above the active one's.
+    /// Its sequence number is not newer than the newest valid slot's ([`is_newer`]).
     Stale {
         /// The blob's sequence number.
         sequence: u32,
-        /// The active sequence number.
+        /// The newest valid slot's sequence number.
         active: u32,
     },
 }
@@ -143,23 +156,27 @@ impl core::fmt::Display for CommitError {
             CommitError::Blob(e) => write!(f, "{e}"),
             CommitError::Stale { sequence, active } => write!(
                 f,
-                "sequence {sequence} is not above the active {active}: after a restart the older blob would win"
+                "sequence {sequence} is not newer than the active {active} (serial-number order: use {}): \
+                 after a restart the older blob would win",
+                active.wrapping_add(1)
             ),
         }
     }
 }
 
-/// Checks that `blob` may be committed over parameters with sequence `active_sequence` (0
-/// for the built-in default) and writes its slot image into `out`: the length word, then
-/// the blob. Returns the image length and the decoded blob. Program it blob-first, length
-/// word last.
-pub fn slot_image(blob: &[u8], active_sequence: u32, out: &mut [u8]) -> Result<(usize, Blob), CommitError> {
+/// Checks that `blob` may be committed over the newest valid slot's sequence number
+/// (`None`: no valid slot, any sequence number is accepted) and writes its slot image into
+/// `out`: the length word, then the blob. Returns the image length and the decoded blob.
+/// Program it blob-first, length word last.
+pub fn slot_image(blob: &[u8], newest: Option<u32>, out: &mut [u8]) -> Result<(usize, Blob), CommitError> {
     let b = Blob::decode(blob).map_err(CommitError::Blob)?;
-    if b.sequence <= active_sequence {
-        return Err(CommitError::Stale {
-            sequence: b.sequence,
-            active: active_sequence,
-        });
+    if let Some(active) = newest {
+        if !is_newer(b.sequence, active) {
+            return Err(CommitError::Stale {
+                sequence: b.sequence,
+                active,
+            });
+        }
     }
     let n = 4 + blob.len();
     if out.len() < n {
@@ -181,7 +198,7 @@ mod tests {
         let mut blob = [0u8; MAX_BLOB_LEN];
         let n = b.encode(&mut blob).unwrap();
         let mut img = [0xFFu8; SLOT_IMAGE_LEN];
-        slot_image(&blob[..n], sequence - 1, &mut img).unwrap();
+        slot_image(&blob[..n], Some(sequence - 1), &mut img).unwrap();
         img
     }
 
@@ -227,19 +244,61 @@ mod tests {
         let n = b.encode(&mut blob).unwrap();
         let mut img = [0u8; SLOT_IMAGE_LEN];
         assert_eq!(
-            slot_image(&blob[..n], 3, &mut img),
+            slot_image(&blob[..n], Some(3), &mut img),
             Err(CommitError::Stale {
                 sequence: 3,
                 active: 3
             })
         );
         assert_eq!(
-            slot_image(&blob[..n - 1], 0, &mut img),
+            slot_image(&blob[..n - 1], None, &mut img),
             Err(CommitError::Blob(BlobError::Crc))
         );
-        assert_eq!(slot_image(&blob[..n], 2, &mut img).map(|r| r.0), Ok(n + 4));
+        assert_eq!(slot_image(&blob[..n], Some(2), &mut img).map(|r| r.0), Ok(n + 4));
         let (bytes, decoded) = read_slot(&img).1.unwrap();
         assert_eq!((bytes, decoded.sequence), (&blob[..n], 3));
+    }
+
+    #[test]
+    fn no_sequence_number_locks_the_slots() {
+        // The successor of every number is newer, across the wrap too.
+        for s in [0_u32, 1, 5, 0x7FFF_FFFF, 0x8000_0000, 0xFFFF_FFFE, 0xFFFF_FFFF] {
+            let next = s.wrapping_add(1);
+            assert!(is_newer(next, s) && !is_newer(s, next), "{s:#x}");
+            assert!(!is_newer(s, s));
+        }
+        assert!(is_newer(0, 0xFFFF_FFFF) && is_newer(3, 0xFFFF_FFF0));
+        assert!(!is_newer(0x8000_0000, 0) && !is_newer(0, 0x8000_0000));
+        // Committing 0xFFFF_FFFF, then 0, then 1: each over the previous, each selected.
+        let mut slots = [[0xFFu8; SLOT_IMAGE_LEN]; 2];
+        let mut newest: Option<SlotId> = None;
+        for sequence in [0xFFFF_FFFE_u32, 0xFFFF_FFFF, 0, 1, 2] {
+            let mut b = table1_blob();
+            b.sequence = sequence;
+            let mut blob = [0u8; MAX_BLOB_LEN];
+            let n = b.encode(&mut blob).unwrap();
+            let st = |s: &[u8; SLOT_IMAGE_LEN]| read_slot(s).0;
+            let seq = newest.and_then(|id| st(&slots[id as usize]).sequence());
+            let target = commit_target(newest);
+            let mut img = [0xFFu8; SLOT_IMAGE_LEN];
+            slot_image(&blob[..n], seq, &mut img).unwrap();
+            slots[target as usize] = img;
+            newest = select(&st(&slots[0]), &st(&slots[1]));
+            assert_eq!(newest, Some(target), "sequence {sequence:#x}");
+            // The one before is stale now.
+            assert!(matches!(
+                slot_image(&blob[..n], Some(sequence), &mut img),
+                Err(CommitError::Stale { .. })
+            ));
+        }
+        // A blob exactly 2^31 ahead is neither newer nor older: refused.
+        let mut b = table1_blob();
+        b.sequence = 0x8000_0002;
+        let mut blob = [0u8; MAX_BLOB_LEN];
+        let n = b.encode(&mut blob).unwrap();
+        let mut img = [0u8; SLOT_IMAGE_LEN];
+        assert!(slot_image(&blob[..n], Some(2), &mut img).is_err());
+        assert!(slot_image(&blob[..n], None, &mut img).is_ok());
     }
 
     #[test]

@@ -121,6 +121,10 @@ fn every_request_and_reply_round_trips() {
             rms_rel: 0.01,
             evals: 5000,
         },
+        Response::Progress {
+            done: 4096,
+            budget: 100_000,
+        },
         Response::Error(ErrorCode::UnknownMaterial),
     ];
     for (k, resp) in replies.iter().enumerate() {

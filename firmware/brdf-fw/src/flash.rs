@@ -38,6 +38,9 @@ pub enum FlashError {
     Verify,
     /// Offset or length outside the slot image, or not word-aligned where required.
     Range,
+    /// The change could not be made persistent (QEMU: the host file could not be written,
+    /// or is not used because it was found damaged at boot).
+    Persist,
 }
 
 /// Checks a program request: word-aligned offset and length inside the slot image.
@@ -89,7 +92,10 @@ mod qemu {
     /// QEMU's code memory is RAM: the slots are written in place like flash (erase to 0xFF,
     /// programming only clears bits) and every change is mirrored to [`IMAGE_FILE`] on the
     /// host over semihosting; at boot the file is read back, so the slots survive a restart
-    /// exactly as flash would. Without a host file the slots work but do not persist.
+    /// exactly as flash would. A file that is neither empty nor exactly both slot images long
+    /// is reported and left as it is, and a file that cannot be written makes every write
+    /// fail with [`FlashError::Persist`]: COMMIT then answers `FlashFailed` rather than
+    /// claim parameters that a restart would lose.
     pub struct QemuFlash {
         handle: Option<usize>,
     }
@@ -107,29 +113,60 @@ mod qemu {
         }
     }
 
+    /// Bytes of the host file: slot A's image, then slot B's.
+    const FILE_LEN: usize = 2 * SLOT_IMAGE_LEN;
+
     impl QemuFlash {
         /// Opens (or creates, erased) the host file and loads both slots from it.
         pub fn open() -> QemuFlash {
             let name_len = IMAGE_FILE.len() - 1;
+            let name = "brdf-flash.bin";
             // SAFETY: semihosting calls with a NUL-terminated name and its length.
             let mut h = unsafe { syscall!(OPEN, IMAGE_FILE.as_ptr(), nr::open::RW_BINARY, name_len) };
-            let mut fresh = false;
             if h == usize::MAX {
                 // SAFETY: as above.
                 h = unsafe { syscall!(OPEN, IMAGE_FILE.as_ptr(), nr::open::RW_TRUNC_BINARY, name_len) };
-                fresh = true;
             }
             let mut flash = QemuFlash {
                 handle: (h != usize::MAX).then_some(h),
             };
-            if flash.handle.is_none() {
-                defmt::warn!("flash: no host file, slots will not survive a restart");
-            }
             for slot in [SlotId::A, SlotId::B] {
-                if fresh || !flash.load(slot) {
-                    flash.fill_erased(slot);
-                    flash.mirror(slot, 0, SLOT_IMAGE_LEN);
+                flash.fill_erased(slot);
+            }
+            let Some(h) = flash.handle else {
+                defmt::warn!(
+                    "flash: cannot open {=str}: slots read as erased, COMMIT refused",
+                    name
+                );
+                return flash;
+            };
+            // SAFETY: FLEN of the handle just opened.
+            let len = unsafe { syscall!(FLEN, h) };
+            if len == 0 {
+                // A new file: both slots erased.
+                let written = flash.mirror(SlotId::A, 0, SLOT_IMAGE_LEN).is_ok()
+                    && flash.mirror(SlotId::B, 0, SLOT_IMAGE_LEN).is_ok();
+                if !written {
+                    defmt::warn!("flash: cannot write {=str}: COMMIT refused", name);
+                    flash.handle = None;
                 }
+            } else if len != FILE_LEN {
+                defmt::warn!(
+                    "flash: {=str} is {=usize} bytes, not {=usize}: left as it is, slots read as erased, COMMIT refused",
+                    name,
+                    len,
+                    FILE_LEN
+                );
+                flash.handle = None;
+            } else if !(flash.load(SlotId::A) && flash.load(SlotId::B)) {
+                defmt::warn!(
+                    "flash: cannot read {=str}: slots read as erased, COMMIT refused",
+                    name
+                );
+                for slot in [SlotId::A, SlotId::B] {
+                    flash.fill_erased(slot);
+                }
+                flash.handle = None;
             }
             flash
         }
@@ -160,13 +197,19 @@ mod qemu {
         }
 
         /// Copies `len` bytes at `offset` of the slot to the host file.
-        fn mirror(&mut self, slot: SlotId, offset: usize, len: usize) {
-            let Some(h) = self.handle else { return };
+        fn mirror(&mut self, slot: SlotId, offset: usize, len: usize) -> Result<(), FlashError> {
+            let h = self.handle.ok_or(FlashError::Persist)?;
             // SAFETY: seek and write from inside the slot region.
-            unsafe {
-                if syscall!(SEEK, h, file_offset(slot) + offset) == 0 {
-                    syscall!(WRITE, h, Self::base(slot).add(offset), len);
+            let not_written = unsafe {
+                if syscall!(SEEK, h, file_offset(slot) + offset) != 0 {
+                    return Err(FlashError::Persist);
                 }
+                syscall!(WRITE, h, Self::base(slot).add(offset), len)
+            };
+            if not_written == 0 {
+                Ok(())
+            } else {
+                Err(FlashError::Persist)
             }
         }
     }
@@ -177,13 +220,18 @@ mod qemu {
         }
 
         fn erase(&mut self, slot: SlotId) -> Result<(), FlashError> {
+            if self.handle.is_none() {
+                return Err(FlashError::Persist);
+            }
             self.fill_erased(slot);
-            self.mirror(slot, 0, SLOT_IMAGE_LEN);
-            Ok(())
+            self.mirror(slot, 0, SLOT_IMAGE_LEN)
         }
 
         fn program(&mut self, slot: SlotId, offset: usize, bytes: &[u8]) -> Result<(), FlashError> {
             super::check_program(offset, bytes.len())?;
+            if self.handle.is_none() {
+                return Err(FlashError::Persist);
+            }
             for (i, &b) in bytes.iter().enumerate() {
                 // SAFETY: inside the slot region (checked above). Programming flash can only
                 // clear bits.
@@ -192,8 +240,7 @@ mod qemu {
                     core::ptr::write_volatile(p, core::ptr::read_volatile(p) & b);
                 }
             }
-            self.mirror(slot, offset, bytes.len());
-            Ok(())
+            self.mirror(slot, offset, bytes.len())
         }
     }
 }

@@ -3,13 +3,15 @@
 //! Boots from the newer valid of its two flash slots, falls back to the other, then to the
 //! built-in default materials (the paper's Table 1: khaki, yellow, white), and logs which
 //! with defmt. Then answers INFO, EVAL, EVAL_BATCH, LOAD (a blob into RAM), COMMIT (a blob
-//! into the inactive flash slot, then active) and FIT (the on-sensor annealer); every bad
-//! frame gets an ERROR reply and reading resumes at the next frame. Nothing on the query
-//! path panics; a panic would end a QEMU run with exit code 1 (reset on hardware).
+//! into the inactive flash slot, then active) and FIT (the on-sensor annealer; while it
+//! runs, PROGRESS replies keep the host waiting and every other request is answered
+//! `Busy`); every bad frame gets an ERROR reply and reading resumes at the next frame.
+//! Nothing on the query path panics; a panic would end a QEMU run with exit code 1 (reset
+//! on hardware).
 #![no_std]
 #![no_main]
 
-use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox};
+use brdf_core::anneal::{anneal_with_progress, AnnealConfig, Samples, SearchBox};
 use brdf_core::table::{SixTable, TableConsts};
 use brdf_core::{
     AnyModel, Brdf, FiveParam, Geometry, Lambert, Minnaert, Model, ModelKind, SixParam, SixParamCos2,
@@ -17,7 +19,7 @@ use brdf_core::{
 use brdf_wire::blob::{blob_crc, table1_blob, Blob, TableRef, BLOB_VERSION, MAX_BLOB_LEN};
 use brdf_wire::frame::{
     encode_response, parse_request, samples, ErrorCode, FrameReader, Input, Request, Response, MAX_BATCH,
-    MAX_FIT_SAMPLES, MAX_FRAME,
+    MAX_FIT_BUDGET, MAX_FIT_SAMPLES, MAX_FRAME, PROGRESS_SAMPLE_EVALS,
 };
 use brdf_wire::slots::{
     commit_target, read_slot, select, slot_image, CommitError, SlotId, SlotState, SLOT_IMAGE_LEN,
@@ -31,9 +33,6 @@ use brdf_fw::port::Port;
 
 /// Build id reported by INFO.
 const BUILD_ID: u32 = 0x0001_0000;
-
-/// Largest FIT budget accepted: a larger one would keep the device from serving for minutes.
-const MAX_FIT_BUDGET: u32 = 100_000;
 
 /// The active blob (its bytes, since tables are read in place), its decoded materials,
 /// their exact models and the CRC reported by INFO.
@@ -110,21 +109,109 @@ impl Active {
     }
 }
 
+/// A FIT request with its samples copied out of the frame buffer.
+struct FitJob {
+    model: ModelKind,
+    budget: u32,
+    samples: Samples<f32, MAX_FIT_SAMPLES>,
+}
+
+impl FitJob {
+    /// Checks the budget and every sample (the annealer then checks that the samples hold
+    /// one distinct direction per parameter, as the host's fit does).
+    fn new(model: ModelKind, budget: u32, bytes: &[u8]) -> Result<FitJob, ErrorCode> {
+        if budget > MAX_FIT_BUDGET {
+            return Err(ErrorCode::FitFailed);
+        }
+        let mut s: Samples<f32, MAX_FIT_SAMPLES> = Samples::new();
+        for [ti, tr, phi, y] in samples(bytes) {
+            if s.push_angles(ti, tr, phi, y).is_err() {
+                return Err(ErrorCode::FitFailed);
+            }
+        }
+        Ok(FitJob {
+            model,
+            budget,
+            samples: s,
+        })
+    }
+}
+
 fn fit<M: Model<f32>>(
     s: &Samples<f32, MAX_FIT_SAMPLES>,
     budget: u32,
+    progress: impl FnMut(u32),
 ) -> Result<([f32; 6], f32, u32), ErrorCode> {
     let mut rng = rand_pcg::Pcg32::seed_from_u64(1);
     let cfg = AnnealConfig {
         budget,
         ..AnnealConfig::default()
     };
-    anneal::<f32, M, _, MAX_FIT_SAMPLES>(s, &SearchBox::for_kind(M::KIND), &cfg, &mut rng)
-        .map(|o| (o.params, o.rms_rel, o.evals))
-        .map_err(|_| ErrorCode::FitFailed)
+    anneal_with_progress::<f32, M, _, MAX_FIT_SAMPLES>(
+        s,
+        &SearchBox::for_kind(M::KIND),
+        &cfg,
+        &mut rng,
+        progress,
+    )
+    .map(|o| (o.params, o.rms_rel, o.evals))
+    .map_err(|_| ErrorCode::FitFailed)
 }
 
-/// Handles one request; the reply's variable part goes into `values`.
+/// Runs a FIT (request tag `tag`). After every evaluation it answers the requests that have
+/// arrived meanwhile with `Busy` (bad frames with their error, as always), and after every
+/// `PROGRESS_SAMPLE_EVALS` sample evaluations it sends PROGRESS with the FIT's tag.
+fn run_fit<P: Port>(
+    job: &FitJob,
+    tag: u8,
+    port: &mut P,
+    reader: &mut FrameReader<MAX_FRAME>,
+    out: &mut [u8],
+) -> Response<'static> {
+    let per_eval = (job.samples.len() as u32).max(1);
+    let every = (PROGRESS_SAMPLE_EVALS / per_eval).max(1);
+    let budget = job.budget;
+    let progress = |done: u32| {
+        while let Some(byte) = port.try_read() {
+            let reply = match reader.push(byte) {
+                None => continue,
+                Some(Err(code)) => (Response::Error(code), 0),
+                Some(Ok(())) => match parse_request(reader.payload()) {
+                    Ok((t, _)) => (Response::Error(ErrorCode::Busy), t),
+                    Err(code) => (Response::Error(code), 0),
+                },
+            };
+            if let Ok(n) = encode_response(&reply.0, reply.1, out) {
+                port.write_all(&out[..n]);
+            }
+        }
+        if done.is_multiple_of(every) && done < budget {
+            if let Ok(n) = encode_response(&Response::Progress { done, budget }, tag, out) {
+                port.write_all(&out[..n]);
+            }
+        }
+    };
+    let s = &job.samples;
+    let r = match job.model {
+        ModelKind::Six => fit::<SixParam<f32>>(s, budget, progress),
+        ModelKind::SixCos2 => fit::<SixParamCos2<f32>>(s, budget, progress),
+        ModelKind::Five => fit::<FiveParam<f32>>(s, budget, progress),
+        ModelKind::Minnaert => fit::<Minnaert<f32>>(s, budget, progress),
+        ModelKind::Lambert => fit::<Lambert<f32>>(s, budget, progress),
+    };
+    match r {
+        Ok((params, rms_rel, evals)) => Response::Fitted {
+            model: job.model,
+            params,
+            rms_rel,
+            evals,
+        },
+        Err(e) => Response::Error(e),
+    }
+}
+
+/// Handles one request other than FIT (see [`run_fit`]); the reply's variable part goes
+/// into `values`.
 fn handle<'v, F: Flash>(
     req: Request<'_>,
     active: &mut Active,
@@ -174,37 +261,8 @@ fn handle<'v, F: Flash>(
             }
             Err(e) => Response::Error(e),
         },
-        Request::Fit {
-            model,
-            budget,
-            samples: bytes,
-        } => {
-            if budget > MAX_FIT_BUDGET {
-                return Response::Error(ErrorCode::FitFailed);
-            }
-            let mut s: Samples<f32, MAX_FIT_SAMPLES> = Samples::new();
-            for [ti, tr, phi, y] in samples(bytes) {
-                if s.push_angles(ti, tr, phi, y).is_err() {
-                    return Response::Error(ErrorCode::FitFailed);
-                }
-            }
-            let r = match model {
-                ModelKind::Six => fit::<SixParam<f32>>(&s, budget),
-                ModelKind::SixCos2 => fit::<SixParamCos2<f32>>(&s, budget),
-                ModelKind::Five => fit::<FiveParam<f32>>(&s, budget),
-                ModelKind::Minnaert => fit::<Minnaert<f32>>(&s, budget),
-                ModelKind::Lambert => fit::<Lambert<f32>>(&s, budget),
-            };
-            match r {
-                Ok((params, rms_rel, evals)) => Response::Fitted {
-                    model,
-                    params,
-                    rms_rel,
-                    evals,
-                },
-                Err(e) => Response::Error(e),
-            }
-        }
+        // `serve` runs FIT itself (it needs the port while fitting).
+        Request::Fit { .. } => Response::Error(ErrorCode::Malformed),
     }
 }
 
@@ -264,6 +322,7 @@ fn blob_error(e: &brdf_wire::blob::BlobError) -> &'static str {
         ModelId(..) => "model id",
         ParamCount(_) => "parameter count",
         Params(_) => "parameters",
+        Reserved(_) => "reserved field",
         Table(_) => "table",
         _ => "other",
     }
@@ -274,13 +333,13 @@ fn blob_error(e: &brdf_wire::blob::BlobError) -> &'static str {
 fn commit<F: Flash>(bytes: &[u8], flash: &mut F) -> Result<Active, ErrorCode> {
     let states = [SlotId::A, SlotId::B].map(|id| read_slot(flash.slot(id)).0);
     let newest = select(&states[0], &states[1]);
-    let newest_sequence = newest.and_then(|id| states[id as usize].sequence()).unwrap_or(0);
+    let newest_sequence = newest.and_then(|id| states[id as usize].sequence());
     let mut image = [0u8; SLOT_IMAGE_LEN];
     let (n, blob) = match slot_image(bytes, newest_sequence, &mut image) {
         Ok(r) => r,
         Err(CommitError::Stale { sequence, active }) => {
             defmt::warn!(
-                "commit refused: sequence {=u32} not above {=u32}",
+                "commit refused: sequence {=u32} not newer than {=u32}",
                 sequence,
                 active
             );
@@ -318,6 +377,20 @@ fn serve<P: Port, F: Flash>(port: &mut P, flash: &mut F, mut active: Active) -> 
             None => continue,
             Some(Err(code)) => encode_response(&Response::Error(code), 0, &mut out),
             Some(Ok(())) => match parse_request(reader.payload()) {
+                Ok((
+                    tag,
+                    Request::Fit {
+                        model,
+                        budget,
+                        samples,
+                    },
+                )) => {
+                    let resp = match FitJob::new(model, budget, samples) {
+                        Ok(job) => run_fit(&job, tag, port, &mut reader, &mut out),
+                        Err(e) => Response::Error(e),
+                    };
+                    encode_response(&resp, tag, &mut out)
+                }
                 Ok((tag, req)) => {
                     let resp = handle(req, &mut active, flash, &mut values);
                     encode_response(&resp, tag, &mut out)

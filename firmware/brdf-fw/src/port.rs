@@ -4,6 +4,8 @@
 pub trait Port {
     /// Blocks until a byte arrives.
     fn read(&mut self) -> u8;
+    /// A byte if one has arrived, without waiting.
+    fn try_read(&mut self) -> Option<u8>;
     /// Sends every byte.
     fn write_all(&mut self, bytes: &[u8]);
 }

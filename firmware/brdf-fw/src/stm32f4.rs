@@ -45,19 +45,26 @@ impl Usart2 {
 
 impl crate::port::Port for Usart2 {
     fn read(&mut self) -> u8 {
+        loop {
+            if let Some(b) = self.try_read() {
+                return b;
+            }
+        }
+    }
+
+    fn try_read(&mut self) -> Option<u8> {
         // SAFETY: USART2 status and data registers.
         unsafe {
-            loop {
-                let sr = read_volatile(reg(USART2 + SR));
-                if sr & (1 << 5) != 0 {
-                    return read_volatile(reg(USART2 + DR)) as u8;
-                }
-                if sr & 0b1111 != 0 {
-                    // Overrun, noise, framing or parity error: reading DR clears it; the
-                    // frame CRC rejects the damaged frame.
-                    let _ = read_volatile(reg(USART2 + DR));
-                }
+            let sr = read_volatile(reg(USART2 + SR));
+            if sr & (1 << 5) != 0 {
+                return Some(read_volatile(reg(USART2 + DR)) as u8);
             }
+            if sr & 0b1111 != 0 {
+                // Overrun, noise, framing or parity error: reading DR clears it; the frame
+                // CRC rejects the damaged frame.
+                let _ = read_volatile(reg(USART2 + DR));
+            }
+            None
         }
     }
 
@@ -170,9 +177,16 @@ pub struct RttPort {
 #[cfg(feature = "rtt-port")]
 impl crate::port::Port for RttPort {
     fn read(&mut self) -> u8 {
+        loop {
+            if let Some(b) = self.try_read() {
+                return b;
+            }
+        }
+    }
+
+    fn try_read(&mut self) -> Option<u8> {
         let mut b = [0u8; 1];
-        while self.down.read(&mut b) == 0 {}
-        b[0]
+        (self.down.read(&mut b) == 1).then_some(b[0])
     }
 
     fn write_all(&mut self, mut bytes: &[u8]) {

@@ -43,6 +43,14 @@ impl Uart {
         }
     }
 
+    /// A byte if one has arrived.
+    pub fn try_read_byte(&self) -> Option<u8> {
+        // SAFETY: as in `init`.
+        unsafe {
+            (read_volatile(self.reg(STATE)) & RX_FULL != 0).then(|| read_volatile(self.reg(DATA)) as u8)
+        }
+    }
+
     /// Sends every byte, waiting while the transmitter is full.
     pub fn write_bytes(&self, bytes: &[u8]) {
         for &b in bytes {
@@ -58,6 +66,9 @@ impl Uart {
 impl crate::port::Port for Uart {
     fn read(&mut self) -> u8 {
         self.read_byte()
+    }
+    fn try_read(&mut self) -> Option<u8> {
+        self.try_read_byte()
     }
     fn write_all(&mut self, bytes: &[u8]) {
         self.write_bytes(bytes);

@@ -65,8 +65,8 @@ pub struct EvalBench {
     /// Table 1 material: khaki, yellow or white.
     #[arg(long, default_value = "khaki")]
     material: String,
-    /// Largest zenith of the grid, degrees.
-    #[arg(long, default_value_t = 85.0)]
+    /// Largest zenith of the accuracy domain, degrees.
+    #[arg(long, default_value_t = 85.0, value_parser = crate::common::degrees(1.0, 90.0))]
     max_theta: f64,
     /// Grid points per axis (theta_i x theta_r x phi = N^3 directions).
     #[arg(long, default_value_t = 100)]

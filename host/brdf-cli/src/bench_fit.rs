@@ -25,7 +25,7 @@ pub struct FitBench {
     #[arg(default_value = "data/khaki-synthetic-inplane.csv")]
     data: PathBuf,
     /// Seeds per method.
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(1..=10_000))]
     seeds: u64,
     /// Output directory for fit.csv and the charts.
     #[arg(long, default_value = "docs/bench")]

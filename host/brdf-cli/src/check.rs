@@ -13,6 +13,8 @@ use brdf_wire::frame::Input;
 use clap::Args;
 use serde::Serialize;
 
+use crate::common::{count, parse_seconds};
+
 /// Cross-check a device against the host: a dense grid of directions per material (plus edge
 /// cases near grazing, near the retro and mirror directions, and in the plane phi = 0, 180 deg)
 /// evaluated by the device in f32 and by the host in f64 at the same inputs. Prints the
@@ -22,14 +24,14 @@ use serde::Serialize;
 pub struct CheckCmd {
     #[command(flatten)]
     device: DeviceArgs,
-    /// Random directions over the hemisphere per material, or a CSV of directions
-    /// (`theta_i,theta_r,phi` in degrees, optional `material`), e.g. from `brdf scene domain`:
-    /// then exactly those are checked (each distinct direction once), each against its
-    /// material.
+    /// Random directions over the hemisphere per material (1 to 10,000,000), or a CSV of
+    /// directions (`theta_i,theta_r,phi` in degrees, optional `material`), e.g. from `brdf
+    /// scene domain`: then exactly those are checked (each distinct direction once), each
+    /// against its material.
     #[arg(long, default_value = "20000", value_parser = parse_directions)]
     directions: Directions,
-    /// Edge-case directions per region and material.
-    #[arg(long, default_value_t = 1_000)]
+    /// Edge-case directions per region and material (0 to 1,000,000).
+    #[arg(long, default_value_t = 1_000, value_parser = count(0, 1_000_000))]
     edge: usize,
     /// Seed of the directions.
     #[arg(long, default_value_t = 1)]
@@ -49,10 +51,17 @@ pub enum Directions {
 }
 
 fn parse_directions(text: &str) -> Result<Directions, String> {
-    Ok(match text.trim().parse::<usize>() {
-        Ok(n) => Directions::Count(n),
-        Err(_) => Directions::File(PathBuf::from(text)),
-    })
+    let t = text.trim();
+    // A number (of any form) is a count, checked as one; anything else names a file.
+    if t.parse::<f64>().is_ok() {
+        return match t.parse::<usize>() {
+            Ok(n) if (1..=10_000_000).contains(&n) => Ok(Directions::Count(n)),
+            _ => Err(format!(
+                "`{text}`: need a whole number of directions in 1..=10000000, or a CSV file"
+            )),
+        };
+    }
+    Ok(Directions::File(PathBuf::from(text)))
 }
 
 /// A link over whichever transport the user chose.
@@ -69,7 +78,7 @@ pub struct DeviceArgs {
     #[arg(long, value_name = "PORT")]
     serial: Option<String>,
     /// Baud rate for --serial.
-    #[arg(long, default_value_t = 115_200)]
+    #[arg(long, default_value_t = 115_200, value_parser = clap::value_parser!(u32).range(1..))]
     baud: u32,
     /// A board on a debug probe, frames over RTT (firmware built with
     /// `--features rtt-port`): the probe as `VID:PID[:SERIAL]`, or `auto` for the only one.
@@ -78,9 +87,10 @@ pub struct DeviceArgs {
     /// The chip behind --probe (a probe-rs target name).
     #[arg(long, default_value = "STM32F407VGTx")]
     chip: String,
-    /// Seconds to wait for a reply from a serial or probe device.
-    #[arg(long, default_value_t = 10.0)]
-    timeout: f64,
+    /// Seconds the device may stay silent: QEMU's first answer after it starts, and each
+    /// reply (a FIT sends progress every few seconds). Above 0, at most 86,400.
+    #[arg(long, default_value = "30", value_parser = parse_seconds)]
+    timeout: std::time::Duration,
     /// Firmware ELF for --qemu (default: the release build in firmware/).
     #[arg(long)]
     elf: Option<PathBuf>,
@@ -94,10 +104,10 @@ impl DeviceArgs {
     /// Opens the transport, LOADs `--blob` if given, and returns the link with that blob and
     /// its CRC.
     pub fn connect(&self) -> Result<(Device, Option<(Blob, u32)>)> {
-        let timeout = std::time::Duration::from_secs_f64(self.timeout);
+        let timeout = self.timeout;
         let transport: Box<dyn Transport> = if self.qemu {
             let elf = self.elf.clone().unwrap_or_else(default_elf);
-            Box::new(Qemu::spawn(&elf)?)
+            Box::new(Qemu::spawn_with(&elf, None, timeout)?)
         } else if let Some(port) = &self.serial {
             Box::new(Serial::open(port, self.baud, timeout)?)
         } else if let Some(probe) = &self.probe {
@@ -118,6 +128,15 @@ impl DeviceArgs {
             None => None,
         };
         Ok((link, loaded))
+    }
+}
+
+impl DeviceArgs {
+    /// The blob checked against: `--blob`'s file, or the built-in Table 1.
+    pub fn blob_name(&self) -> String {
+        self.blob
+            .as_ref()
+            .map_or("the built-in Table 1".into(), |p| p.display().to_string())
     }
 }
 
@@ -277,7 +296,9 @@ impl CheckCmd {
                 .iter()
                 .map(|&v| f64::from(v))
                 .collect();
-            let host = AnyModel::<f64>::new(mat.kind, &p64)?;
+            let host = AnyModel::<f64>::new(mat.kind, &p64).with_context(|| {
+                format!("{}: material {m} ({})", self.device.blob_name(), mat.kind.name())
+            })?;
             // A tabulated material is held to its table's bound within the promised zenith
             // range; beyond it the errors are reported, not judged.
             let promise = match mat.table {

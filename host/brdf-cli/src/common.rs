@@ -64,14 +64,14 @@ pub struct EngineArgs {
     /// Residual form.
     #[arg(long, value_enum, default_value_t = ResidualArg::Relative)]
     pub residual: ResidualArg,
-    /// Most annealing chains, each polished by Levenberg-Marquardt.
-    #[arg(long, default_value_t = FitOptions::default().chains)]
+    /// Most annealing chains, each polished by Levenberg-Marquardt (1 to 64).
+    #[arg(long, default_value_t = FitOptions::default().chains, value_parser = count(1, 64))]
     pub chains: usize,
-    /// Stop once this many chains agree on the best cost.
-    #[arg(long, default_value_t = FitOptions::default().agree)]
+    /// Stop once this many chains agree on the best cost (1 to 64).
+    #[arg(long, default_value_t = FitOptions::default().agree, value_parser = count(1, 64))]
     pub agree: usize,
-    /// Cost evaluations per annealing chain.
-    #[arg(long, default_value_t = brdf_fit::anneal::AnnealOptions::default().evals)]
+    /// Cost evaluations per annealing chain (1 to 100,000,000).
+    #[arg(long, default_value_t = brdf_fit::anneal::AnnealOptions::default().evals, value_parser = count(1, 100_000_000))]
     pub anneal_evals: usize,
     /// Robust loss (as scipy's least_squares): linear (least squares), huber, soft-l1 or
     /// cauchy. Residuals beyond --loss-scale count less than squared.
@@ -155,6 +155,40 @@ impl EngineArgs {
             out.extend(loaded.datasets);
         }
         Ok(out)
+    }
+}
+
+/// A clap value parser for a whole number in `lo..=hi` (a count or a size): anything else,
+/// negative numbers and `1e3` included, is a usage error naming the range.
+pub fn count(lo: u64, hi: u64) -> impl clap::builder::TypedValueParser<Value = usize> {
+    clap::builder::RangedU64ValueParser::<usize>::new().range(lo..=hi)
+}
+
+/// Parses a number of seconds, above 0 and at most a day, into a duration.
+pub fn parse_seconds(text: &str) -> Result<std::time::Duration, String> {
+    let v: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number of seconds"))?;
+    if !(v.is_finite() && v > 0.0 && v <= 86_400.0) {
+        return Err(format!(
+            "`{text}` seconds: need a number above 0 and at most 86400"
+        ));
+    }
+    std::time::Duration::try_from_secs_f64(v).map_err(|e| format!("`{text}` seconds: {e}"))
+}
+
+/// A clap value parser for an angle in degrees within `[lo, hi]` (finite).
+pub fn degrees(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
+    move |text: &str| {
+        let v: f64 = text
+            .trim()
+            .parse()
+            .map_err(|_| format!("`{text}` is not a number of degrees"))?;
+        if !(v.is_finite() && (lo..=hi).contains(&v)) {
+            return Err(format!("`{text}` degrees: need a value in [{lo}, {hi}]"));
+        }
+        Ok(v)
     }
 }
 

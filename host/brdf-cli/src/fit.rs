@@ -3,8 +3,9 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
-use brdf_core::ModelKind;
+use anyhow::{anyhow, bail, Context, Result};
+use brdf_core::anneal::check_directions;
+use brdf_core::{Geometry, ModelKind};
 use brdf_fit::report::FitReport;
 use brdf_fit::Engine;
 use clap::Args;
@@ -34,8 +35,10 @@ pub struct FitCmd {
     /// f32 annealer of brdf-core, fixed memory and budget, run on the host).
     #[arg(long = "engine", value_enum, default_value_t = EngineKind::Full)]
     engine_kind: EngineKind,
-    /// Evaluation budget of the embedded engine.
-    #[arg(long, default_value_t = brdf_fit::embedded::DEFAULT_BUDGET)]
+    /// Evaluation budget of the embedded engine (65 to 10,000,000: above its 64-point
+    /// screen).
+    #[arg(long, default_value_t = brdf_fit::embedded::DEFAULT_BUDGET,
+          value_parser = clap::value_parser!(u32).range(65..=10_000_000))]
     budget_evals: u32,
     /// Fit only datasets i with i % N == K (0-based K), for job arrays across machines.
     #[arg(long, value_parser = parse_shard)]
@@ -85,14 +88,12 @@ impl FitCmd {
             }
         }
         for d in &datasets {
-            if d.points.len() < self.model.param_count() {
-                bail!(
-                    "{}: {} points cannot determine {} parameters",
-                    d.name,
-                    d.points.len(),
-                    self.model.param_count()
-                );
-            }
+            // The rule the device's FIT applies too: one distinct direction per parameter.
+            let geometries = d
+                .points
+                .iter()
+                .map(|p| Geometry::<f64>::from_angles(p.theta_i, p.theta_r, p.phi));
+            check_directions(self.model, geometries).map_err(|e| anyhow!("{}: {e}", d.name))?;
         }
         let mut settings = self.engine.settings(self.model);
         if self.engine_kind == EngineKind::Embedded {
@@ -236,6 +237,7 @@ impl ResultsCsv {
             .0
             .iter()
             .filter_map(|(n, u)| u.note.as_ref().map(|note| format!("{n}: {note}")))
+            .chain(r.outside_ranges.iter().map(|o| format!("{o}: cannot be packed")))
             .collect();
         row.push(flags.join("; "));
         self.w.write_record(&row)?;
@@ -310,6 +312,12 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
             pi.n,
             100.0 * pi.metrics.rms_rel,
             100.0 * pi.metrics.max_rel
+        )?;
+    }
+    for o in &r.outside_ranges {
+        writeln!(
+            out,
+            "  out of range: {o}; no device accepts this fit (brdf pack refuses it)"
         )?;
     }
     let e = &r.energy;

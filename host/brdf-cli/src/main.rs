@@ -1,5 +1,6 @@
 //! `brdf`: evaluate the six-parameter BRDF model family from the command line.
 
+mod angles;
 mod batch;
 mod bench;
 mod bench_fit;
@@ -81,10 +82,27 @@ fn main() -> std::process::ExitCode {
         // A closed pipe (`brdf eval ... | head`) is the reader's choice, not an error.
         Err(err) if is_broken_pipe(&err) => std::process::ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", message(&err));
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes, joined by `: `, each cause only once: a cause whose text an
+/// outer message already contains (an OS error quoted by its context, say) is not repeated.
+fn message(err: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in err.chain() {
+        let c = cause.to_string();
+        if text.contains(&c) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&c);
+    }
+    text
 }
 
 fn is_broken_pipe(err: &anyhow::Error) -> bool {

@@ -21,13 +21,15 @@ pub struct PackCmd {
     /// Output blob.
     #[arg(short = 'o', long)]
     output: PathBuf,
-    /// Sequence number: a device keeps the valid blob with the larger one.
+    /// Sequence number: a device keeps the valid blob with the newer one, in serial-number
+    /// order (N + 1 is always newer than N; 0 follows 4294967295).
     #[arg(long, default_value_t = 1)]
     sequence: u32,
     /// Add lookup tables with this many nodes to every six-parameter material (the
     /// device's fast path; 256 nodes = 3,072 bytes per material, max relative error 1.5e-3
     /// up to 85 degrees zenith).
-    #[arg(long, value_name = "NODES")]
+    #[arg(long, value_name = "NODES",
+          value_parser = crate::common::count(MIN_TABLE_NODES as u64, MAX_TABLE_NODES as u64))]
     table_nodes: Option<usize>,
 }
 
@@ -40,10 +42,15 @@ pub(crate) fn material(file: &str, index: usize, v: &serde_json::Value, warn: bo
     let kind =
         ModelKind::from_name(name).ok_or_else(|| anyhow!("{file}: fit {index}: unknown model `{name}`"))?;
     let mut params = [0.0f32; MAX_PARAMS];
-    for (j, p) in kind.param_names().iter().enumerate() {
+    for (j, (p, range)) in kind.param_names().iter().zip(kind.ranges()).enumerate() {
         let x = v["params"][*p]
             .as_f64()
             .ok_or_else(|| anyhow!("{file}: fit {index}: parameter `{p}` missing or not a number"))?;
+        // The range is checked on the value as written and again (in the model) on its f32
+        // rounding; both are exact at the bounds (brdf_core::ranges).
+        range
+            .check(x)
+            .map_err(|e| anyhow!("{file}: fit {index}: refused: {e}"))?;
         params[j] = x as f32;
     }
     let m = Material {
@@ -142,6 +149,8 @@ pub(crate) fn write_blob(
 impl PackCmd {
     pub fn run(self) -> Result<()> {
         let mut materials: heapless::Vec<Material, MAX_MATERIALS> = heapless::Vec::new();
+        // Where each material came from, for messages.
+        let mut origin: Vec<String> = Vec::new();
         for path in &self.fits {
             let file = path.display().to_string();
             let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {file}"))?;
@@ -155,9 +164,11 @@ impl PackCmd {
                 if materials.push(material(&file, i, f, true)?).is_err() {
                     bail!("more than {MAX_MATERIALS} materials: a blob holds at most {MAX_MATERIALS}");
                 }
+                origin.push(format!("{file}: fit {i}"));
             }
         }
         let mut tables: Vec<Option<Vec<u8>>> = vec![None; materials.len()];
+
         if let Some(nodes) = self.table_nodes {
             if !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&nodes) {
                 bail!("--table-nodes {nodes}: outside {MIN_TABLE_NODES}..={MAX_TABLE_NODES}");
@@ -166,7 +177,8 @@ impl PackCmd {
                 if m.six_params().is_none() {
                     continue;
                 }
-                let (bytes, worst, n) = add_tables(m, nodes)?;
+                let (bytes, worst, n) = add_tables(m, nodes)
+                    .with_context(|| format!("{}: material {i}: {nodes}-node tables", origin[i]))?;
                 eprintln!(
                     "material {i}: {nodes}-node tables, measured max relative error {worst:.2e} over {n} \
                      directions up to {TABLE_MAX_ZENITH_DEG} degrees zenith"

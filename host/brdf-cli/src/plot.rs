@@ -36,7 +36,7 @@ pub struct PlotCmd {
     #[arg(long, value_delimiter = ',', value_parser = parse_kind, default_value = "six")]
     models: Vec<ModelKind>,
     /// Incidence angle of the map, degrees.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, default_value_t = 30.0, value_parser = crate::common::degrees(0.0, 90.0))]
     theta_i: f64,
     /// Title (default: the dataset name).
     #[arg(long)]

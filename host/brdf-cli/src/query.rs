@@ -2,15 +2,18 @@
 
 use std::path::PathBuf;
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Result};
+use brdf_link::LinkError;
 use brdf_wire::frame::Input;
 use clap::Args;
 
-use crate::check::DeviceArgs;
-use crate::common::parse_list;
+use crate::angles::{f32_text, parse_direction, radians, AngleReader, AngleWriter, Chunk};
+use crate::check::{Device, DeviceArgs};
 
-/// Ask a device (the firmware under QEMU) for f_r in 1/sr: one direction with --angles, or
-/// every row of a CSV with theta_i,theta_r,phi in degrees (written back with a `brdf` column).
+/// Ask a device (the firmware under QEMU, a board's UART or a probe) for f_r in 1/sr: one
+/// direction with --angles, or every row of a CSV with theta_i,theta_r,phi in degrees. The
+/// CSV is read, checked and written exactly as `brdf eval --precision f32` does, so on any
+/// file `eval` accepts the two print the same bytes.
 #[derive(Debug, Args)]
 pub struct QueryCmd {
     #[command(flatten)]
@@ -19,62 +22,69 @@ pub struct QueryCmd {
     #[arg(long, default_value_t = 0)]
     material: u8,
     /// One direction: theta_i,theta_r,phi in degrees.
-    #[arg(long, conflicts_with = "csv")]
+    #[arg(long, conflicts_with = "csv", allow_hyphen_values = true)]
     angles: Option<String>,
-    /// A CSV of directions (header with theta_i, theta_r, phi in degrees).
+    /// Name of the output column.
+    #[arg(long, default_value = "brdf")]
+    output_column: String,
+    /// A CSV of directions (header with theta_i, theta_r, phi in degrees; other columns are
+    /// passed through unchanged).
     csv: Option<PathBuf>,
+}
+
+/// Asks the device for `xs` (radians); a refusal is reported at the line of the first
+/// direction the device refuses on its own (`line(i)` names row `i`).
+fn ask(link: &mut Device, material: u8, xs: &[[f32; 3]], at: impl Fn(usize) -> String) -> Result<Vec<f32>> {
+    match link.eval(material, Input::Angles, xs) {
+        Ok(v) => Ok(v),
+        Err(LinkError::Device(code)) => {
+            for (i, x) in xs.iter().enumerate() {
+                if let Err(LinkError::Device(code)) =
+                    link.eval(material, Input::Angles, std::slice::from_ref(x))
+                {
+                    bail!("{}: the device refused this direction ({code:?})", at(i));
+                }
+            }
+            bail!("the device refused a batch ({code:?}) but none of its directions alone")
+        }
+        Err(e) => Err(e.into()),
+    }
 }
 
 impl QueryCmd {
     pub fn run(self) -> Result<()> {
-        let dirs: Vec<[f64; 3]> = match (&self.angles, &self.csv) {
+        match (&self.angles, &self.csv) {
             (Some(a), None) => {
-                let v = parse_list(a).map_err(|e| anyhow!("--angles: {e}"))?;
-                if v.len() != 3 {
-                    bail!("--angles: need theta_i,theta_r,phi");
+                let texts: Vec<&str> = a.split(',').collect();
+                let [ti, tr, phi] = texts[..] else {
+                    bail!("--angles: need theta_i,theta_r,phi, got `{a}`");
+                };
+                let deg = parse_direction("--angles", [ti, tr, phi])?;
+                let (mut link, _) = self.device.connect()?;
+                let v = ask(&mut link, self.material, &[radians::<f32>(deg)], |_| {
+                    "--angles".into()
+                })?;
+                println!("{}", f32_text(v[0]));
+                Ok(())
+            }
+            (None, Some(path)) => {
+                // The file is opened and its header checked before the device is started.
+                let mut reader = AngleReader::open(path, &self.output_column)?;
+                let (mut link, _) = self.device.connect()?;
+                let stdout = std::io::stdout();
+                let mut writer = AngleWriter::new(stdout.lock(), &reader, &self.output_column)?;
+                let mut chunk = Chunk::default();
+                while reader.next_chunk(&mut chunk)? > 0 {
+                    let xs: Vec<[f32; 3]> = chunk.degrees().iter().map(|&d| radians::<f32>(d)).collect();
+                    let file = reader.file();
+                    let values = ask(&mut link, self.material, &xs, |i| {
+                        format!("{file}: line {}", chunk.line(i))
+                    })?;
+                    writer.write_chunk(&chunk, values.into_iter().map(f32_text))?;
                 }
-                vec![[v[0], v[1], v[2]]]
+                writer.finish()
             }
-            (None, Some(path)) => read_csv(path)?,
             _ => bail!("give --angles or a CSV file"),
-        };
-        let (mut link, _) = self.device.connect()?;
-        let xs: Vec<[f32; 3]> = dirs.iter().map(|d| d.map(|v| v.to_radians() as f32)).collect();
-        let vals = link.eval(self.material, Input::Angles, &xs)?;
-        if self.angles.is_some() {
-            println!("{:.8e}", vals[0]);
-        } else {
-            println!("theta_i,theta_r,phi,brdf");
-            for (d, v) in dirs.iter().zip(&vals) {
-                println!("{},{},{},{v:.8e}", d[0], d[1], d[2]);
-            }
         }
-        Ok(())
     }
-}
-
-fn read_csv(path: &PathBuf) -> Result<Vec<[f64; 3]>> {
-    let file = path.display().to_string();
-    let mut r = csv::Reader::from_path(path).with_context(|| format!("cannot open {file}"))?;
-    let h = r.headers()?.clone();
-    let col = |n: &str| {
-        h.iter()
-            .position(|c| c.trim() == n)
-            .ok_or_else(|| anyhow!("{file}: line 1: missing column `{n}`"))
-    };
-    let cols = [col("theta_i")?, col("theta_r")?, col("phi")?];
-    let mut out = Vec::new();
-    for rec in r.records() {
-        let rec = rec.with_context(|| format!("{file}: malformed CSV"))?;
-        let line = rec.position().map_or(0, |p| p.line());
-        let mut d = [0.0; 3];
-        for (k, (&c, name)) in cols.iter().zip(["theta_i", "theta_r", "phi"]).enumerate() {
-            let t = rec.get(c).unwrap_or("").trim();
-            d[k] = t
-                .parse()
-                .map_err(|_| anyhow!("{file}: line {line}: column {name}: `{t}` is not a number"))?;
-        }
-        out.push(d);
-    }
-    Ok(out)
 }

@@ -38,13 +38,13 @@ pub struct SelectCmd {
     #[arg(long, value_parser = parse_fraction, default_value = "2%")]
     budget: f64,
     /// Angular domain: only points with theta_i and theta_r at most this (degrees).
-    #[arg(long, default_value_t = 90.0)]
+    #[arg(long, default_value_t = 90.0, value_parser = crate::common::degrees(0.0, 90.0))]
     max_theta: f64,
     /// Largest incidence zenith of the domain (degrees; default --max-theta).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::common::degrees(0.0, 90.0))]
     max_theta_i: Option<f64>,
     /// Largest viewing zenith of the domain (degrees; default --max-theta).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::common::degrees(0.0, 90.0))]
     max_theta_r: Option<f64>,
     /// Write the chosen representation as a parameter blob.
     #[arg(short = 'o', long)]

@@ -55,7 +55,10 @@ impl SynthCmd {
         let p = &params[..self.model.param_count()];
         let theta_i = parse_list(&self.theta_i).map_err(|e| anyhow!("--theta-i: {e}"))?;
         if let Some(t) = theta_i.iter().find(|t| !(0.0..90.0).contains(*t)) {
-            return Err(anyhow!("--theta-i: {t} is outside [0, 90)"));
+            return Err(anyhow!(
+                "--theta-i: {} is outside [0, 90)",
+                brdf_core::Compact(*t)
+            ));
         }
         let steps_ok =
             self.step >= 0.01 && self.step < 90.0 && self.phi_step >= 0.01 && self.phi_step <= 180.0;

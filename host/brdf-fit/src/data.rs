@@ -152,7 +152,7 @@ pub enum DataError {
         text: String,
     },
     /// A value lies outside its domain.
-    #[error("{file}: line {line}: column {column}: {value} is outside {range}")]
+    #[error("{file}: line {line}: column {column}: {} is outside {range}", brdf_core::Compact(*.value))]
     OutOfRange {
         /// File path.
         file: String,
@@ -437,6 +437,11 @@ pub fn load_csv(path: &Path, opts: LoadOptions) -> Result<Loaded, DataError> {
     }
     let datasets = groups
         .into_iter()
+        .map(|(key, mut points)| {
+            // Growth by doubling leaves up to as much again unused.
+            points.shrink_to_fit();
+            (key, points)
+        })
         .map(|(key, points)| Dataset {
             name: if key.is_empty() {
                 file.clone()

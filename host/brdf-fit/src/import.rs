@@ -149,9 +149,15 @@ pub fn import(path: &Path, format: Format, channel: Channel) -> Result<Imported,
             if !(r.theta_i.is_finite() && r.theta_r.is_finite() && r.phi.is_finite() && r.brdf.is_finite()) {
                 Some("a value is not finite".to_owned())
             } else if !(0.0..90.0).contains(&r.theta_i) {
-                Some(format!("theta_i {} deg is outside [0, 90)", r.theta_i))
+                Some(format!(
+                    "theta_i {} deg is outside [0, 90)",
+                    brdf_core::Compact(r.theta_i)
+                ))
             } else if !(0.0..90.0).contains(&r.theta_r) {
-                Some(format!("theta_r {} deg is outside [0, 90)", r.theta_r))
+                Some(format!(
+                    "theta_r {} deg is outside [0, 90)",
+                    brdf_core::Compact(r.theta_r)
+                ))
             } else if r.brdf <= 0.0 {
                 Some(format!("brdf {} is not positive", r.brdf))
             } else {

@@ -396,33 +396,46 @@ impl Problem {
         0.5 * cost
     }
 
-    /// Jacobian of the residuals with respect to the internal parameters, row per point
-    /// (under a robust loss, each row scaled by the square root of the loss's curvature
-    /// there, as the polish sees it).
-    pub fn jacobian(&self, q: &[f64]) -> Vec<[f64; MAX_PARAMS]> {
+    /// Row `i` of the Jacobian of the residuals with respect to the internal parameters
+    /// (under a robust loss scaled by the square root of the loss's curvature there, as the
+    /// polish sees it).
+    pub fn jacobian_row(&self, i: usize, q: &[f64]) -> [f64; MAX_PARAMS] {
         let n = self.dim();
-        let mut out = vec![[0.0; MAX_PARAMS]; self.len()];
-        let mut f = vec![0.0; self.len()];
-        eval_many(self.kind, &q[..n], &self.pts, &mut f, Some(&mut out));
-        for (i, (g, &f)) in out.iter_mut().zip(&f).enumerate() {
-            let robust = if self.loss.is_linear() {
-                1.0
-            } else {
-                let r = self.residual_at(i, f);
-                let (_, d1, d2) = self.loss.eval(r * r);
-                (d1 + 2.0 * d2 * r * r).max(f64::EPSILON).sqrt()
+        let mut g = [0.0; MAX_PARAMS];
+        let f = crate::kernel::eval(self.kind, &q[..n], &self.pts[i], Some(&mut g[..n]));
+        let robust = if self.loss.is_linear() {
+            1.0
+        } else {
+            let r = self.residual_at(i, f);
+            let (_, d1, d2) = self.loss.eval(r * r);
+            (d1 + 2.0 * d2 * r * r).max(f64::EPSILON).sqrt()
+        };
+        let scale = robust
+            * match self.residual {
+                Residual::Relative => self.w[i] / self.y[i],
+                Residual::Absolute => self.w[i],
+                Residual::Log => self.w[i] / f,
             };
-            let scale = robust
-                * match self.residual {
-                    Residual::Relative => self.w[i] / self.y[i],
-                    Residual::Absolute => self.w[i],
-                    Residual::Log => self.w[i] / f,
-                };
-            for v in g.iter_mut() {
-                *v *= scale;
+        for v in g.iter_mut() {
+            *v *= scale;
+        }
+        g
+    }
+
+    /// `J^T J` of the residuals' Jacobian ([`Problem::jacobian_row`]), summed row by row
+    /// without holding the Jacobian (constant memory however many points).
+    pub fn jacobian_gram(&self, q: &[f64]) -> [[f64; MAX_PARAMS]; MAX_PARAMS] {
+        let n = self.dim();
+        let mut jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
+        for i in 0..self.len() {
+            let g = self.jacobian_row(i, q);
+            for a in 0..n {
+                for b in 0..n {
+                    jtj[a][b] += g[a] * g[b];
+                }
             }
         }
-        out
+        jtj
     }
 
     /// Model values at `q`, one per point.

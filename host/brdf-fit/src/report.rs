@@ -266,15 +266,7 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
     let p = kind.param_count();
     let names = kind.param_names();
     let (lo, hi) = problem.bounds();
-    let jac = problem.jacobian(&outcome.q);
-    let mut jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
-    for row in &jac {
-        for a in 0..p {
-            for b in 0..p {
-                jtj[a][b] += row[a] * row[b];
-            }
-        }
-    }
+    let jtj = problem.jacobian_gram(&outcome.q);
     let lobe_model = matches!(kind, ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five);
     let lobe_off = lobe_model && outcome.q[0] == 0.0;
     let mut note: Vec<Option<String>> = vec![None; p];
@@ -488,6 +480,37 @@ pub fn energy(model: &AnyModel<f64>, incidences: &[f64]) -> Energy {
     }
 }
 
+/// Energy check of a fitted parameter vector (paper order and signs), which may hold linear
+/// weights above their ranges (see [`FitReport::outside_ranges`]). The bound and every albedo
+/// are linear in the weights, so the check runs on the weights scaled into range and
+/// scales the results back.
+pub fn energy_of(kind: ModelKind, params: &[f64], incidences: &[f64]) -> Energy {
+    let ranges = kind.ranges();
+    let linear: Vec<usize> = (0..params.len())
+        .filter(|i| !crate::problem::nonlinear_indices(kind).contains(i))
+        .collect();
+    let scale = linear
+        .iter()
+        .map(|&i| params[i] / f64::from(ranges[i].max))
+        .fold(1.0_f64, f64::max);
+    let mut scaled = params.to_vec();
+    for &i in &linear {
+        // `min`: only the division's rounding can carry the largest weight past its bound.
+        scaled[i] = (scaled[i] / scale).min(f64::from(ranges[i].max));
+    }
+    let model = AnyModel::new(kind, &scaled).expect("the fitter's nonlinear box lies inside the ranges");
+    let mut e = energy(&model, incidences);
+    if scale > 1.0 {
+        e.bound = e.bound.map(|b| b * scale);
+        for a in &mut e.albedo {
+            a.albedo *= scale;
+        }
+        e.bound_conserves = matches!(e.bound, Some(b) if b <= 1.0);
+        e.albedo_conserves = e.albedo.iter().all(|a| a.albedo <= 1.0);
+    }
+    e
+}
+
 /// One point's pull on the fit.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct PointInfluence {
@@ -560,18 +583,20 @@ pub fn influence(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opt
         };
     }
     let (lo, hi) = problem.bounds();
-    let jac = problem.jacobian(&outcome.q);
+    let gram = problem.jacobian_gram(&outcome.q);
     let free: Vec<usize> = (0..p)
-        .filter(|&j| on_bound(outcome.q[j], lo[j], hi[j]).is_none() && jac.iter().any(|r| r[j] != 0.0))
+        .filter(|&j| on_bound(outcome.q[j], lo[j], hi[j]).is_none() && gram[j][j] > 0.0)
         .collect();
-    let pinv = pseudo_inverse(&jac, &free);
+    let pinv = pseudo_inverse(&gram, &free);
     let values = problem.values(&outcome.q);
     let s2 = 2.0 * outcome.cost / (n - free.len()).max(1) as f64;
+    // Leverage, one Jacobian row at a time (no n x p matrix held).
     let hat = |i: usize| -> f64 {
+        let row = problem.jacobian_row(i, &outcome.q);
         let mut h = 0.0;
         for (x, &a) in free.iter().enumerate() {
             for (y, &b) in free.iter().enumerate() {
-                h += jac[i][a] * pinv[x][y] * jac[i][b];
+                h += row[a] * pinv[x][y] * row[b];
             }
         }
         h.clamp(0.0, 1.0 - 1e-12)
@@ -630,14 +655,12 @@ pub fn influence(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opt
 
 /// Pseudo-inverse of `J^T J` restricted to the parameters `free` (rows and columns in the
 /// order of `free`), dropping directions below [`SINGULAR_EIGEN_REL`].
-fn pseudo_inverse(jac: &[[f64; MAX_PARAMS]], free: &[usize]) -> [[f64; MAX_PARAMS]; MAX_PARAMS] {
+fn pseudo_inverse(gram: &[[f64; MAX_PARAMS]; MAX_PARAMS], free: &[usize]) -> [[f64; MAX_PARAMS]; MAX_PARAMS] {
     let m = free.len();
     let mut jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
-    for row in jac {
-        for (x, &a) in free.iter().enumerate() {
-            for (y, &b) in free.iter().enumerate() {
-                jtj[x][y] += row[a] * row[b];
-            }
+    for (x, &a) in free.iter().enumerate() {
+        for (y, &b) in free.iter().enumerate() {
+            jtj[x][y] = gram[a][b];
         }
     }
     let scale: Vec<f64> = (0..m).map(|x| jtj[x][x].sqrt().max(f64::MIN_POSITIVE)).collect();
@@ -710,6 +733,11 @@ pub struct FitReport {
     pub uncertainty: Uncertainty,
     /// Energy check.
     pub energy: Energy,
+    /// Parameters outside the model's valid ranges (`brdf_core::ranges`), each as
+    /// `"kb = 12000 is not in [0, 10000]"`. The fitter bounds the linear weights only below
+    /// (a bound above would make the fit depend on the data's units), so an uncalibrated
+    /// dataset can fit weights no device accepts: such a fit cannot be packed.
+    pub outside_ranges: Vec<String>,
 }
 
 impl FitReport {
@@ -753,8 +781,14 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
     let rss = 2.0 * outcome.cost;
     let nf = n as f64;
     let ll = nf * (rss / nf).max(1e-300).ln();
-    let model =
-        AnyModel::new(kind, &outcome.params[..k]).expect("fitted parameters lie inside the valid box");
+    let params = &outcome.params[..k];
+    let outside_ranges: Vec<String> = kind
+        .ranges()
+        .iter()
+        .zip(params)
+        .filter(|(r, &v)| !r.contains(v))
+        .map(|(r, v)| format!("{} = {v} is not {}", r.name, r.text))
+        .collect();
     FitReport {
         dataset: dataset.name.clone(),
         model: kind.name(),
@@ -782,6 +816,7 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         brightening: problem.brightening(),
         influence: influence(dataset, problem, outcome, opts),
         uncertainty: uncertainty(problem, outcome),
-        energy: energy(&model, &incidences),
+        energy: energy_of(kind, params, &incidences),
+        outside_ranges,
     }
 }

@@ -46,6 +46,37 @@ fn check(base: &FitReport, other: &FitReport, linear_scale: f64, label: &str) {
         }
     }
     assert_eq!(base.undetermined(), other.undetermined(), "{label}: flags");
+    // The energy check is linear in the weights, also for weights beyond the device's
+    // ranges, which are named instead of refused.
+    let (bb, ob) = (base.energy.bound.unwrap(), other.energy.bound.unwrap());
+    assert!(
+        close(bb * linear_scale, ob),
+        "{label}: energy bound {ob} against {bb}"
+    );
+    for (a, b) in base.energy.albedo.iter().zip(&other.energy.albedo) {
+        assert!(
+            close(a.albedo * linear_scale, b.albedo),
+            "{label}: albedo {} against {}",
+            b.albedo,
+            a.albedo
+        );
+    }
+    let (kb, kd) = (other.params.0[0].1, other.params.0[4].1);
+    let expected: Vec<&str> = [("kb", kb > 10_000.0), ("kd", kd > 100.0)]
+        .iter()
+        .filter(|(_, out)| *out)
+        .map(|(n, _)| *n)
+        .collect();
+    let named: Vec<&str> = other
+        .outside_ranges
+        .iter()
+        .map(|o| o.split(' ').next().unwrap())
+        .collect();
+    assert_eq!(
+        named, expected,
+        "{label}: parameters outside the ranges: {:?}",
+        other.outside_ranges
+    );
     assert_eq!(base.converged, other.converged, "{label}: converged");
 }
 
@@ -54,13 +85,17 @@ fn other_units_give_the_same_relative_fit() {
     let d = khaki();
     let base = fit(&d);
     assert!(base.converged);
+    let mut beyond = 0;
     for scale in [1e-6, 1e-4, 1e-2, 1e2, 1e4, 1e6] {
         let mut s = d.clone();
         for p in &mut s.points {
             p.brdf *= scale;
         }
-        check(&base, &fit(&s), scale, &format!("x{scale:e}"));
+        let other = fit(&s);
+        beyond += usize::from(!other.outside_ranges.is_empty());
+        check(&base, &other, scale, &format!("x{scale:e}"));
     }
+    assert!(beyond > 0, "some scale puts a weight beyond its range");
 }
 
 #[test]

@@ -3,7 +3,8 @@
 //! The slot addresses come from the firmware ELF's symbols (`BRDF_SLOT_A`, `BRDF_SLOT_B`,
 //! `BRDF_SLOT_SIZE`, defined by its memory map). [`flash_blob`] reads both slots through a
 //! [`SlotTarget`], decides like the firmware's COMMIT which slot to write (never the newest
-//! valid one) and whether the blob's sequence number is new enough, writes the slot image,
+//! valid one) and whether the blob's sequence number is newer (the serial-number rule of
+//! [`brdf_wire::slots::is_newer`]), writes the slot image,
 //! reads it back, and finally resets the device so that it boots from the new slot. An
 //! interruption at any point leaves the newest valid slot as it was.
 //!
@@ -160,15 +161,13 @@ pub fn flash_blob<T: SlotTarget + ?Sized>(
     target.read(map.b, &mut images[1])?;
     let (a, b) = (read_slot(&images[0]).0, read_slot(&images[1]).0);
     let newest = select(&a, &b);
-    let newest_sequence = newest
-        .and_then(|id| {
-            if id == SlotId::A {
-                a.sequence()
-            } else {
-                b.sequence()
-            }
-        })
-        .unwrap_or(0);
+    let newest_sequence = newest.and_then(|id| {
+        if id == SlotId::A {
+            a.sequence()
+        } else {
+            b.sequence()
+        }
+    });
     let mut image = vec![0u8; SLOT_IMAGE_LEN];
     let (n, decoded) = slot_image(blob, newest_sequence, &mut image).map_err(FlashError::Refused)?;
     image.truncate(n);
@@ -311,6 +310,26 @@ mod tests {
             Err(FlashError::Refused(_))
         ));
         assert_eq!(f.mem, before);
+    }
+
+    #[test]
+    fn sequence_numbers_wrap_without_locking_the_slots() {
+        let mut f = FakeFlash::new(0x4000);
+        for sequence in [0xFFFF_FFFE_u32, 0xFFFF_FFFF, 0, 1] {
+            let p = flash_blob(&mut f, &MAP, &blob(sequence), false).unwrap();
+            let (a, b) = states(&mut f);
+            assert_eq!(select(&a, &b), Some(p.target), "sequence {sequence:#x}");
+            let (a, b) = (a.sequence(), b.sequence());
+            assert!(a == Some(sequence) || b == Some(sequence));
+        }
+        // The one before the newest is stale.
+        assert!(matches!(
+            flash_blob(&mut f, &MAP, &blob(0), false),
+            Err(FlashError::Refused(brdf_wire::slots::CommitError::Stale {
+                sequence: 0,
+                active: 1
+            }))
+        ));
     }
 
     #[test]

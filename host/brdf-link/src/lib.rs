@@ -3,18 +3,19 @@
 //! frames it could not read.
 //!
 //! Transports: QEMU ([`Qemu`]: `qemu-system-arm` runs the firmware ELF on the `mps2-an386`
-//! board with UART0 connected to a TCP port this process listens on, in a working directory
-//! that holds the device's flash image, with the firmware's defmt log captured from its
-//! semihosting output, decoded by [`decode_defmt`]); a serial port ([`serial::Serial`]); a
-//! debug probe's RTT channels ([`probe::ProbeRtt`], with the `probe` feature). [`flash`]
+//! board with UART0 on one end of a socket pair whose other end only this process holds,
+//! in a working directory that holds the device's flash image, with the firmware's defmt log
+//! captured from its semihosting output, decoded by [`decode_defmt`]); a serial port
+//! ([`serial::Serial`]); a debug probe's RTT channels ([`probe::ProbeRtt`], with the `probe` feature). [`flash`]
 //! writes parameter blobs into a device's flash slots through a probe.
 
 use std::io::{Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::os::fd::OwnedFd;
+use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 pub mod flash;
 #[cfg(feature = "probe")]
@@ -34,18 +35,21 @@ use brdf_wire::frame::{
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum LinkError {
-    /// QEMU could not be started.
-    #[error("cannot start qemu-system-arm (is it installed?): {0}")]
-    QemuMissing(std::io::Error),
+    /// QEMU could not be started (the error and the command line).
+    #[error("cannot start qemu-system-arm (is it installed?): {0}; command: {1}")]
+    QemuMissing(std::io::Error, String),
     /// A serial port or probe could not be opened.
     #[error("{0}")]
     Open(String),
     /// The firmware ELF does not exist.
     #[error("firmware {0} not found: build it with `cd firmware && cargo build --release -p brdf-fw`")]
     ElfMissing(PathBuf),
+    /// QEMU exited, or its firmware did not answer in time.
+    #[error("{0}")]
+    Qemu(QemuFailure),
     /// I/O on the link.
     #[error("link: {0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
     /// The device answered with an error code.
     #[error("device error: {0:?}")]
     Device(ErrorCode),
@@ -53,6 +57,67 @@ pub enum LinkError {
     #[error("unexpected reply: {0}")]
     Protocol(String),
 }
+
+impl From<std::io::Error> for LinkError {
+    /// A [`QemuFailure`] carried by an I/O error (from [`Qemu`]'s transport) keeps its own
+    /// variant.
+    fn from(e: std::io::Error) -> Self {
+        if e.get_ref().is_some_and(|inner| inner.is::<QemuFailure>()) {
+            if let Some(Ok(f)) = e.into_inner().map(|inner| inner.downcast::<QemuFailure>()) {
+                return LinkError::Qemu(*f);
+            }
+            return LinkError::Protocol("QEMU failure".into());
+        }
+        LinkError::Io(e)
+    }
+}
+
+/// What went wrong with a QEMU run: what was seen, QEMU's exit status (if it exited) and
+/// standard error, the firmware ELF and the command line.
+#[derive(Debug, Clone)]
+pub struct QemuFailure {
+    /// What the link saw.
+    pub what: String,
+    /// QEMU's exit status, `None` while it still runs.
+    pub status: Option<ExitStatus>,
+    /// QEMU's standard error (at most its first [`STDERR_KEPT`] bytes).
+    pub stderr: String,
+    /// The firmware ELF.
+    pub elf: PathBuf,
+    /// The command line.
+    pub command: String,
+}
+
+/// Bytes of QEMU's standard error kept for messages.
+pub const STDERR_KEPT: usize = 16 * 1024;
+
+impl std::fmt::Display for QemuFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "firmware {} under QEMU: {}; ", self.elf.display(), self.what)?;
+        match self.status {
+            Some(s) => write!(f, "QEMU exited ({s})")?,
+            None => write!(f, "QEMU is still running")?,
+        }
+        write!(f, "; command: {}", self.command)?;
+        let err = self.stderr.trim();
+        if err.is_empty() {
+            return write!(f, "; QEMU wrote nothing on standard error");
+        }
+        // The first lines say what happened (a register dump may follow).
+        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+        write!(
+            f,
+            "; QEMU's standard error: {}",
+            lines[..lines.len().min(4)].join(" / ")
+        )?;
+        if lines.len() > 4 {
+            write!(f, " / ({} more lines)", lines.len() - 4)?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for QemuFailure {}
 
 /// A byte stream to a device.
 pub trait Transport {
@@ -71,12 +136,19 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     }
 }
 
-/// The firmware under QEMU, UART0 over a loopback TCP socket. Dropping it stops QEMU.
+/// The firmware under QEMU. Its UART0 is one end of a socket pair handed to QEMU as its
+/// standard input (`-chardev socket,fd=0`); the other end is this process's, and no other
+/// process can reach it: there is no listening socket to connect to first. Dropping it
+/// stops QEMU.
 pub struct Qemu {
     child: Child,
-    stream: TcpStream,
+    stream: UnixStream,
     log: Arc<Mutex<Vec<u8>>>,
-    reader: Option<std::thread::JoinHandle<()>>,
+    stderr: Arc<Mutex<Vec<u8>>>,
+    readers: Vec<std::thread::JoinHandle<()>>,
+    elf: PathBuf,
+    command: String,
+    timeout: Duration,
     // A private working directory (removed on drop) when none was given.
     _dir: Option<tempfile::TempDir>,
 }
@@ -90,61 +162,146 @@ impl std::fmt::Debug for Qemu {
 /// File in QEMU's working directory holding the two flash slots (see `firmware/README.md`).
 pub const FLASH_IMAGE: &str = "brdf-flash.bin";
 
+/// Default for how long the firmware may stay silent: its first answer after QEMU starts,
+/// and each reply after a request (a FIT sends PROGRESS at least every few seconds).
+pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// Copies everything `from` yields into `into` (at most `cap` bytes kept) until EOF.
+fn drain(
+    mut from: impl Read + Send + 'static,
+    into: Arc<Mutex<Vec<u8>>>,
+    cap: usize,
+) -> std::thread::JoinHandle<()> {
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 4096];
+        while let Ok(n) = from.read(&mut buf) {
+            if n == 0 {
+                break;
+            }
+            if let Ok(mut l) = into.lock() {
+                let room = cap.saturating_sub(l.len()).min(n);
+                l.extend_from_slice(&buf[..room]);
+            }
+        }
+    })
+}
+
 impl Qemu {
     /// Starts `qemu-system-arm` with `elf` in a fresh private directory (erased flash) and
-    /// waits for its UART to connect.
+    /// waits, up to [`DEFAULT_TIMEOUT`], for the firmware to answer.
     pub fn spawn(elf: &Path) -> Result<Qemu, LinkError> {
-        let dir = tempfile::tempdir()?;
-        let mut q = Qemu::spawn_in(elf, dir.path())?;
-        q._dir = Some(dir);
-        Ok(q)
+        Qemu::spawn_with(elf, None, DEFAULT_TIMEOUT)
     }
 
     /// Starts `qemu-system-arm` with `elf` in `dir`, whose [`FLASH_IMAGE`] (created erased if
     /// missing) is the device's flash: a restart in the same directory keeps what was
     /// committed.
     pub fn spawn_in(elf: &Path, dir: &Path) -> Result<Qemu, LinkError> {
+        Qemu::spawn_with(elf, Some(dir), DEFAULT_TIMEOUT)
+    }
+
+    /// Starts QEMU with `elf` in `dir` (a fresh private directory if `None`) and waits up to
+    /// `timeout` for the firmware's first answer (an INFO exchange); `timeout` is then how
+    /// long each reply may take. A QEMU that exits, or a firmware that does not answer,
+    /// is reported with QEMU's exit status and standard error, the ELF and the command.
+    pub fn spawn_with(elf: &Path, dir: Option<&Path>, timeout: Duration) -> Result<Qemu, LinkError> {
         if !elf.is_file() {
             return Err(LinkError::ElfMissing(elf.to_owned()));
         }
-        let elf = elf.canonicalize()?;
-        let listener = TcpListener::bind("127.0.0.1:0")?;
-        let port = listener.local_addr()?.port();
-        let mut child = qemu_command()
-            .arg("-serial")
-            .arg(format!("tcp:127.0.0.1:{port},nodelay=on"))
-            .arg("-kernel")
+        let elf = elf.canonicalize().map_err(LinkError::Io)?;
+        let private = match dir {
+            Some(_) => None,
+            None => Some(tempfile::tempdir().map_err(LinkError::Io)?),
+        };
+        let workdir = dir
+            .or(private.as_ref().map(|d| d.path()))
+            .unwrap_or(Path::new("."));
+        let (ours, theirs) = UnixStream::pair().map_err(LinkError::Io)?;
+        let mut child = {
+            // The command (holding QEMU's end of the pair) is dropped right after the spawn,
+            // so that QEMU's exit closes the link.
+            let mut cmd = qemu_command();
+            cmd.args([
+                "-chardev",
+                "socket,id=uart,fd=0",
+                "-serial",
+                "chardev:uart",
+                "-kernel",
+            ])
             .arg(&elf)
-            .current_dir(dir)
-            .stdin(Stdio::null())
+            .current_dir(workdir)
+            .stdin(Stdio::from(OwnedFd::from(theirs)))
             .stdout(Stdio::piped())
-            .spawn()
-            .map_err(LinkError::QemuMissing)?;
-        let log = Arc::new(Mutex::new(Vec::new()));
-        let reader = child.stdout.take().map(|mut out| {
-            let log = Arc::clone(&log);
-            std::thread::spawn(move || {
-                let mut buf = [0u8; 4096];
-                while let Ok(n) = out.read(&mut buf) {
-                    if n == 0 {
-                        break;
-                    }
-                    if let Ok(mut l) = log.lock() {
-                        l.extend_from_slice(&buf[..n]);
-                    }
-                }
-            })
-        });
-        let (stream, _) = listener.accept()?;
-        stream.set_nodelay(true)?;
-        stream.set_read_timeout(Some(Duration::from_secs(30)))?;
-        Ok(Qemu {
-            child,
-            stream,
+            .stderr(Stdio::piped());
+            let command = command_line(&cmd);
+            let child = cmd
+                .spawn()
+                .map_err(|e| LinkError::QemuMissing(e, command.clone()))?;
+            (child, command)
+        };
+        let (log, stderr) = (Arc::new(Mutex::new(Vec::new())), Arc::new(Mutex::new(Vec::new())));
+        let mut readers = Vec::new();
+        if let Some(out) = child.0.stdout.take() {
+            readers.push(drain(out, Arc::clone(&log), usize::MAX));
+        }
+        if let Some(err) = child.0.stderr.take() {
+            readers.push(drain(err, Arc::clone(&stderr), STDERR_KEPT));
+        }
+        let mut q = Qemu {
+            child: child.0,
+            stream: ours,
             log,
-            reader,
-            _dir: None,
-        })
+            stderr,
+            readers,
+            elf,
+            command: child.1,
+            timeout,
+            _dir: private,
+        };
+        q.handshake()?;
+        Ok(q)
+    }
+
+    /// One INFO exchange (tag 0): the firmware is running and answers frames.
+    fn handshake(&mut self) -> Result<(), LinkError> {
+        let mut frame = vec![0u8; MAX_FRAME];
+        let n = encode_request(&Request::Info, 0, &mut frame).map_err(LinkError::Device)?;
+        self.send(&frame[..n])?;
+        let mut reader: FrameReader<64> = FrameReader::new();
+        let mut buf = [0u8; 64];
+        loop {
+            let got = self.recv(&mut buf)?;
+            for &b in &buf[..got] {
+                match reader.push(b) {
+                    Some(Ok(())) => {
+                        return match parse_response(reader.payload()) {
+                            Ok((0, Response::Info { .. })) => Ok(()),
+                            other => Err(self
+                                .failure(format!(
+                                    "the first reply to INFO is not INFO but {other:?}: not a brdf-fw build?"
+                                ))
+                                .into()),
+                        }
+                    }
+                    Some(Err(e)) => {
+                        return Err(self
+                            .failure(format!("a corrupted first reply ({e:?}): not a brdf-fw build?"))
+                            .into())
+                    }
+                    None => {}
+                }
+            }
+        }
+    }
+
+    /// How long a reply may take from now on.
+    pub fn set_timeout(&mut self, timeout: Duration) {
+        self.timeout = timeout;
+    }
+
+    /// The command line QEMU was started with.
+    pub fn command(&self) -> &str {
+        &self.command
     }
 
     /// The firmware's log output (defmt frames) so far.
@@ -154,13 +311,55 @@ impl Qemu {
 
     /// Stops QEMU (as a power cut would) and returns the complete log output.
     pub fn stop(mut self) -> Vec<u8> {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        if let Some(r) = self.reader.take() {
-            let _ = r.join();
-        }
+        self.kill();
         self.log()
     }
+
+    fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        for r in self.readers.drain(..) {
+            let _ = r.join();
+        }
+    }
+
+    /// An I/O error carrying a [`QemuFailure`]: gives an exiting QEMU up to two seconds to
+    /// finish, so that its status and complete standard error are reported.
+    fn failure(&mut self, what: String) -> std::io::Error {
+        let deadline = Instant::now() + Duration::from_secs(2);
+        let mut status = self.child.try_wait().ok().flatten();
+        while status.is_none() && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(20));
+            status = self.child.try_wait().ok().flatten();
+        }
+        if status.is_some() {
+            // QEMU has exited: its pipes reach EOF, and the readers end.
+            for r in self.readers.drain(..) {
+                let _ = r.join();
+            }
+        }
+        let stderr = self
+            .stderr
+            .lock()
+            .map(|e| String::from_utf8_lossy(&e).into_owned())
+            .unwrap_or_default();
+        std::io::Error::other(QemuFailure {
+            what,
+            status,
+            stderr,
+            elf: self.elf.clone(),
+            command: self.command.clone(),
+        })
+    }
+}
+
+/// The program and its arguments as one line.
+fn command_line(cmd: &Command) -> String {
+    std::iter::once(cmd.get_program())
+        .chain(cmd.get_args())
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// `qemu-system-arm` for the MPS2-AN386 (Cortex-M4F) with semihosting, no display or monitor.
@@ -190,7 +389,7 @@ pub fn instruction_counts(elf: &Path) -> Result<Vec<(String, f64)>, LinkError> {
         .args(["-icount", "shift=0", "-kernel"])
         .arg(elf)
         .output()
-        .map_err(LinkError::QemuMissing)?;
+        .map_err(|e| LinkError::QemuMissing(e, "qemu-system-arm -icount shift=0".into()))?;
     if !out.status.success() {
         return Err(LinkError::Protocol(format!(
             "{} failed under QEMU",
@@ -243,27 +442,32 @@ pub fn decode_defmt(elf: &Path, bytes: &[u8]) -> Result<Vec<String>, LinkError> 
 
 impl Drop for Qemu {
     fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        if let Some(r) = self.reader.take() {
-            let _ = r.join();
-        }
+        self.kill();
     }
 }
 
 impl Transport for Qemu {
     fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
-        self.stream.write_all(bytes)
+        self.stream
+            .write_all(bytes)
+            .map_err(|e| self.failure(format!("cannot send to the firmware's UART ({e})")))
     }
     fn recv(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        let n = self.stream.read(buf)?;
-        if n == 0 {
-            return Err(std::io::Error::new(
-                std::io::ErrorKind::UnexpectedEof,
-                "device closed the link",
-            ));
+        self.stream
+            .set_read_timeout(Some(self.timeout.max(Duration::from_millis(1))))?;
+        match self.stream.read(buf) {
+            Ok(0) => Err(self.failure("the firmware's UART closed".into())),
+            Ok(n) => Ok(n),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                Err(self.failure(format!("no reply within {:?}", self.timeout)))
+            }
+            Err(e) => Err(self.failure(format!("reading the firmware's UART failed ({e})"))),
         }
-        Ok(n)
     }
 }
 
@@ -276,6 +480,8 @@ pub struct Link<T: Transport> {
     tag: u8,
     /// ERROR replies to frames the device could not read (tag 0), seen since the last call.
     pub stray_errors: Vec<ErrorCode>,
+    /// PROGRESS replies received while waiting for a FIT.
+    pub progress_replies: usize,
 }
 
 impl<T: Transport> std::fmt::Debug for Link<T> {
@@ -294,12 +500,18 @@ impl<T: Transport> Link<T> {
             pos: 0,
             tag: 0,
             stray_errors: Vec::new(),
+            progress_replies: 0,
         }
     }
 
     /// The transport.
     pub fn transport(&self) -> &T {
         &self.transport
+    }
+
+    /// The transport, to change its settings (e.g. [`Qemu::set_timeout`]).
+    pub fn transport_mut(&mut self) -> &mut T {
+        &mut self.transport
     }
 
     /// Ends the link, returning the transport.
@@ -312,16 +524,33 @@ impl<T: Transport> Link<T> {
         Ok(self.transport.send(bytes)?)
     }
 
-    /// Sends `req` and returns the payload of the reply with its tag.
-    pub fn request(&mut self, req: &Request<'_>) -> Result<Vec<u8>, LinkError> {
+    /// Sends `req` with the next tag (1 to 255) without waiting for its reply; returns the
+    /// tag. [`Link::request`] is the usual way; this one lets a test overlap requests.
+    pub fn send(&mut self, req: &Request<'_>) -> Result<u8, LinkError> {
         self.tag = if self.tag == 255 { 1 } else { self.tag + 1 };
         let mut out = vec![0u8; MAX_FRAME];
         let n = encode_request(req, self.tag, &mut out).map_err(LinkError::Device)?;
         self.transport.send(&out[..n])?;
+        Ok(self.tag)
+    }
+
+    /// The next reply's payload, whatever its tag.
+    pub fn next_payload(&mut self) -> Result<Vec<u8>, LinkError> {
+        self.next_reply()
+    }
+
+    /// Sends `req` and returns the payload of the reply with its tag (PROGRESS replies to a
+    /// FIT are counted in [`Link::progress_replies`] and waited through).
+    pub fn request(&mut self, req: &Request<'_>) -> Result<Vec<u8>, LinkError> {
+        let sent = self.send(req)?;
         loop {
             let payload = self.next_reply()?;
             let (tag, resp) = parse_response(&payload).map_err(|e| LinkError::Protocol(format!("{e:?}")))?;
-            if tag == self.tag {
+            if tag == sent {
+                if let Response::Progress { .. } = resp {
+                    self.progress_replies += 1;
+                    continue;
+                }
                 return Ok(payload);
             }
             match resp {

@@ -5,23 +5,22 @@ use super::{facet, Lobe};
 use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;
-use crate::model::{
-    check_count, finite, kr_in_range, non_negative, params_array, positive, Brdf, Model, ModelKind,
-    MAX_PARAMS,
-};
+use crate::model::{check_count, params_array, Brdf, Model, ModelKind, MAX_PARAMS};
+use crate::ranges::FIVE;
 
-/// Parameters of the five-parameter model, named as in the paper.
+/// Parameters of the five-parameter model, named as in the paper; valid ranges in
+/// [`crate::ranges`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FiveParams<T> {
-    /// Overall weight, `>= 0`.
+    /// Overall weight, in `[0, 10000]`.
     pub kb: T,
-    /// Facet shape parameter, in `[1e-6, 1e6]`.
+    /// Facet shape parameter, in `[1/1024, 1024]`.
     pub kr: T,
-    /// Lobe steepness, used as `|b|` (negative in the papers), finite.
+    /// Lobe steepness, in `[-1000, 1000]`, used as `|b|` (negative in the papers).
     pub b: T,
-    /// Lobe exponent, `> 0`.
+    /// Lobe exponent, in `(0, 10]`.
     pub a: T,
-    /// Diffuse weight (inside `kb`), `>= 0`.
+    /// Diffuse weight (inside `kb`), in `[0, 100]`.
     pub kd: T,
 }
 
@@ -47,11 +46,10 @@ pub struct FiveParam<T> {
 impl<T: Float> FiveParam<T> {
     /// Validates `params` and precomputes constants.
     pub fn new(params: FiveParams<T>) -> Result<Self, ParamError> {
-        non_negative("kb", params.kb)?;
-        kr_in_range(params.kr)?;
-        finite("b", params.b)?;
-        positive("a", params.a)?;
-        non_negative("kd", params.kd)?;
+        let p = &params;
+        for (range, v) in FIVE.iter().zip([p.kb, p.kr, p.b, p.a, p.kd]) {
+            range.check(v)?;
+        }
         Ok(FiveParam {
             params,
             kr2: params.kr * params.kr,

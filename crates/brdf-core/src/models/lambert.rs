@@ -3,12 +3,13 @@
 use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;
-use crate::model::{check_count, non_negative, params_array, Brdf, Model, ModelKind, MAX_PARAMS};
+use crate::model::{check_count, params_array, Brdf, Model, ModelKind, MAX_PARAMS};
+use crate::ranges::LAMBERT;
 
 /// Parameters of the Lambertian reflector.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LambertParams<T> {
-    /// Directional-hemispherical reflectance (albedo), `>= 0`.
+    /// Directional-hemispherical reflectance (albedo), in `[0, 100]`.
     pub rho0: T,
 }
 
@@ -20,9 +21,9 @@ pub struct Lambert<T> {
 }
 
 impl<T: Float> Lambert<T> {
-    /// Validates `params` (`rho0 >= 0`).
+    /// Validates `params` (`rho0` in `[0, 100]`; [`crate::ranges::LAMBERT`]).
     pub fn new(params: LambertParams<T>) -> Result<Self, ParamError> {
-        non_negative("rho0", params.rho0)?;
+        LAMBERT[0].check(params.rho0)?;
         Ok(Lambert {
             params,
             value: params.rho0 * T::FRAC_1_PI,

@@ -3,12 +3,13 @@
 use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;
-use crate::model::{check_count, non_negative, params_array, positive, Brdf, Model, ModelKind, MAX_PARAMS};
+use crate::model::{check_count, params_array, Brdf, Model, ModelKind, MAX_PARAMS};
+use crate::ranges::MINNAERT;
 
 /// Parameters of the Minnaert model.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MinnaertParams<T> {
-    /// Albedo-like scale, `>= 0`.
+    /// Albedo-like scale, in `[0, 100]`.
     pub rho0: T,
     /// Limb-darkening exponent, `0 < k <= 1` (`k = 1` is Lambert).
     pub k: T,
@@ -26,17 +27,10 @@ pub struct Minnaert<T> {
 }
 
 impl<T: Float> Minnaert<T> {
-    /// Validates `params` (`rho0 >= 0`, `0 < k <= 1`).
+    /// Validates `params` (`rho0` in `[0, 100]`, `0 < k <= 1`; [`crate::ranges::MINNAERT`]).
     pub fn new(params: MinnaertParams<T>) -> Result<Self, ParamError> {
-        non_negative("rho0", params.rho0)?;
-        positive("k", params.k)?;
-        if params.k > T::ONE {
-            return Err(ParamError::OutOfRange {
-                name: "k",
-                value: params.k.to_f64(),
-                range: "in (0, 1]",
-            });
-        }
+        MINNAERT[0].check(params.rho0)?;
+        MINNAERT[1].check(params.k)?;
         Ok(Minnaert {
             params,
             scale: params.rho0 * T::FRAC_1_PI,

@@ -4,28 +4,28 @@ use super::{facet, Lobe};
 use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;
-use crate::model::{
-    above_minus_one, check_count, finite, kr_in_range, non_negative, params_array, positive, Brdf, Model,
-    ModelKind, MAX_PARAMS,
-};
+use crate::model::{check_count, params_array, Brdf, Model, ModelKind, MAX_PARAMS};
+use crate::ranges::SIX;
 
-/// Parameters of the six-parameter model, named as in the paper.
+/// Parameters of the six-parameter model, named as in the paper; valid ranges in
+/// [`crate::ranges`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SixParams<T> {
-    /// Specular (facet) weight, `>= 0`.
+    /// Specular (facet) weight, in `[0, 10000]`.
     pub kb: T,
-    /// Facet shape parameter, in `[1e-6, 1e6]` (beyond, `kr^2` leaves f32's normal range and
-    /// the facet term is a delta or a constant to working precision).
+    /// Facet shape parameter, in `[1/1024, 1024]` (beyond, the facet term is narrower than
+    /// f32 resolves, or 1 to f32 precision).
     pub kr: T,
-    /// Lobe steepness; used as `|b|` (the paper prints it negative), finite.
+    /// Lobe steepness, in `[-1000, 1000]`; used as `|b|` (the paper prints it negative).
     pub b: T,
-    /// Lobe exponent, `> 0`.
+    /// Lobe exponent, in `(0, 10]`.
     pub a: T,
-    /// Diffuse weight, `>= 0`.
+    /// Diffuse weight, in `[0, 100]`.
     pub kd: T,
-    /// Diffuse (Minnaert-like) exponent, `> -1`. With `c >= 0` the diffuse term darkens
+    /// Diffuse (Minnaert-like) exponent, in `(-1, 10]`. With `c >= 0` the diffuse term darkens
     /// towards grazing and `kb + kd` bounds the albedo; with `-1 < c < 0` it brightens
-    /// towards grazing as Minnaert's `k - 1` does, and only quadrature can check energy.
+    /// towards grazing as Minnaert's `k - 1` does (unbounded at the horizon), and only
+    /// quadrature can check energy.
     pub c: T,
 }
 
@@ -37,14 +37,11 @@ impl SixParams<f32> {
 }
 
 impl<T: Float> SixParams<T> {
-    /// Checks every range listed on the fields.
+    /// Checks every parameter against its range ([`crate::ranges::SIX`]).
     pub fn validate(&self) -> Result<(), ParamError> {
-        non_negative("kb", self.kb)?;
-        kr_in_range(self.kr)?;
-        finite("b", self.b)?;
-        positive("a", self.a)?;
-        non_negative("kd", self.kd)?;
-        above_minus_one("c", self.c)?;
+        for (range, v) in SIX.iter().zip(self.as_array()) {
+            range.check(v)?;
+        }
         Ok(())
     }
 
