@@ -156,7 +156,7 @@ fn qemu_has_board() -> bool {
 fn run_tests(root: &Path, rest: &[String]) -> i32 {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let status = Command::new(cargo)
-        .args(["test", "--workspace", "--release"])
+        .args(["test", "--workspace", "--release", "--no-fail-fast"])
         .args(rest)
         .current_dir(root)
         .status();

@@ -52,7 +52,7 @@ pub enum Directions {
 
 fn parse_directions(text: &str) -> Result<Directions, String> {
     let t = text.trim();
-    // A number (of any form) is a count, checked as one; anything else names a file.
+    // A number (of any form) is a count, checked as one; anything else must name a file.
     if t.parse::<f64>().is_ok() {
         return match t.parse::<usize>() {
             Ok(n) if (1..=10_000_000).contains(&n) => Ok(Directions::Count(n)),
@@ -61,7 +61,14 @@ fn parse_directions(text: &str) -> Result<Directions, String> {
             )),
         };
     }
-    Ok(Directions::File(PathBuf::from(text)))
+    let path = PathBuf::from(text);
+    if path.is_file() {
+        Ok(Directions::File(path))
+    } else {
+        Err(format!(
+            "`{text}`: neither a whole number of directions in 1..=10000000 nor an existing CSV file"
+        ))
+    }
 }
 
 /// A link over whichever transport the user chose.

@@ -263,9 +263,14 @@ fn large_files_are_evaluated_in_chunks_in_order_and_match_the_scalar_path() {
             "row {k}: {got} vs {want}"
         );
     }
-    // A bad row after the first chunk is reported at its line, and nothing is written.
+    // A bad row after the first chunks is reported at its line; eval streams, so the whole
+    // chunks of 4,096 rows before the one holding it have been written, and nothing more.
     text += "70000,30,90.5,180\n";
     let f = write(&dir, "bad.csv", &text);
-    let err = eval_err(&["eval", "--model", "six", "--params", KHAKI, f.to_str().unwrap()]);
+    let out = brdf(&["eval", "--model", "six", "--params", KHAKI, f.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8(out.stderr).unwrap();
     assert!(err.contains(&format!("line {}: column theta_r", n + 2)), "{err}");
+    let written = String::from_utf8(out.stdout).unwrap().lines().count();
+    assert_eq!(written, 1 + n / 4096 * 4096, "header and the whole chunks before the bad row");
 }

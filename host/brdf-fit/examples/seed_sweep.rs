@@ -64,6 +64,21 @@ fn main() {
         };
         sets.push(("random", p, inc));
     }
+    let env = |k: &str| {
+        std::env::var(k)
+            .ok()
+            .map(|v| v.parse::<usize>().expect("integer"))
+    };
+    if let Some(h) = env("HOPS") {
+        opts.hops = h;
+    }
+    if let Some(h) = env("AGREE") {
+        opts.agree = h;
+        opts.min_chains = h;
+    }
+    if let Some(h) = env("SKIP") {
+        sets.drain(..h);
+    }
     println!("{opts:?}");
     for (name, p, inc) in &sets {
         for noise in [0.01, 0.1, 0.2] {
@@ -87,8 +102,15 @@ fn main() {
                 p.map(|v| (v * 1e3).round() / 1e3),
                 noise * 100.0
             );
+            let claimed = runs
+                .iter()
+                .filter(|r| (r.cost - best) / best > 1e-6 && r.converged)
+                .count();
             if let (Some(lo), Some(hi)) = (gaps.first(), gaps.last()) {
-                println!("       misses: relative cost gap {lo:.1e} to {hi:.1e}");
+                println!(
+                    "       misses: relative cost gap {lo:.1e} to {hi:.1e}; {claimed} of {} said converged",
+                    gaps.len()
+                );
             }
         }
     }

@@ -166,7 +166,7 @@ fn seed_test_detects_a_weak_global_search() {
             screen: 20,
             ..AnnealOptions::default()
         },
-        ..FitOptions::default()
+        ..FitOptions::without_verification()
     };
     let run = |base: FitOptions| -> Vec<f64> {
         (0..100)
