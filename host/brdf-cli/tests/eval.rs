@@ -272,5 +272,9 @@ fn large_files_are_evaluated_in_chunks_in_order_and_match_the_scalar_path() {
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(err.contains(&format!("line {}: column theta_r", n + 2)), "{err}");
     let written = String::from_utf8(out.stdout).unwrap().lines().count();
-    assert_eq!(written, 1 + n / 4096 * 4096, "header and the whole chunks before the bad row");
+    assert_eq!(
+        written,
+        1 + n / 4096 * 4096,
+        "header and the whole chunks before the bad row"
+    );
 }

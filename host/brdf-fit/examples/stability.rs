@@ -98,7 +98,7 @@ fn row(name: &str) {
         "lm-random" => failure_rate("LM alone, 1 random start", &lm_only()),
         "short-anneal" => failure_rate("anneal 50 evaluations, 1 chain + LM", &short_anneal()),
         "default" => failure_rate(
-            "default (chains until 2 agree, 300 evaluations each)",
+            "default (grid starts, then chains until 3 agree, lobe probes and 4 quiet hops)",
             &FitOptions::default(),
         ),
         "kr" => {
