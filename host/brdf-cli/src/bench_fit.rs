@@ -81,7 +81,10 @@ impl FitBench {
             ("anneal 50/chain + LM".into(), hybrid(50)),
             ("anneal 300/chain + LM (default)".into(), hybrid(300)),
             ("anneal 2000/chain + LM".into(), hybrid(2000)),
-            ("earlier search: 2 chains agree".into(), FitOptions::without_verification()),
+            (
+                "earlier search: 2 chains agree".into(),
+                FitOptions::without_verification(),
+            ),
             ("LM, 1 random start".into(), lm_only(1)),
             ("LM, 8 random starts".into(), lm_only(8)),
         ];

@@ -223,12 +223,11 @@ impl ResultsCsv {
         let max_albedo = r.energy.albedo.iter().map(|a| a.albedo).fold(f64::NAN, f64::max);
         row.push(format!("{max_albedo:.10e}"));
         row.push(r.energy.albedo_conserves.to_string());
-        row.push(
-            r.influence
-                .dominant
-                .then(|| r.influence.points[0].line.to_string())
-                .unwrap_or_default(),
-        );
+        row.push(if r.influence.dominant {
+            r.influence.points[0].line.to_string()
+        } else {
+            String::new()
+        });
         row.push(format!("{:.10e}", r.seconds));
         row.push(r.undetermined().join(" "));
         let flags: Vec<String> = r
