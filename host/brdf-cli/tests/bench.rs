@@ -121,7 +121,7 @@ fn fit_bench_compares_methods_over_seeds() {
     ]);
     assert!(text.contains("anneal 300/chain + LM (default)"), "{text}");
     let csv = std::fs::read_to_string(dir.path().join("fit.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 6, "{csv}");
+    assert_eq!(csv.lines().count(), 1 + 7, "{csv}");
     // The default reaches the best error from every seed on the bundled data.
     let default = csv.lines().find(|l| l.starts_with("anneal 300/chain")).unwrap();
     assert!(
