@@ -67,9 +67,15 @@ pub struct EngineArgs {
     /// Most annealing chains, each polished by Levenberg-Marquardt (1 to 64).
     #[arg(long, default_value_t = FitOptions::default().chains, value_parser = count(1, 64))]
     pub chains: usize,
-    /// Stop once this many chains agree on the best cost (1 to 64).
+    /// Independent searches (chains or basin hops) that must reach the best cost before
+    /// the fit is called converged; at least this many chains run (1 to 64).
     #[arg(long, default_value_t = FitOptions::default().agree, value_parser = count(1, 64))]
     pub agree: usize,
+    /// Basin-hopping moves from the best point that must all fail to improve it before the
+    /// fit is called converged (0 to 64). More hops and agreeing searches catch more local
+    /// optima on noisy data from few incidences, at more time (see the README).
+    #[arg(long, default_value_t = FitOptions::default().hops, value_parser = count(0, 64))]
+    pub hops: usize,
     /// Cost evaluations per annealing chain (1 to 100,000,000).
     #[arg(long, default_value_t = brdf_fit::anneal::AnnealOptions::default().evals, value_parser = count(1, 100_000_000))]
     pub anneal_evals: usize,
@@ -109,6 +115,7 @@ impl EngineArgs {
             chains: self.chains,
             agree: self.agree,
             min_chains: self.agree,
+            hops: self.hops,
             anneal: AnnealOptions {
                 evals: self.anneal_evals,
                 ..AnnealOptions::default()

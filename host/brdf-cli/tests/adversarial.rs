@@ -356,6 +356,7 @@ fn numeric_flags_refuse_what_they_cannot_mean() {
             [&bad_counts[..], &["0", "65"]].concat(),
         ),
         (vec!["fit", d], "--agree", vec!["0", "-1", "nan"]),
+        (vec!["fit", d], "--hops", vec!["-1", "65", "nan"]),
         (vec!["fit", d], "--anneal-evals", vec!["0", "-5", "1e9"]),
         (
             vec!["fit", d],

@@ -1,7 +1,9 @@
 //! How often the fitting engine reaches the same optimum from 100 seeds, and how long a fit
 //! takes, over the Table 1 materials and six random parameter sets at 1%, 10% and 20% noise.
 //! With no arguments it runs the default options; `CHAINS AGREE EVALS MIN_CHAINS SCREEN`
-//! override them (this is how the defaults were chosen).
+//! override them (this is how the defaults were chosen); the environment variables `AGREE`
+//! (agreeing searches, also the least number of chains), `HOPS` (quiet basin hops) and
+//! `SKIP` (leave out the first N parameter sets) do too.
 //!
 //!     cargo run --release -p brdf-fit --example seed_sweep [-- 8 2 300 2 20]
 

@@ -554,7 +554,7 @@ pub struct Influence {
 pub const INFLUENCE_SHOWN: usize = 3;
 
 /// Candidates (by the linearised leave-one-out cost drop) refitted exactly.
-const INFLUENCE_CANDIDATES: usize = 5;
+pub const INFLUENCE_CANDIDATES: usize = 5;
 
 /// Cost fraction one point of `n` may remove before it is called dominant:
 /// `max(10%, (2 ln n + 14) / n)`. For `n` residuals from one normal distribution the largest
