@@ -271,7 +271,7 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
     match &s.not_converged {
         None => writeln!(
             out,
-            "  converged: true ({} of {} searches reached the best cost; {} chains, {} lobe-on probes, {} basin hops)",
+            "  converged: true ({} of {} chains and hops reached the best cost; {} chains, {} lobe-on probes, {} basin hops)",
             s.agreeing,
             s.chains + s.hops,
             s.chains,

@@ -200,9 +200,15 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
             .min_by(|a, b| a.cost.total_cmp(&b.cost))
             .expect("at least one search")
     };
-    let agreeing = |found: &[LmResult]| -> usize {
+    // Grid polishes are seed-independent and often start side by side: they may supply the
+    // best point but never count as independent arrivals at it. Only chains and hops do.
+    let mut grid_n = 0;
+    let agreeing = |found: &[LmResult], grid_n: usize| -> usize {
         let best = best_of(found);
-        found.iter().filter(|f| same_optimum(kind, f, &best)).count()
+        found[grid_n..]
+            .iter()
+            .filter(|f| same_optimum(kind, f, &best))
+            .count()
     };
     let probes_done = |best: &LmResult, probes: usize| {
         !probes_apply || !lobe_off(kind, &best.q) || probes >= opts.lobe_probes
@@ -212,6 +218,7 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
         let r = minimise(problem, &start, &lo, &hi, opts.lm);
         evals += r.evals + 1;
         found.push(r);
+        grid_n += 1;
     }
     loop {
         if !hopping {
@@ -240,7 +247,7 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
             chains += 1;
             probes += usize::from(probe);
             hopping = chains >= opts.min_chains
-                && agreeing(&found) >= need
+                && agreeing(&found, grid_n) >= need
                 && probes_done(&best_of(&found), probes);
         } else {
             if hops >= max_hops || quiet_hops >= opts.hops {
@@ -263,11 +270,11 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
         }
     }
     let best = best_of(&found);
-    let agree_n = agreeing(&found);
+    let agree_n = agreeing(&found, grid_n);
     let not_converged = if agree_n < need {
         Some(format!(
-            "the best cost was reached by {agree_n} of {} searches ({need} needed): the search could still improve",
-            found.len()
+            "the best cost was reached by {agree_n} of {} chains and hops ({need} needed): the search could still improve",
+            found.len() - grid_n
         ))
     } else if !probes_done(&best, probes) {
         Some("the lobe is off and the lobe-on probes were not run (chain limit)".to_owned())
