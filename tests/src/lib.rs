@@ -168,7 +168,7 @@ pub fn dense_grid_f32() -> Vec<[f32; 3]> {
 
 /// The three f32 evaluation paths against f64 at the same f32 inputs.
 pub mod f32_paths {
-    use brdf_core::tolerance::F32_FLOOR_OF_MAX;
+    use brdf_core::accuracy::compare;
     use brdf_core::{AnyModel, Brdf, ModelKind};
 
     /// One evaluation path: the f32 and the f64 value at one direction.
@@ -187,23 +187,14 @@ pub mod f32_paths {
         let m32 = AnyModel::<f32>::new(kind, &p32).unwrap();
         let m64 = AnyModel::<f64>::new(kind, &p64).unwrap();
         let values: Vec<(f32, f64)> = grid.iter().map(|&x| path(&m32, &m64, x)).collect();
-        let max = values.iter().map(|v| v.1).fold(0.0, f64::max);
-        let floor = F32_FLOOR_OF_MAX * max;
-        let mut worst = (0.0, [0.0; 3], 0);
         for (x, &(a, b)) in grid.iter().zip(&values) {
             assert!(
                 a.is_finite() && b.is_finite(),
                 "{kind:?} {params:?} at {x:?}: {a} {b}"
             );
-            if b >= floor && b > 0.0 {
-                worst.2 += 1;
-                let e = ((f64::from(a) - b) / b).abs();
-                if e > worst.0 {
-                    worst = (e, *x, worst.2);
-                }
-            }
         }
-        worst
+        let a = compare(0..grid.len(), |k| values[k].0, |k| values[k].1);
+        (a.max, a.worst_at.map_or([0.0; 3], |k| grid[k]), a.n)
     }
 
     pub fn angles(m32: &AnyModel<f32>, m64: &AnyModel<f64>, x: [f32; 3]) -> (f32, f64) {
@@ -242,8 +233,9 @@ pub mod f32_paths {
 
 /// Accuracy of the tabulated path ([`brdf_core::table`]) against the exact f64 model.
 pub mod table_error {
-    use brdf_core::table::{fill_six_table, table_accuracy, table_len, SixTable};
-    use brdf_core::SixParam;
+    use brdf_core::accuracy::compare;
+    use brdf_core::table::{fill_six_table, table_len, SixTable};
+    use brdf_core::{Brdf, SixParam};
 
     /// Maximum and RMS relative error of the f32 table lookup from cosines against the exact
     /// f64 model at the same f32 cosines, over the directions of `grid` (radians) whose
@@ -269,16 +261,17 @@ pub mod table_error {
             .copied()
             .collect();
         let cos: Vec<[f32; 3]> = dirs.iter().map(|x| x.map(f32::cos)).collect();
-        let a = table_accuracy(&table, &exact, cos.iter().copied());
+        let a = compare(
+            0..cos.len(),
+            |k| table.eval_cosines(cos[k][0], cos[k][1], cos[k][2]),
+            |k| exact.eval_cosines(cos[k][0].into(), cos[k][1].into(), cos[k][2].into()),
+        );
         assert!(
             a.max.is_finite(),
-            "{p:?}: non-finite table value at cosines {:?}",
-            a.worst_at
+            "{p:?}: non-finite table value at {:?}",
+            a.worst_at.map(|k| dirs[k])
         );
-        let at = cos
-            .iter()
-            .position(|c| *c == a.worst_at)
-            .map_or([0.0; 3], |k| dirs[k]);
+        let at = a.worst_at.map_or([0.0; 3], |k| dirs[k]);
         (a.max, a.rms, at, a.n)
     }
 }

@@ -2,8 +2,9 @@
 //! the same f32 inputs, on the grid of the exact f32 paths' test (zeniths to 89.9 degrees,
 //! points within 1e-7 to 1e-4 rad of retro and mirror).
 
+use brdf_core::accuracy::compare;
 use brdf_core::fast::FastSix;
-use brdf_core::tolerance::{F32_FLOOR_OF_MAX, FAST_MAX_REL};
+use brdf_core::tolerance::FAST_MAX_REL;
 use brdf_core::{Brdf, SixParam, SixParams};
 use brdf_tests::{dense_grid_f32, random_six, SplitMix, TABLE1};
 
@@ -22,11 +23,8 @@ fn worst(p: [f64; 6], grid: &[[f32; 3]]) -> (f64, [f32; 3]) {
             )
         })
         .collect();
-    let floor = F32_FLOOR_OF_MAX * pts.iter().map(|p| p.2).fold(0.0, f64::max);
-    pts.iter()
-        .filter(|p| p.2 > floor)
-        .map(|(x, f, e)| (((f64::from(*f) - e) / e).abs(), *x))
-        .fold((0.0, [0.0; 3]), |w, e| if e.0 > w.0 { e } else { w })
+    let a = compare(0..pts.len(), |k| pts[k].1, |k| pts[k].2);
+    (a.max, a.worst_at.map_or([0.0; 3], |k| pts[k].0))
 }
 
 #[test]

@@ -5,8 +5,9 @@
 //! fails, unless `BRDF_SKIP_QEMU=1` is set (`.ci/run` sets it after printing a `SKIPPED:` line
 //! when it cannot install them).
 
+use brdf_core::accuracy::compare;
 use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox};
-use brdf_core::tolerance::{F32_FLOOR_OF_MAX, F32_MAX_REL};
+use brdf_core::tolerance::F32_MAX_REL;
 use brdf_core::{AnyModel, Brdf, ModelKind, SixParam};
 use brdf_link::{Link, Qemu};
 use brdf_tests::qemu::firmware;
@@ -41,13 +42,7 @@ fn firmware_answers_like_the_host_and_survives_bad_frames() {
             .iter()
             .map(|x| host.eval_angles(x[0].into(), x[1].into(), x[2].into()))
             .collect();
-        let max = exact.iter().copied().fold(0.0, f64::max);
-        let worst = exact
-            .iter()
-            .zip(&device)
-            .filter(|(e, _)| **e >= F32_FLOOR_OF_MAX * max && **e > 0.0)
-            .map(|(e, d)| ((f64::from(*d) - e) / e).abs())
-            .fold(0.0, f64::max);
+        let worst = compare(0..dirs.len(), |k| device[k], |k| exact[k]).max;
         println!(
             "firmware vs host f64, {name}: {} directions, max relative error {worst:.2e}",
             dirs.len()
@@ -208,19 +203,15 @@ fn firmware_serves_tabulated_materials_like_the_host() {
         .iter()
         .map(|x| exact.eval_cosines(x[0].into(), x[1].into(), x[2].into()))
         .collect();
-    let floor = F32_FLOOR_OF_MAX * values.iter().copied().fold(0.0, f64::max);
-    let mut worst = 0.0_f64;
-    for ((x, d), e) in dirs.iter().zip(&device).zip(&values) {
+    for (x, d) in dirs.iter().zip(&device) {
         // The device runs the host's table code: bit for bit the same answer.
         assert_eq!(
             d.to_bits(),
             host_table.eval_cosines(x[0], x[1], x[2]).to_bits(),
             "at {x:?}"
         );
-        if *e > floor {
-            worst = worst.max(((f64::from(*d) - e) / e).abs());
-        }
     }
+    let worst = compare(0..dirs.len(), |k| device[k], |k| values[k]).max;
     println!(
         "device table ({nodes} nodes), white paint, {} directions: max relative error {worst:.2e}",
         dirs.len()

@@ -34,6 +34,7 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+pub mod accuracy;
 pub mod anneal;
 pub mod batch;
 pub mod checks;

@@ -88,6 +88,13 @@ pub enum ModelKind {
     Lambert,
 }
 
+impl core::fmt::Display for ModelKind {
+    /// [`ModelKind::name`] (width and alignment flags apply).
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.pad(self.name())
+    }
+}
+
 impl ModelKind {
     /// Every member, simplest last.
     pub const ALL: [ModelKind; 5] = [
@@ -96,6 +103,16 @@ impl ModelKind {
         ModelKind::Five,
         ModelKind::Minnaert,
         ModelKind::Lambert,
+    ];
+
+    /// The model ladder `brdf select` climbs, simplest first: Lambert (1 parameter), Minnaert
+    /// (2), five-parameter (5), six-parameter (6) and its cos² variant (6).
+    pub const LADDER: [ModelKind; 5] = [
+        ModelKind::Lambert,
+        ModelKind::Minnaert,
+        ModelKind::Five,
+        ModelKind::Six,
+        ModelKind::SixCos2,
     ];
 
     /// Short name used on the command line and in files.

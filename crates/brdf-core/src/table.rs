@@ -43,7 +43,10 @@ pub const MIN_TABLE_NODES: usize = 2;
 /// Most nodes per table: 4096 nodes are 48 KiB, most of a small part's flash.
 pub const MAX_TABLE_NODES: usize = 4096;
 /// The table sizes whose accuracy is measured and promised ([`crate::tolerance`]).
-pub const TABLE_SIZES: [usize; 3] = [64, 256, 1024];
+pub const TABLE_SIZES: [usize; 3] = {
+    let t = crate::tolerance::TABLE_MAX_REL;
+    [t[0].0, t[1].0, t[2].0]
+};
 
 /// Bytes of a table set with `nodes` nodes per table (three tables of f32).
 pub const fn table_len(nodes: usize) -> usize {
@@ -62,6 +65,8 @@ pub enum TableError {
     Params(ParamError),
     /// A node is negative, infinite or NaN (node index over all three tables).
     Node(usize),
+    /// Tables exist for the six-parameter model only.
+    Model(crate::ModelKind),
     /// A node disagrees with the parameters beyond [`crate::tolerance::TABLE_NODE_REL`]
     /// (node index over all three tables): the table belongs to another material.
     Mismatch(usize),
@@ -80,6 +85,11 @@ impl core::fmt::Display for TableError {
             TableError::Params(e) => write!(f, "table parameters: {e}"),
             TableError::Node(i) => write!(f, "table node {i} is negative or not finite"),
             TableError::Mismatch(i) => write!(f, "table node {i} does not match the parameters"),
+            TableError::Model(k) => write!(
+                f,
+                "tables exist for the six-parameter model only, not {}",
+                k.name()
+            ),
         }
     }
 }
@@ -147,58 +157,41 @@ pub struct TableConsts {
     nodes: usize,
 }
 
-/// How far a table is from the exact model over a set of directions.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TableAccuracy {
-    /// Largest relative error.
-    pub max: f64,
-    /// RMS relative error.
-    pub rms: f64,
-    /// The cosines `(cos ti, cos tr, cos phi)` of the largest error.
-    pub worst_at: [f32; 3],
-    /// Directions judged: those where the exact value is at least
-    /// [`crate::tolerance::F32_FLOOR_OF_MAX`] of its largest over the set.
-    pub n: usize,
-}
+/// How far a table is from the exact model (the [`crate::accuracy`] comparator's result).
+pub type TableAccuracy = crate::accuracy::Accuracy;
 
 /// Relative error of `table` against the exact f64 model `exact` at each of `cosines`
-/// (the f32 inputs, widened exactly for the reference), over the directions whose exact
-/// value is above [`crate::tolerance::F32_FLOOR_OF_MAX`] of its maximum. A non-finite
-/// table value counts as an infinite error. Two passes over `cosines`, no allocation.
+/// (the f32 inputs, widened exactly for the reference), with [`crate::accuracy::compare`].
 pub fn table_accuracy<I>(table: &SixTable<'_>, exact: &crate::SixParam<f64>, cosines: I) -> TableAccuracy
 where
     I: IntoIterator<Item = [f32; 3]> + Clone,
 {
-    let reference = |c: [f32; 3]| exact.eval_cosines(c[0].to_f64(), c[1].to_f64(), c[2].to_f64());
-    let top = cosines.clone().into_iter().map(reference).fold(0.0, f64::max);
-    let floor = crate::tolerance::F32_FLOOR_OF_MAX * top;
-    let mut acc = TableAccuracy {
-        max: 0.0,
-        rms: 0.0,
-        worst_at: [0.0; 3],
-        n: 0,
-    };
-    for c in cosines {
-        let e = reference(c);
-        if e > floor {
-            let t = table.eval_cosines(c[0], c[1], c[2]).to_f64();
-            let r = if t.is_finite() {
-                ((t - e) / e).abs()
-            } else {
-                f64::INFINITY
-            };
-            acc.rms += r * r;
-            acc.n += 1;
-            if r > acc.max {
-                (acc.max, acc.worst_at) = (r, c);
-            }
-        }
-    }
-    if acc.n > 0 {
-        acc.rms = libm::sqrt(acc.rms / acc.n as f64);
-    }
-    acc
+    crate::accuracy::compare(
+        cosines,
+        |c| table.eval_cosines(c[0], c[1], c[2]),
+        |c| exact.eval_cosines(c[0].to_f64(), c[1].to_f64(), c[2].to_f64()),
+    )
 }
+
+/// The accuracy [`crate::tolerance::TABLE_MAX_REL`] promises, measured for one table: over
+/// [`crate::accuracy::regular_grid`] of zeniths up to
+/// [`crate::tolerance::TABLE_MAX_ZENITH_DEG`] ([`PROMISE_GRID`]), at f32 cosines, against
+/// the exact f64 model of the table's own f32 parameters. `brdf pack` prints it for every
+/// table it builds.
+pub fn promise_accuracy(table: &SixTable<'_>) -> Result<TableAccuracy, TableError> {
+    let exact = crate::SixParam::new(table.c.params.widen()).map_err(TableError::Params)?;
+    let (nz, na) = PROMISE_GRID;
+    let grid = crate::accuracy::regular_grid(crate::tolerance::TABLE_MAX_ZENITH_DEG, nz, na);
+    Ok(table_accuracy(
+        table,
+        &exact,
+        grid.map(|d| d.map(|x| libm::cos(x) as f32)),
+    ))
+}
+
+/// Zeniths (each of incidence and view) and azimuths of [`promise_accuracy`]'s grid:
+/// 46 x 46 x 37 = 78,292 directions, 1.9 degrees apart in zenith up to 85, 5 in azimuth.
+pub const PROMISE_GRID: (usize, usize) = (46, 37);
 
 /// A six-parameter material evaluated through its tables; borrows the node bytes.
 #[derive(Clone, Copy, Debug)]

@@ -91,6 +91,12 @@ pub const TABLE_MAX_ZENITH_DEG: f64 = 85.0;
 /// 256 nodes (3 KiB per material) meet a 1e-3 budget.
 pub const TABLE_MAX_REL: [(usize, f64); 3] = [(64, 2.5e-2), (256, 1.5e-3), (1024, 1e-4)];
 
+/// The promised maximum relative error of `nodes`-node tables ([`TABLE_MAX_REL`]); `None`
+/// for a node count without a promise.
+pub fn table_max_rel(nodes: usize) -> Option<f64> {
+    TABLE_MAX_REL.iter().find(|t| t.0 == nodes).map(|t| t.1)
+}
+
 /// Maximum relative error of the fast f32 path ([`crate::fast::FastSix`], own `exp2`/`log2`)
 /// against exact f64 at the same f32 inputs, on the grid of [`F32_MAX_REL`] (zeniths to
 /// 89.9°, points near retro and mirror), where `f >= F32_FLOOR_OF_MAX * max f`, for

@@ -36,6 +36,12 @@ pub const MAX_BLOB_LEN: usize = 4096;
 
 const HEADER_LEN: usize = 16;
 
+/// Encoded length of a blob holding one material without tables and nothing else: the
+/// smallest blob, and the overhead every blob carries besides its materials.
+pub const fn blob_overhead() -> usize {
+    HEADER_LEN + 4
+}
+
 /// The CRC that identifies a blob (what INFO reports): CRC-32 of every byte before its
 /// trailing CRC. Equal to that trailer for any blob that decodes.
 pub fn blob_crc(bytes: &[u8]) -> u32 {
@@ -128,6 +134,50 @@ impl TableRef {
 }
 
 impl Material {
+    /// The material a device holds for f64 parameters (paper order and signs, at least the
+    /// model's count): each is checked against its range as given, then rounded to f32 and
+    /// the f32 model validated (both checks are exact at the bounds: [`brdf_core::ranges`]).
+    pub fn from_params(kind: ModelKind, values: &[f64]) -> Result<Material, brdf_core::ParamError> {
+        if values.len() < kind.param_count() {
+            return Err(brdf_core::ParamError::WrongCount {
+                expected: kind.param_count(),
+                got: values.len(),
+            });
+        }
+        let mut params = [0.0f32; MAX_PARAMS];
+        for ((p, &x), range) in params.iter_mut().zip(values).zip(kind.ranges()) {
+            *p = range.check(x)? as f32;
+        }
+        let m = Material {
+            kind,
+            params,
+            table: None,
+        };
+        m.model()?;
+        Ok(m)
+    }
+
+    /// Gives this six-parameter material `nodes`-node tables: fills `out`
+    /// ([`table_len`]`(nodes)` bytes) from its f32 parameters, the values a device verifies
+    /// the nodes against, and records them in [`Material::table`]. Pass `out` with the
+    /// material to [`Blob::encode_with_tables`].
+    pub fn tabulate(&mut self, nodes: usize, out: &mut [u8]) -> Result<(), brdf_core::table::TableError> {
+        let p = self
+            .six_params()
+            .ok_or(brdf_core::table::TableError::Model(self.kind))?;
+        brdf_core::table::fill_six_table(&p.widen(), nodes, out)?;
+        self.table = Some(TableRef {
+            nodes: nodes as u16,
+            offset: 0,
+        });
+        Ok(())
+    }
+
+    /// Bytes this material takes in an encoded blob (model id, counts, parameters, tables).
+    pub fn encoded_len(&self) -> usize {
+        4 + 4 * self.kind.param_count() + self.table.map_or(0, |t| t.len())
+    }
+
     /// Validates and builds the exact f32 model.
     pub fn model(&self) -> Result<AnyModel<f32>, brdf_core::ParamError> {
         AnyModel::new(self.kind, &self.params[..self.kind.param_count()])
@@ -211,13 +261,7 @@ pub struct Blob {
 impl Blob {
     /// Encoded length.
     pub fn encoded_len(&self) -> usize {
-        HEADER_LEN
-            + self
-                .materials
-                .iter()
-                .map(|m| 4 + 4 * m.kind.param_count() + m.table.map_or(0, |t| t.len()))
-                .sum::<usize>()
-            + 4
+        HEADER_LEN + self.materials.iter().map(Material::encoded_len).sum::<usize>() + 4
     }
 
     /// Writes a blob without tables into `out`; returns the length written.

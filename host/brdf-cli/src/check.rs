@@ -3,17 +3,16 @@
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
-use brdf_core::tolerance::{F32_FLOOR_OF_MAX, F32_MAX_REL, TABLE_MAX_REL, TABLE_MAX_ZENITH_DEG};
+use brdf_core::accuracy::compare_above;
+use brdf_core::tolerance::{table_max_rel, F32_FLOOR_OF_MAX, F32_MAX_REL, TABLE_MAX_ZENITH_DEG};
 use brdf_core::{AnyModel, Brdf};
-use brdf_link::probe::ProbeRtt;
-use brdf_link::serial::Serial;
-use brdf_link::{Link, Qemu, Transport};
-use brdf_wire::blob::{table1_blob, Blob, MAX_BLOB_LEN};
+use brdf_wire::blob::{table1_blob, MAX_BLOB_LEN};
 use brdf_wire::frame::Input;
 use clap::Args;
 use serde::Serialize;
 
-use crate::common::{count, parse_seconds};
+use crate::common::count;
+use crate::device::DeviceArgs;
 
 /// Cross-check a device against the host: a dense grid of directions per material (plus edge
 /// cases near grazing, near the retro and mirror directions, and in the plane phi = 0, 180 deg)
@@ -69,88 +68,6 @@ fn parse_directions(text: &str) -> Result<Directions, String> {
             "`{text}`: neither a whole number of directions in 1..=10000000 nor an existing CSV file"
         ))
     }
-}
-
-/// A link over whichever transport the user chose.
-pub type Device = Link<Box<dyn Transport>>;
-
-/// Which device to talk to, and what to load into it first.
-#[derive(Debug, Args)]
-#[command(group(clap::ArgGroup::new("transport").required(true).args(["qemu", "serial", "probe"])))]
-pub struct DeviceArgs {
-    /// Run the firmware under QEMU (`--elf`, default: the release build in firmware/).
-    #[arg(long)]
-    qemu: bool,
-    /// A board's UART, e.g. /dev/ttyUSB0 (firmware built with `--features hardware`).
-    #[arg(long, value_name = "PORT")]
-    serial: Option<String>,
-    /// Baud rate for --serial.
-    #[arg(long, default_value_t = 115_200, value_parser = clap::value_parser!(u32).range(1..))]
-    baud: u32,
-    /// A board on a debug probe, frames over RTT (firmware built with
-    /// `--features rtt-port`): the probe as `VID:PID[:SERIAL]`, or `auto` for the only one.
-    #[arg(long, value_name = "PROBE")]
-    probe: Option<String>,
-    /// The chip behind --probe (a probe-rs target name).
-    #[arg(long, default_value = "STM32F407VGTx")]
-    chip: String,
-    /// Seconds the device may stay silent: QEMU's first answer after it starts, and each
-    /// reply (a FIT sends progress every few seconds). Above 0, at most 86,400.
-    #[arg(long, default_value = "30", value_parser = parse_seconds)]
-    timeout: std::time::Duration,
-    /// Firmware ELF for --qemu (default: the release build in firmware/).
-    #[arg(long)]
-    elf: Option<PathBuf>,
-    /// LOAD this parameter blob first (default: whatever the device runs, which for a fresh
-    /// QEMU is the firmware's built-in Table 1).
-    #[arg(long)]
-    blob: Option<PathBuf>,
-}
-
-impl DeviceArgs {
-    /// Opens the transport, LOADs `--blob` if given, and returns the link with that blob and
-    /// its CRC.
-    pub fn connect(&self) -> Result<(Device, Option<(Blob, u32)>)> {
-        let timeout = self.timeout;
-        let transport: Box<dyn Transport> = if self.qemu {
-            let elf = self.elf.clone().unwrap_or_else(default_elf);
-            Box::new(Qemu::spawn_with(&elf, None, timeout)?)
-        } else if let Some(port) = &self.serial {
-            Box::new(Serial::open(port, self.baud, timeout)?)
-        } else if let Some(probe) = &self.probe {
-            let selector = (probe != "auto").then_some(probe.as_str());
-            Box::new(ProbeRtt::open(&self.chip, selector, timeout)?)
-        } else {
-            bail!("choose a device: --qemu, --serial PORT or --probe PROBE");
-        };
-        let mut link = Link::new(transport);
-        let loaded = match &self.blob {
-            Some(path) => {
-                let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-                let blob = Blob::decode(&bytes).map_err(|e| anyhow!("{}: {e}", path.display()))?;
-                link.load(&bytes)
-                    .with_context(|| format!("the device refused {}", path.display()))?;
-                Some((blob, brdf_wire::blob::blob_crc(&bytes)))
-            }
-            None => None,
-        };
-        Ok((link, loaded))
-    }
-}
-
-impl DeviceArgs {
-    /// The blob checked against: `--blob`'s file, or the built-in Table 1.
-    pub fn blob_name(&self) -> String {
-        self.blob
-            .as_ref()
-            .map_or("the built-in Table 1".into(), |p| p.display().to_string())
-    }
-}
-
-/// Default firmware location in this repository.
-pub fn default_elf() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../firmware/target/thumbv7em-none-eabihf/release/brdf-fw")
 }
 
 #[derive(Debug, Serialize)]
@@ -310,10 +227,7 @@ impl CheckCmd {
             // range; beyond it the errors are reported, not judged.
             let promise = match mat.table {
                 None => Some((F32_MAX_REL, 90.0)),
-                Some(t) => TABLE_MAX_REL
-                    .iter()
-                    .find(|b| b.0 == usize::from(t.nodes))
-                    .map(|b| (b.1, TABLE_MAX_ZENITH_DEG)),
+                Some(t) => table_max_rel(usize::from(t.nodes)).map(|b| (b, TABLE_MAX_ZENITH_DEG)),
             };
             let mut results = Vec::new();
             for (name, xs) in dirs.iter().filter(|d| !d.1.is_empty()) {
@@ -349,29 +263,18 @@ impl CheckCmd {
                 .flat_map(|r| r.2.iter().copied())
                 .fold(0.0, f64::max);
             for (name, dev, exact, tolerance) in results {
-                let (mut max_abs, mut sum_abs, mut max_rel, mut sum_rel, mut nrel) =
-                    (0.0f64, 0.0, 0.0f64, 0.0, 0usize);
-                for (&d, &e) in dev.iter().zip(&exact) {
-                    let a = (f64::from(d) - e).abs();
-                    max_abs = max_abs.max(a);
-                    sum_abs += a;
-                    if e >= F32_FLOOR_OF_MAX * max && e > 0.0 {
-                        max_rel = max_rel.max(a / e);
-                        sum_rel += a / e;
-                        nrel += 1;
-                    }
-                }
+                let a = compare_above(0..dev.len(), |k| dev[k], |k| exact[k], F32_FLOOR_OF_MAX * max);
                 table.push(Region {
                     material: m,
                     region: name,
                     tabulated: mat.table.map(|t| t.nodes),
                     n: dev.len(),
-                    max_abs,
-                    mean_abs: sum_abs / dev.len().max(1) as f64,
-                    max_rel,
-                    mean_rel: sum_rel / nrel.max(1) as f64,
+                    max_abs: a.max_abs,
+                    mean_abs: a.mean_abs,
+                    max_rel: a.max,
+                    mean_rel: a.mean,
                     tolerance,
-                    within_tolerance: tolerance.is_none_or(|t| max_rel <= t),
+                    within_tolerance: tolerance.is_none_or(|t| a.max <= t),
                 });
             }
         }

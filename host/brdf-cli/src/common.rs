@@ -255,3 +255,44 @@ pub fn parse_list(text: &str) -> Result<Vec<f64>> {
             Ok(v)
         })
 }
+
+/// Encodes `materials` (with `tables[i]` the node bytes of those that have tables) and writes
+/// the blob to `output`, saying what was written.
+pub fn write_blob(
+    materials: heapless::Vec<brdf_wire::blob::Material, { brdf_wire::blob::MAX_MATERIALS }>,
+    tables: &[Option<Vec<u8>>],
+    sequence: u32,
+    output: &std::path::Path,
+) -> Result<()> {
+    use brdf_wire::blob::{Blob, MAX_BLOB_LEN};
+    let blob = Blob { sequence, materials };
+    if blob.encoded_len() > MAX_BLOB_LEN {
+        bail!(
+            "the blob would be {} bytes, more than a slot's {MAX_BLOB_LEN}: use fewer materials or fewer table nodes",
+            blob.encoded_len()
+        );
+    }
+    let refs: Vec<Option<&[u8]>> = tables.iter().map(|t| t.as_deref()).collect();
+    let mut buf = [0u8; MAX_BLOB_LEN];
+    let n = blob
+        .encode_with_tables(&refs, &mut buf)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    std::fs::write(output, &buf[..n]).with_context(|| format!("cannot write {}", output.display()))?;
+    eprintln!(
+        "wrote {} ({} bytes, {} materials, sequence {}, CRC {:#010x})",
+        output.display(),
+        n,
+        blob.materials.len(),
+        sequence,
+        brdf_wire::blob::blob_crc(&buf[..n])
+    );
+    Ok(())
+}
+
+/// Legend entry of a fit (model name and RMS relative error) with its model, for plots.
+pub fn legend(r: &brdf_fit::report::FitReport) -> Result<brdf_plot::Fitted> {
+    Ok(brdf_plot::Fitted {
+        label: format!("{} (RMS rel {:.1}%)", r.model.name(), 100.0 * r.metrics.rms_rel),
+        model: r.model()?,
+    })
+}

@@ -202,7 +202,7 @@ impl ResultsCsv {
             self.w.write_record(&header)?;
             self.header_done = true;
         }
-        let mut row = vec![r.dataset.clone(), r.model.to_owned(), r.n.to_string()];
+        let mut row = vec![r.dataset.clone(), r.model.name().to_owned(), r.n.to_string()];
         for j in 0..6 {
             match r.params.0.get(j) {
                 Some((name, v)) => {
@@ -256,14 +256,14 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
         out,
         "{}: model {}{}, {} points, {} residuals{loss}, seed {}, {:.1} ms",
         r.dataset,
-        r.model,
+        r.model.name(),
         if r.brightening {
             " (brightening: c down to -0.99)"
         } else {
             ""
         },
         r.n,
-        r.residual,
+        r.residual.name(),
         r.seed,
         r.seconds * 1e3
     )?;

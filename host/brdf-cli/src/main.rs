@@ -6,6 +6,7 @@ mod bench;
 mod bench_fit;
 mod check;
 mod common;
+mod device;
 mod eval;
 mod fit;
 mod flash;

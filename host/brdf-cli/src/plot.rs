@@ -3,13 +3,13 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use brdf_core::{AnyModel, ModelKind};
+use brdf_core::ModelKind;
 use brdf_fit::report::FitReport;
 use brdf_fit::Dataset;
 use brdf_plot::Fitted;
 use clap::{Args, ValueEnum};
 
-use crate::common::EngineArgs;
+use crate::common::{legend, EngineArgs};
 use crate::params::parse_kind;
 
 /// What to draw.
@@ -51,16 +51,6 @@ pub struct PlotCmd {
     engine: EngineArgs,
 }
 
-/// Legend entry of a fit: model name and RMS relative error.
-pub fn fitted(r: &FitReport) -> Result<Fitted> {
-    let kind = ModelKind::from_name(r.model).context("model name")?;
-    let values: Vec<f64> = r.params.0.iter().map(|(_, v)| *v).collect();
-    Ok(Fitted {
-        label: format!("{} (RMS rel {:.1}%)", r.model, 100.0 * r.metrics.rms_rel),
-        model: AnyModel::new(kind, &values)?,
-    })
-}
-
 /// Fits `models` to `data` and returns the legend entries with the reports.
 pub fn fit_models(
     data: &Dataset,
@@ -72,7 +62,7 @@ pub fn fit_models(
         let r = brdf_fit::fit_all(&engine.settings(m), std::slice::from_ref(data))
             .pop()
             .context("one report")?;
-        let f = fitted(&r)?;
+        let f = legend(&r)?;
         out.push((r, f));
     }
     Ok(out)

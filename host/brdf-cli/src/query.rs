@@ -8,7 +8,7 @@ use brdf_wire::frame::Input;
 use clap::Args;
 
 use crate::angles::{f32_text, parse_direction, radians, AngleReader, AngleWriter, Chunk};
-use crate::check::{Device, DeviceArgs};
+use crate::device::{Device, DeviceArgs};
 
 /// Ask a device (the firmware under QEMU, a board's UART or a probe) for f_r in 1/sr: one
 /// direction with --angles, or every row of a CSV with theta_i,theta_r,phi in degrees. The

@@ -11,10 +11,8 @@ use brdf_fit::report::FitReport;
 use brdf_fit::{Dataset, Loss, LossKind};
 use clap::Args;
 
-use crate::common::{parse_fraction, EngineArgs};
+use crate::common::{legend, parse_fraction, EngineArgs};
 use crate::import::import_reporting;
-use crate::plot::fitted;
-use crate::select::LADDER;
 
 /// Regenerate the model-comparison report: every measured dataset (Garnet Red R channel,
 /// each PTFE wavelength, MERL aluminium) through the model ladder, one table (`table.md`),
@@ -151,7 +149,7 @@ impl ReportCmd {
         let datasets: Vec<Dataset> = entries.iter().map(|e| e.data.clone()).collect();
         // ladder[m][d]: rung m fitted to dataset d. The six-parameter model twice: with the
         // paper's c >= 0, and with c down to -0.99 (brightening towards grazing).
-        let rungs: Vec<(ModelKind, bool)> = LADDER
+        let rungs: Vec<(ModelKind, bool)> = ModelKind::LADDER
             .iter()
             .flat_map(|&k| {
                 let twice = k == ModelKind::Six;
@@ -249,7 +247,7 @@ impl ReportCmd {
                 md,
                 "Lowest RMS relative error: **{best}**; lowest BIC: **{best_bic}**.\n"
             )?;
-            if let Some(p) = fits.iter().find(|r| r.model == "six").and_then(|r| {
+            if let Some(p) = fits.iter().find(|r| r.model == ModelKind::Six).and_then(|r| {
                 r.influence
                     .points
                     .first()
@@ -386,7 +384,7 @@ impl ReportCmd {
                 scale: self.engine.loss_scale,
             };
             let r = brdf_fit::fit_all(&settings, std::slice::from_ref(&e.data)).remove(0);
-            let model = fitted(&r)?.model;
+            let model = r.model()?;
             let rms = |pts: &mut dyn Iterator<Item = &brdf_fit::Point>| -> f64 {
                 let (mut s, mut n) = (0.0, 0usize);
                 for p in pts {
@@ -418,12 +416,12 @@ impl ReportCmd {
     }
 
     fn figures(&self, e: &Entry, fits: &[&FitReport]) -> Result<()> {
-        let pick = |k: ModelKind| fits.iter().find(|r| r.model == k.name()).copied();
-        let six = fitted(pick(ModelKind::Six).context("six fit")?)?;
+        let pick = |k: ModelKind| fits.iter().find(|r| r.model == k).copied();
+        let six = legend(pick(ModelKind::Six).context("six fit")?)?;
         let curves = [ModelKind::Six, ModelKind::Five, ModelKind::Minnaert]
             .into_iter()
             .filter_map(pick)
-            .map(fitted)
+            .map(legend)
             .collect::<Result<Vec<_>>>()?;
         // The map at the measured incidence closest to 30 degrees.
         let map_ti = e
@@ -458,8 +456,8 @@ fn write(path: &Path, bytes: &[u8]) -> Result<()> {
 /// A fit's name in the tables: the model, and the brightening variant marked.
 fn label(r: &FitReport) -> String {
     if r.brightening {
-        format!("{}, c < 0 allowed", r.model)
+        format!("{}, c < 0 allowed", r.model.name())
     } else {
-        r.model.to_owned()
+        r.model.name().to_owned()
     }
 }

@@ -5,26 +5,15 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
-use brdf_core::table::{table_accuracy, SixTable, TABLE_SIZES};
+use brdf_core::table::{table_accuracy, table_len, SixTable, TABLE_SIZES};
 use brdf_core::{Brdf, ModelKind};
 use brdf_fit::report::FitReport;
 use brdf_fit::Dataset;
-use brdf_wire::blob::{Blob, Material, MAX_BLOB_LEN};
+use brdf_wire::blob::{Material, MAX_BLOB_LEN};
 use clap::Args;
 use serde::Serialize;
 
-use crate::common::{parse_fraction, EngineArgs};
-use crate::pack::{add_tables, write_blob};
-
-/// The model ladder, simplest first: Lambert (1 parameter), Minnaert (2), five-parameter
-/// (5), six-parameter (6) and its cos^2 variant (6).
-pub const LADDER: [ModelKind; 5] = [
-    ModelKind::Lambert,
-    ModelKind::Minnaert,
-    ModelKind::Five,
-    ModelKind::Six,
-    ModelKind::SixCos2,
-];
+use crate::common::{parse_fraction, write_blob, EngineArgs};
 
 /// Fit the model ladder to a dataset over the angular domain a scene uses, name the simplest
 /// model whose RMS relative error meets the budget, and the cheapest representation on the
@@ -180,7 +169,7 @@ impl SelectCmd {
                 domain.points.len(),
             );
         }
-        let reports: Vec<FitReport> = LADDER
+        let reports: Vec<FitReport> = ModelKind::LADDER
             .iter()
             .flat_map(|&k| brdf_fit::fit_all(&self.engine.settings(k), std::slice::from_ref(&domain)))
             .collect();
@@ -376,14 +365,7 @@ impl SelectCmd {
 
 /// Encoded size of a blob holding `m` alone.
 fn blob_len(m: Material) -> usize {
-    let mut materials = heapless::Vec::new();
-    // A blob holds up to MAX_MATERIALS (8) materials: one always fits.
-    let _ = materials.push(m);
-    Blob {
-        sequence: 0,
-        materials,
-    }
-    .encoded_len()
+    brdf_wire::blob::blob_overhead() + m.encoded_len()
 }
 
 /// Every representation of every fitted model, with its error against the data over the
@@ -423,16 +405,19 @@ fn representations(
         t.elapsed().as_secs_f64() * 1e9 / (reps * cos.len()) as f64
     };
     for r in reports {
-        let kind = ModelKind::from_name(r.model).ok_or_else(|| anyhow!("unknown model {}", r.model))?;
-        let json = serde_json::to_value(r)?;
-        let material = crate::pack::material(&r.dataset, 0, &json, false)?;
+        let kind = r.model;
+        let params = r
+            .params_array()
+            .map_err(|p| anyhow!("{}: no parameter `{p}`", r.dataset))?;
+        let material =
+            Material::from_params(kind, &params).map_err(|e| anyhow!("{}: refused: {e}", r.dataset))?;
         let exact = material.model().map_err(|e| anyhow!("{}: {e}", r.model))?;
         let (reciprocal, bounded) = (exact.reciprocal(), exact.bounded_at_grazing());
         let (rms, max) = errors(&|c| f64::from(exact.eval_cosines(c[0], c[1], c[2])));
         let blob_bytes = blob_len(material);
         reprs.push(Representation {
             name: format!("{} exact", r.model),
-            model: r.model,
+            model: r.model.name(),
             nodes: None,
             device_instructions: brdf_core::cost::exact_instructions(kind),
             host_ns: host_ns(&|c| exact.eval_cosines(c[0], c[1], c[2])),
@@ -451,7 +436,8 @@ fn representations(
         }
         for nodes in TABLE_SIZES {
             let mut m = material;
-            let (bytes, _, _) = add_tables(&mut m, nodes)?;
+            let mut bytes = vec![0u8; table_len(nodes)];
+            m.tabulate(nodes, &mut bytes).map_err(|e| anyhow!("{e}"))?;
             let p = m.six_params().ok_or_else(|| anyhow!("six-parameter material"))?;
             let table = SixTable::new(p, &bytes).map_err(|e| anyhow!("{e}"))?;
             let (rms, max) = errors(&|c| f64::from(table.eval_cosines(c[0], c[1], c[2])));
@@ -460,7 +446,7 @@ fn representations(
             let blob_bytes = blob_len(m);
             reprs.push(Representation {
                 name: format!("six table {nodes}"),
-                model: r.model,
+                model: r.model.name(),
                 nodes: Some(nodes),
                 device_instructions: brdf_core::cost::TABLE_INSTRUCTIONS,
                 host_ns: host_ns(&|c| table.eval_cosines(c[0], c[1], c[2])),

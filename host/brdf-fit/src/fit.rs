@@ -29,7 +29,7 @@ use std::time::Instant;
 use brdf_core::{ModelKind, MAX_PARAMS};
 use rand_core::SeedableRng;
 use rand_pcg::Pcg64Mcg;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::anneal::{anneal, unit, AnnealOptions};
 use crate::grid::{grid_starts, GRID_STARTS};
@@ -101,7 +101,7 @@ impl FitOptions {
 pub const AGREEMENT: f64 = 1e-9;
 
 /// How the global search went.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SearchSummary {
     /// Annealing chains run (probes included).
     pub chains: usize,
@@ -112,7 +112,7 @@ pub struct SearchSummary {
     /// Independent searches that reached the best cost.
     pub agreeing: usize,
     /// Why the fit is not called converged, if it is not.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub not_converged: Option<String>,
 }
 

@@ -1,7 +1,7 @@
 //! One least-squares problem: a dataset, a model, a residual form, and the parameter box.
 
 use brdf_core::{ModelKind, MAX_PARAMS};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::data::{Dataset, Point};
 use crate::kernel::{bases, eval_many, nonlinear_count, Prepared};
@@ -10,7 +10,7 @@ use crate::kernel::{bases, eval_many, nonlinear_count, Prepared};
 const CHUNK: usize = 1024;
 
 /// Residual form. `f` is the model, `y` the measurement.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum Residual {
     /// `(f - y) / y`: every point counts by its relative error (default; BRDFs span decades).
@@ -35,7 +35,7 @@ impl Residual {
 
 /// Robust loss applied to the residuals, as scipy's `least_squares` defines them: the cost
 /// is `0.5 * sum C^2 rho(r_i^2 / C^2)` with `C` the loss scale (`f_scale`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
 pub enum LossKind {
     /// `rho(z) = z`: ordinary least squares (default).
@@ -63,7 +63,7 @@ impl LossKind {
 
 /// A loss and its scale `C` (in the residual's units: a relative error for relative
 /// residuals, so `C = 0.1` lets residuals beyond 10% count less than squared).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Loss {
     /// The function.
     pub kind: LossKind,

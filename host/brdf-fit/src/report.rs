@@ -5,13 +5,14 @@ use brdf_core::batch::Batch;
 use brdf_core::checks::{albedo_batch, AlbedoRule};
 use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
 use rayon::prelude::*;
+use serde::de::{MapAccess, Visitor};
 use serde::ser::SerializeMap;
-use serde::{Serialize, Serializer};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::data::Dataset;
 use crate::fit::{FitOptions, FitOutcome, SearchSummary};
 use crate::kernel::natural_per_internal;
-use crate::problem::{Loss, Problem};
+use crate::problem::{Loss, Problem, Residual};
 
 /// A name-to-value map that keeps its order in JSON.
 #[derive(Clone, Debug, PartialEq)]
@@ -27,18 +28,76 @@ impl<T: Serialize> Serialize for Ordered<T> {
     }
 }
 
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for Ordered<T> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct InOrder<T>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de>> Visitor<'de> for InOrder<T> {
+            type Value = Ordered<T>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("an object")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Ordered<T>, A::Error> {
+                let mut v = Vec::new();
+                while let Some(entry) = map.next_entry()? {
+                    v.push(entry);
+                }
+                Ok(Ordered(v))
+            }
+        }
+        d.deserialize_map(InOrder(std::marker::PhantomData))
+    }
+}
+
+impl<T> Ordered<T> {
+    /// The value named `name`.
+    pub fn get(&self, name: &str) -> Option<&T> {
+        self.0.iter().find(|(n, _)| n == name).map(|(_, v)| v)
+    }
+}
+
+/// JSON has no NaN or infinity: serde_json writes them as `null`, and this reads `null` back
+/// as NaN (a metric of data with zeros, say), so that every report written can be read.
+fn f64_or_null<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+/// A [`ModelKind`] as its name (`"six"`, `"lambert"`, ...), as the CLI spells it.
+pub mod model_name {
+    use brdf_core::ModelKind;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Writes the name.
+    pub fn serialize<S: Serializer>(kind: &ModelKind, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(kind.name())
+    }
+
+    /// Reads a name, naming the known ones when it is not one of them.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ModelKind, D::Error> {
+        let name = String::deserialize(d)?;
+        ModelKind::from_name(&name).ok_or_else(|| {
+            let known: Vec<&str> = ModelKind::ALL.iter().map(|k| k.name()).collect();
+            serde::de::Error::custom(format!("unknown model `{name}` (known: {})", known.join(", ")))
+        })
+    }
+}
+
 /// Goodness of fit, unweighted, on the BRDF values.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
     /// Root-mean-square error, 1/sr.
+    #[serde(deserialize_with = "f64_or_null")]
     pub rmse: f64,
     /// Mean squared error, 1/sr^2.
+    #[serde(deserialize_with = "f64_or_null")]
     pub mse: f64,
     /// Root-mean-square relative error `(f - y) / y`.
+    #[serde(deserialize_with = "f64_or_null")]
     pub rms_rel: f64,
     /// Largest `|f - y| / y`.
+    #[serde(deserialize_with = "f64_or_null")]
     pub max_rel: f64,
     /// Root-mean-square of `ln f - ln y`.
+    #[serde(deserialize_with = "f64_or_null")]
     pub log_rmse: f64,
 }
 
@@ -68,10 +127,48 @@ fn degrees(rad: f64) -> f64 {
     (rad.to_degrees() * 1e9).round() / 1e9
 }
 
+/// [`IncidenceMetrics`] as written, read without `#[serde(flatten)]`: serde buffers flattened
+/// fields, and a buffered number does not read back as `f64` when serde_json's
+/// `arbitrary_precision` feature is on anywhere in the build.
+#[derive(Deserialize)]
+struct FlatIncidenceMetrics {
+    #[serde(deserialize_with = "f64_or_null")]
+    theta_i: f64,
+    n: usize,
+    #[serde(deserialize_with = "f64_or_null")]
+    rmse: f64,
+    #[serde(deserialize_with = "f64_or_null")]
+    mse: f64,
+    #[serde(deserialize_with = "f64_or_null")]
+    rms_rel: f64,
+    #[serde(deserialize_with = "f64_or_null")]
+    max_rel: f64,
+    #[serde(deserialize_with = "f64_or_null")]
+    log_rmse: f64,
+}
+
+impl From<FlatIncidenceMetrics> for IncidenceMetrics {
+    fn from(f: FlatIncidenceMetrics) -> Self {
+        IncidenceMetrics {
+            theta_i: f.theta_i,
+            n: f.n,
+            metrics: Metrics {
+                rmse: f.rmse,
+                mse: f.mse,
+                rms_rel: f.rms_rel,
+                max_rel: f.max_rel,
+                log_rmse: f.log_rmse,
+            },
+        }
+    }
+}
+
 /// Metrics of the points at one incidence angle.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(from = "FlatIncidenceMetrics")]
 pub struct IncidenceMetrics {
     /// Incidence zenith, degrees.
+    #[serde(deserialize_with = "f64_or_null")]
     pub theta_i: f64,
     /// Points at this incidence.
     pub n: usize,
@@ -81,9 +178,10 @@ pub struct IncidenceMetrics {
 }
 
 /// What is known about one parameter.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ParamUncertainty {
     /// Fitted value (paper units and sign).
+    #[serde(deserialize_with = "f64_or_null")]
     pub value: f64,
     /// Standard error from the Jacobian at the optimum; `None` where it is not defined.
     pub se: Option<f64>,
@@ -97,7 +195,7 @@ pub struct ParamUncertainty {
 }
 
 /// Parameter uncertainty: per-parameter standard errors and the correlation matrix.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Uncertainty {
     /// Per parameter, paper order.
     pub params: Ordered<ParamUncertainty>,
@@ -439,17 +537,19 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
 }
 
 /// Quadrature albedo at one measured incidence.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IncidenceAlbedo {
     /// Incidence zenith, degrees.
+    #[serde(deserialize_with = "f64_or_null")]
     pub theta_i: f64,
     /// Directional-hemispherical reflectance (default rule, accurate to
     /// `brdf_core::tolerance::ALBEDO_DEFAULT_REL`).
+    #[serde(deserialize_with = "f64_or_null")]
     pub albedo: f64,
 }
 
 /// The energy check of a fitted model.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Energy {
     /// Analytic sufficient bound (`kb + kd` for the six-parameter model), if the model has one.
     pub bound: Option<f64>,
@@ -512,39 +612,50 @@ pub fn energy_of(kind: ModelKind, params: &[f64], incidences: &[f64]) -> Energy 
 }
 
 /// One point's pull on the fit.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PointInfluence {
     /// 1-based line of the point in its source file.
     pub line: u64,
     /// Incidence zenith, degrees.
+    #[serde(deserialize_with = "f64_or_null")]
     pub theta_i: f64,
     /// Viewing zenith, degrees.
+    #[serde(deserialize_with = "f64_or_null")]
     pub theta_r: f64,
     /// Relative azimuth, degrees.
+    #[serde(deserialize_with = "f64_or_null")]
     pub phi: f64,
     /// Measured value, 1/sr.
+    #[serde(deserialize_with = "f64_or_null")]
     pub brdf: f64,
     /// Fitted value there, 1/sr.
+    #[serde(deserialize_with = "f64_or_null")]
     pub model: f64,
     /// Residual in the fitted form (a relative error for relative residuals, weighted).
+    #[serde(deserialize_with = "f64_or_null")]
     pub residual: f64,
     /// Residual over its standard deviation, `r / (s sqrt(1 - h))`.
+    #[serde(deserialize_with = "f64_or_null")]
     pub standardized: f64,
     /// Leverage `h`: the diagonal of the hat matrix at the optimum.
+    #[serde(deserialize_with = "f64_or_null")]
     pub leverage: f64,
     /// Fraction of the cost that refitting without this point removes.
+    #[serde(deserialize_with = "f64_or_null")]
     pub cost_drop: f64,
     /// RMS relative error of that refit over the remaining points.
+    #[serde(deserialize_with = "f64_or_null")]
     pub rms_rel_without: f64,
 }
 
 /// The points whose removal changes the fit most.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Influence {
     /// Most influential first (at most [`INFLUENCE_SHOWN`]).
     pub points: Vec<PointInfluence>,
     /// Cost drop above which one point is called dominant for this many points
     /// ([`dominant_fraction`]).
+    #[serde(deserialize_with = "f64_or_null")]
     pub dominant_above: f64,
     /// One point alone moves the cost by more than `dominant_above`: the fit rests on it.
     pub dominant: bool,
@@ -688,12 +799,13 @@ fn pseudo_inverse(gram: &[[f64; MAX_PARAMS]; MAX_PARAMS], free: &[usize]) -> [[f
 }
 
 /// Everything `brdf fit --json` prints for one dataset.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FitReport {
     /// Dataset name (file, and group if any).
     pub dataset: String,
-    /// Model name.
-    pub model: &'static str,
+    /// The model (written as its name).
+    #[serde(with = "model_name")]
+    pub model: ModelKind,
     /// Fitted parameters, paper names and order (`b` negative, as in the paper).
     pub params: Ordered<f64>,
     /// Goodness of fit over all points.
@@ -705,16 +817,20 @@ pub struct FitReport {
     /// Number of parameters.
     pub k: usize,
     /// Akaike information criterion `n ln(RSS/n) + 2k` on the fitted residuals.
+    #[serde(deserialize_with = "f64_or_null")]
     pub aic: f64,
     /// Bayesian information criterion `n ln(RSS/n) + k ln n`.
+    #[serde(deserialize_with = "f64_or_null")]
     pub bic: f64,
     /// Wall time of the fit, seconds.
+    #[serde(deserialize_with = "f64_or_null")]
     pub seconds: f64,
     /// Residual form.
-    pub residual: &'static str,
+    pub residual: Residual,
     /// Seed of the run.
     pub seed: u64,
     /// `0.5 * sum r^2` at the optimum.
+    #[serde(deserialize_with = "f64_or_null")]
     pub cost: f64,
     /// Passes over the data.
     pub evals: usize,
@@ -740,7 +856,99 @@ pub struct FitReport {
     pub outside_ranges: Vec<String>,
 }
 
+/// Why a fit result could not be read back.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// Not JSON, or not shaped like `brdf fit --json` output.
+    #[error("{origin}: line {line}, column {column}: {message}")]
+    Json {
+        /// File, and fit index in an array (`fits.json: fit 2`).
+        origin: String,
+        /// Line in the file (1-based).
+        line: usize,
+        /// Column in that line (1-based).
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A parameter of the model is missing.
+    #[error("{origin}: no parameter `{name}` for the {model} model")]
+    MissingParam {
+        /// File and fit index.
+        origin: String,
+        /// The parameter.
+        name: &'static str,
+        /// The model.
+        model: &'static str,
+    },
+}
+
+impl ReadError {
+    /// A serde_json error in `part`, a slice of `text` (positions made absolute in `text`).
+    fn json(origin: String, text: &str, part: &str, e: &serde_json::Error) -> ReadError {
+        let offset = (part.as_ptr() as usize)
+            .saturating_sub(text.as_ptr() as usize)
+            .min(text.len());
+        let before = &text[..offset];
+        let lines_before = before.matches('\n').count();
+        let line_start_col = before.len() - before.rfind('\n').map_or(0, |k| k + 1);
+        let (line, column) = match e.line() {
+            0 => (lines_before + 1, line_start_col + 1),
+            1 => (lines_before + 1, line_start_col + e.column()),
+            l => (lines_before + l, e.column()),
+        };
+        let full = e.to_string();
+        let suffix = format!(" at line {} column {}", e.line(), e.column());
+        ReadError::Json {
+            origin,
+            line,
+            column,
+            message: full.strip_suffix(&suffix).unwrap_or(&full).to_owned(),
+        }
+    }
+}
+
 impl FitReport {
+    /// Reads `brdf fit --json` output: one report, or an array of them (a batch fit).
+    /// `origin` names the source in errors (`fits.json: fit 2: line 40, column 12: ...`).
+    pub fn from_json(text: &str, origin: &str) -> Result<Vec<FitReport>, ReadError> {
+        let items: Vec<&serde_json::value::RawValue> = if text.trim_start().starts_with('[') {
+            serde_json::from_str(text).map_err(|e| ReadError::json(origin.to_owned(), text, text, &e))?
+        } else {
+            vec![serde_json::from_str(text).map_err(|e| ReadError::json(origin.to_owned(), text, text, &e))?]
+        };
+        let mut out = Vec::with_capacity(items.len());
+        for (i, item) in items.into_iter().enumerate() {
+            let origin = format!("{origin}: fit {i}");
+            let part = item.get();
+            let r: FitReport =
+                serde_json::from_str(part).map_err(|e| ReadError::json(origin.clone(), text, part, &e))?;
+            r.params_array().map_err(|name| ReadError::MissingParam {
+                origin,
+                name,
+                model: r.model.name(),
+            })?;
+            out.push(r);
+        }
+        Ok(out)
+    }
+
+    /// The parameters in paper order (unused entries 0), or the name of one that is missing.
+    pub fn params_array(&self) -> Result<[f64; MAX_PARAMS], &'static str> {
+        let mut p = [0.0; MAX_PARAMS];
+        for (v, name) in p.iter_mut().zip(self.model.param_names()) {
+            *v = *self.params.get(name).ok_or(*name)?;
+        }
+        Ok(p)
+    }
+
+    /// The fitted model in f64 (refused, naming the parameter, when a parameter is outside
+    /// its range: see [`FitReport::outside_ranges`]).
+    pub fn model(&self) -> Result<AnyModel<f64>, brdf_core::ParamError> {
+        let p = self.params_array().unwrap_or([f64::NAN; MAX_PARAMS]);
+        AnyModel::new(self.model, &p[..self.model.param_count()])
+    }
+
     /// Names of the parameters flagged as not determined by the data, in paper order.
     pub fn undetermined(&self) -> Vec<&str> {
         self.uncertainty
@@ -791,7 +999,7 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         .collect();
     FitReport {
         dataset: dataset.name.clone(),
-        model: kind.name(),
+        model: kind,
         params: Ordered(
             kind.param_names()
                 .iter()
@@ -806,7 +1014,7 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         aic: ll + 2.0 * k as f64,
         bic: ll + k as f64 * nf.ln(),
         seconds: outcome.seconds,
-        residual: problem.residual().name(),
+        residual: problem.residual(),
         seed: opts.seed,
         cost: outcome.cost,
         evals: outcome.evals,

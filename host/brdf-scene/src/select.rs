@@ -19,25 +19,16 @@
 //! next-cheapest alternative costs the fewest extra instructions gives up its table first.
 
 use brdf_core::cost::{exact_instructions, TABLE_INSTRUCTIONS};
-use brdf_core::table::{fill_six_table, table_len, SixTable, TABLE_SIZES};
+use brdf_core::table::{table_len, SixTable, TABLE_SIZES};
 use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
 use brdf_fit::{fit, FitOptions, Point, Problem, Residual};
-use brdf_wire::blob::{Blob, Material, TableRef, MAX_BLOB_LEN, MAX_MATERIALS};
+use brdf_wire::blob::{Blob, Material, MAX_BLOB_LEN, MAX_MATERIALS};
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::eval::{eval_batch, Evaluator};
 use crate::lrcs::Domain;
 use crate::scene::Scene;
-
-/// The model ladder, simplest first (the candidates of `brdf select`).
-pub const LADDER: [ModelKind; 5] = [
-    ModelKind::Lambert,
-    ModelKind::Minnaert,
-    ModelKind::Five,
-    ModelKind::Six,
-    ModelKind::SixCos2,
-];
 
 /// Settings of a selection.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -228,37 +219,17 @@ struct Draft {
     eval: Evaluator,
 }
 
-/// Rounds f64 parameters to the f32 the device holds; the f32 model, or why not.
+/// The material the device holds for f64 parameters ([`Material::from_params`]) and its f32
+/// model, or why not.
 fn device_material(kind: ModelKind, p: &[f64; MAX_PARAMS]) -> Result<(Material, AnyModel<f32>), String> {
-    let mut params = [0.0f32; MAX_PARAMS];
-    for (d, s) in params.iter_mut().zip(p) {
-        *d = *s as f32;
-    }
-    let m = Material {
-        kind,
-        params,
-        table: None,
-    };
+    let m = Material::from_params(kind, p).map_err(|e| e.to_string())?;
     let model = m.model().map_err(|e| e.to_string())?;
     Ok((m, model))
 }
 
 /// Encoded size of a blob holding `materials`.
 fn blob_len(materials: &[Material]) -> usize {
-    let mut v = heapless::Vec::<Material, MAX_MATERIALS>::new();
-    for m in materials.iter().take(MAX_MATERIALS) {
-        let _ = v.push(*m);
-    }
-    Blob {
-        sequence: 0,
-        materials: v,
-    }
-    .encoded_len()
-}
-
-/// Bytes of one material inside a blob.
-fn material_bytes(m: &Material) -> usize {
-    blob_len(&[*m, *m]) - blob_len(&[*m])
+    brdf_wire::blob::blob_overhead() + materials.iter().map(Material::encoded_len).sum::<usize>()
 }
 
 /// A systematic sample of material `m`'s queries, each drawn with probability proportional to
@@ -325,7 +296,7 @@ fn drafts(
     let own_params = own.to_params();
     let mut out = Vec::new();
     let mut six: Option<(String, [f64; MAX_PARAMS])> = None;
-    for kind in LADDER {
+    for kind in ModelKind::LADDER {
         let (label, params) = if kind == own_kind {
             (format!("{} exact", kind.name()), own_params)
         } else if points.len() < kind.param_count() + 1 {
@@ -366,12 +337,12 @@ fn drafts(
             let Ok((mut material, _)) = device_material(ModelKind::Six, &params) else {
                 continue;
             };
-            let Some(p) = material.six_params() else { continue };
             let mut bytes = vec![0u8; table_len(nodes)];
-            if let Err(e) = fill_six_table(&p.widen(), nodes, &mut bytes) {
+            if let Err(e) = material.tabulate(nodes, &mut bytes) {
                 notes.push(format!("{label} table {nodes}: {e}"));
                 continue;
             }
+            let Some(p) = material.six_params() else { continue };
             let consts = match SixTable::new(p, &bytes) {
                 Ok(t) => t.consts(),
                 Err(e) => {
@@ -379,10 +350,6 @@ fn drafts(
                     continue;
                 }
             };
-            material.table = Some(TableRef {
-                nodes: nodes as u16,
-                offset: 0,
-            });
             out.push(Draft {
                 name: format!("{label} table {nodes}"),
                 kind: ModelKind::Six,
@@ -440,7 +407,7 @@ pub fn select(scene: &Scene, domain: &Domain, opts: &SelectOptions) -> SceneSele
                         at = Some([domain.aspects[a].azimuth_deg, domain.aspects[a].elevation_deg]);
                     }
                 }
-                let bytes = material_bytes(&d.material);
+                let bytes = d.material.encoded_len();
                 Candidate {
                     name: d.name,
                     model: d.kind.name(),

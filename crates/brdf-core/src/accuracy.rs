@@ -1,0 +1,143 @@
+//! How far an `f32` evaluation path is from the exact `f64` model: the one comparator every
+//! accuracy claim goes through (the exact path, the fast path, the tables, the device's
+//! answers), and the direction grid the claims are checked on.
+//!
+//! An `f32` path is judged at its own `f32` inputs, widened exactly for the `f64` reference,
+//! so that the comparison measures the path's arithmetic, not the rounding of its inputs.
+//! Relative errors are taken where the reference is above
+//! [`F32_FLOOR_OF_MAX`](crate::tolerance::F32_FLOOR_OF_MAX) of its largest value over the set:
+//! below it the value is a negligible share of the signal, and a relative error there says
+//! nothing about what a sensor sees.
+//!
+//! ```
+//! use brdf_core::accuracy::{compare, regular_grid};
+//! use brdf_core::{Brdf, SixParam, SixParams};
+//!
+//! // The f64 reference holds the f32 parameters, widened: only the arithmetic differs.
+//! let single = SixParam::new(SixParams { kb: 0.2545_f32, kr: 21.8031, b: -27.5721, a: 0.6705, kd: 0.3676, c: 1.2 })?;
+//! let exact = SixParam::new(single.params().widen())?;
+//! let cosines = regular_grid(85.0, 10, 7).map(|d| d.map(|x| x.cos() as f32));
+//! let acc = compare(
+//!     cosines,
+//!     |c| single.eval_cosines(c[0], c[1], c[2]),
+//!     |c| exact.eval_cosines(c[0].into(), c[1].into(), c[2].into()),
+//! );
+//! assert!(acc.n > 500 && acc.max < brdf_core::tolerance::F32_MAX_REL);
+//! # Ok::<(), brdf_core::ParamError>(())
+//! ```
+
+use crate::tolerance::F32_FLOOR_OF_MAX;
+
+/// How far an `f32` path is from the exact model over a set of inputs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Accuracy<X = [f32; 3]> {
+    /// Largest relative error (infinite where the path returned a non-finite value).
+    pub max: f64,
+    /// RMS relative error.
+    pub rms: f64,
+    /// Mean relative error.
+    pub mean: f64,
+    /// The input of the largest relative error.
+    pub worst_at: Option<X>,
+    /// Inputs judged: those where the reference is above the floor.
+    pub n: usize,
+    /// Largest absolute error over every input (floor or not).
+    pub max_abs: f64,
+    /// Mean absolute error over every input.
+    pub mean_abs: f64,
+    /// Every input.
+    pub total: usize,
+}
+
+/// Relative error of `path` against `exact` at each of `inputs` (any inputs the two
+/// closures agree on: `f32` cosines, angles, or indices into values computed elsewhere),
+/// over the inputs where `exact` is above [`F32_FLOOR_OF_MAX`] of its maximum over the set.
+/// A non-finite path value counts as an infinite error. Two passes over `inputs` (the
+/// reference is evaluated twice), no allocation.
+pub fn compare<X, I, P, E>(inputs: I, path: P, mut exact: E) -> Accuracy<X>
+where
+    X: Copy,
+    I: IntoIterator<Item = X> + Clone,
+    P: FnMut(X) -> f32,
+    E: FnMut(X) -> f64,
+{
+    let top = inputs.clone().into_iter().map(&mut exact).fold(0.0, f64::max);
+    compare_above(inputs, path, exact, F32_FLOOR_OF_MAX * top)
+}
+
+/// [`compare`] with the floor given: relative errors where `exact > floor`, absolute errors
+/// everywhere. One pass.
+pub fn compare_above<X, I, P, E>(inputs: I, mut path: P, mut exact: E, floor: f64) -> Accuracy<X>
+where
+    X: Copy,
+    I: IntoIterator<Item = X>,
+    P: FnMut(X) -> f32,
+    E: FnMut(X) -> f64,
+{
+    let mut acc = Accuracy {
+        max: 0.0,
+        rms: 0.0,
+        mean: 0.0,
+        worst_at: None,
+        n: 0,
+        max_abs: 0.0,
+        mean_abs: 0.0,
+        total: 0,
+    };
+    for x in inputs {
+        let e = exact(x);
+        let t = f64::from(path(x));
+        let a = if t.is_finite() {
+            (t - e).abs()
+        } else {
+            f64::INFINITY
+        };
+        acc.total += 1;
+        acc.mean_abs += a;
+        acc.max_abs = acc.max_abs.max(a);
+        if e > floor {
+            let r = a / e;
+            acc.rms += r * r;
+            acc.mean += r;
+            acc.n += 1;
+            if r > acc.max || acc.worst_at.is_none() {
+                acc.max = acc.max.max(r);
+                acc.worst_at = Some(x);
+            }
+        }
+    }
+    if acc.n > 0 {
+        acc.rms = libm::sqrt(acc.rms / acc.n as f64);
+        acc.mean /= acc.n as f64;
+    }
+    if acc.total > 0 {
+        acc.mean_abs /= acc.total as f64;
+    }
+    acc
+}
+
+/// The regular direction grid accuracy claims are checked on: `n_zenith` incidence zeniths
+/// times `n_zenith` viewing zeniths, both from 0 to `max_zenith_deg` inclusive, times
+/// `n_azimuth` relative azimuths from 0 to π inclusive, as `(theta_i, theta_r, phi)` in
+/// radians (`f64`; round them, or their cosines, to the path's inputs). Incidence
+/// outermost, azimuth innermost.
+pub fn regular_grid(
+    max_zenith_deg: f64,
+    n_zenith: usize,
+    n_azimuth: usize,
+) -> impl Iterator<Item = [f64; 3]> + Clone {
+    let zmax = max_zenith_deg.to_radians();
+    let over = |x: f64, k: usize, n: usize| if n > 1 { x * k as f64 / (n - 1) as f64 } else { 0.0 };
+    (0..n_zenith * n_zenith * n_azimuth).map(move |k| {
+        let (i, j, l) = (
+            k / (n_zenith * n_azimuth),
+            k / n_azimuth % n_zenith,
+            k % n_azimuth,
+        );
+        [
+            over(zmax, i, n_zenith),
+            over(zmax, j, n_zenith),
+            over(core::f64::consts::PI, l, n_azimuth),
+        ]
+    })
+}
