@@ -27,6 +27,117 @@
 //! assert!((g - 0.198_020_58).abs() < 1e-6);
 //! # Ok::<(), brdf_core::ParamError>(())
 //! ```
+//!
+//! # Modules
+//!
+//! | module | what it holds | use it when |
+//! |---|---|---|
+//! | crate root | the models ([`SixParam`], [`FiveParam`], [`Minnaert`], [`Lambert`], [`SixParamCos2`]), [`AnyModel`] and [`ModelKind`], the [`Brdf`] and [`Model`] traits, [`Geometry`], [`Float`] | you evaluate one material at one direction pair (exact, `f32` or `f64`) |
+//! | [`models`] | one file per model with its parameter struct | you need a model's parameter names, order or derived terms |
+//! | [`ranges`] | the valid range of every parameter, used by every constructor | you validate parameters coming from outside (files, frames, fits) |
+//! | [`tolerance`] | every promised accuracy, with its reason | a test or a check compares two values |
+//! | [`checks`] | reciprocity, the energy bound, albedo by quadrature | you judge whether a parameter set is physical |
+//! | [`table`] | the tabulated six-parameter path, its byte layout and accuracy | a device repeats lookups of one material and can spare `table_len(n)` bytes |
+//! | [`fast`] | the six-parameter model with this crate's own `exp2`/`log2` | a device needs about half the instructions of the exact `f32` path and accepts [`tolerance::FAST_MAX_REL`] |
+//! | [`batch`] | one material over many directions (`std` feature: AVX2/AVX-512 chosen at run time) | the host evaluates thousands of directions (renderers, scenes, quadrature) |
+//! | [`anneal`] | the heap-free simulated annealer and its degenerate-sample rule | a device refits a material from its own measurements |
+//! | [`cost`] | Cortex-M4F instructions per evaluation, per model and path | you choose a representation for an instruction budget |
+//!
+//! # Tables
+//!
+//! Three 1-D tables of `n` nodes each, generated once (the host does it in `f64`) and read in
+//! place; [`table::table_accuracy`] measures them against the exact `f64` model.
+//!
+//! ```
+//! use brdf_core::table::{fill_six_table, table_accuracy, table_len, SixTable};
+//! use brdf_core::tolerance::{TABLE_MAX_REL, TABLE_MAX_ZENITH_DEG};
+//! use brdf_core::{Brdf, SixParam, SixParams};
+//!
+//! let khaki = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+//! let exact = SixParam::new(SixParams::<f64>::from_array(khaki))?;
+//! let params32 = SixParams::<f32>::from_array(khaki.map(|v| v as f32));
+//!
+//! // 256 nodes: 3 tables x 256 nodes x 4 bytes, as they travel in a blob.
+//! let mut bytes = [0u8; table_len(256)];
+//! fill_six_table(&SixParams::<f64>::from_array(khaki), 256, &mut bytes)?;
+//! let table = SixTable::new(params32, &bytes)?;
+//! table.verify()?;
+//!
+//! // One lookup from cosines, close to the exact value at normal incidence and viewing.
+//! let (t, e) = (table.eval_cosines(1.0, 1.0, 1.0), exact.eval_cosines(1.0, 1.0, 1.0));
+//! assert!(((f64::from(t) - e) / e).abs() < 1e-3);
+//!
+//! // The promise: within TABLE_MAX_REL for 256 nodes over zeniths up to 85 degrees.
+//! let steps = 24;
+//! let max_mu = (TABLE_MAX_ZENITH_DEG.to_radians()).cos() as f32;
+//! let grid = (0..=steps).flat_map(move |i| {
+//!     (0..=steps).flat_map(move |r| {
+//!         (0..=steps).map(move |p| {
+//!             let mu = |k: usize| max_mu + (1.0 - max_mu) * k as f32 / steps as f32;
+//!             [mu(i), mu(r), -1.0 + 2.0 * p as f32 / steps as f32]
+//!         })
+//!     })
+//! });
+//! let acc = table_accuracy(&table, &exact, grid);
+//! let promised = TABLE_MAX_REL.iter().find(|(n, _)| *n == 256).unwrap().1;
+//! assert!(acc.n > 0 && acc.max <= promised, "{acc:?}");
+//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! ```
+//!
+//! # Fast path
+//!
+//! [`fast::FastSix`] is a [`Brdf<f32>`] like the exact model; construct it from the same
+//! parameters.
+//!
+//! ```
+//! use brdf_core::fast::FastSix;
+//! use brdf_core::tolerance::FAST_MAX_REL;
+//! use brdf_core::{Brdf, SixParam, SixParams};
+//!
+//! let khaki = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+//! let fast = FastSix::new(SixParams::<f32>::from_array(khaki.map(|v| v as f32)))?;
+//! let exact = SixParam::new(SixParams::<f64>::from_array(khaki))?;
+//! for (ci, cr, cp) in [(1.0f32, 1.0f32, 1.0f32), (0.9, 0.7, -1.0), (0.5, 0.3, 0.2)] {
+//!     let f = f64::from(fast.eval_cosines(ci, cr, cp));
+//!     let e = exact.eval_cosines(f64::from(ci), f64::from(cr), f64::from(cp));
+//!     assert!(((f - e) / e).abs() <= FAST_MAX_REL, "{f} vs {e}");
+//! }
+//! # Ok::<(), brdf_core::ParamError>(())
+//! ```
+//!
+//! # Annealer
+//!
+//! The device's refit: samples in a fixed-capacity buffer, the host engine's search box, and
+//! an RNG handed in through `rand_core` (here `rand_pcg`, seeded, so the run is repeatable).
+//!
+//! ```
+//! use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox};
+//! use brdf_core::{Brdf, ModelKind, SixParam, SixParams};
+//! use rand_core::SeedableRng;
+//!
+//! // Measurements of a known material: the khaki plate at 36 direction pairs.
+//! let khaki = SixParam::new(SixParams::<f32>::from_array([0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]))?;
+//! let mut samples: Samples<f32, 64> = Samples::new();
+//! for i in 0..6 {
+//!     for r in 0..6 {
+//!         let (ti, tr, phi) = (0.1 + 0.2 * i as f32, 0.05 + 0.25 * r as f32, 0.5 * r as f32);
+//!         samples.push_angles(ti, tr, phi, khaki.eval_angles(ti, tr, phi))?;
+//!     }
+//! }
+//!
+//! let mut rng = rand_pcg::Pcg32::seed_from_u64(7);
+//! let cfg = AnnealConfig::default();
+//! let fit = anneal::<f32, SixParam<f32>, _, 64>(&samples, &SearchBox::for_kind(ModelKind::Six), &cfg, &mut rng)?;
+//! assert!(fit.evals <= cfg.budget);
+//! assert!(fit.rms_rel < 1e-3, "rms relative error {}", fit.rms_rel); // noise-free data: about 3e-5
+//!
+//! // The same seed gives the same fit.
+//! let again = anneal::<f32, SixParam<f32>, _, 64>(
+//!     &samples, &SearchBox::for_kind(ModelKind::Six), &cfg, &mut rand_pcg::Pcg32::seed_from_u64(7),
+//! )?;
+//! assert_eq!(fit.params, again.params);
+//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! ```
 #![no_std]
 #![deny(missing_docs)]
 

@@ -1,4 +1,5 @@
-//! `brdf bench`: cost against accuracy, as CSV and charts with the Pareto front marked.
+//! `brdf bench`: cost against accuracy, as CSV and charts with the Pareto front marked. The
+//! peers (numpy, scipy) and the fitting benchmark live in `brdf_bench`.
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -6,6 +7,7 @@ use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
+use brdf_bench::peer::numpy_eval;
 use brdf_core::batch::{Batch, Level};
 use brdf_core::fast::FastSix;
 use brdf_core::table::{fill_six_table, table_len, SixTable, TABLE_SIZES};
@@ -140,52 +142,6 @@ fn stand_in(kind: ModelKind, points: &[Point]) -> Result<AnyModel<f32>> {
         .ok_or_else(|| anyhow!("no fit"))?;
     let p: Vec<f32> = r.params.0.iter().map(|(_, v)| *v as f32).collect();
     AnyModel::new(kind, &p).map_err(|e| anyhow!("{kind:?} stand-in: {e}"))
-}
-
-/// The numpy peer on the same grid: best ns per point, and its values (read back from the
-/// raw f64 file it writes). `None`, with the reason on standard error, when it cannot run.
-fn numpy_peer(points: usize, max_theta: f64, p: &[f64; 6], dir: &Path) -> Option<(f64, Vec<f64>)> {
-    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/../../bench/numpy_eval.py");
-    let values = dir.join("numpy-values.f64");
-    let params = p.map(|v| v.to_string()).join(",");
-    let out = match Command::new("python3")
-        .arg(script)
-        .arg(points.to_string())
-        .arg(max_theta.to_string())
-        .arg(&params)
-        .arg(&values)
-        .output()
-    {
-        Ok(o) => o,
-        Err(e) => {
-            eprintln!("numpy peer: SKIPPED (cannot run python3: {e})");
-            return None;
-        }
-    };
-    if !out.status.success() {
-        let err = String::from_utf8_lossy(&out.stderr);
-        eprintln!(
-            "numpy peer: SKIPPED ({})",
-            err.lines().last().unwrap_or("python3 failed")
-        );
-        return None;
-    }
-    let text = String::from_utf8_lossy(&out.stdout);
-    let ns = text.split_whitespace().next().and_then(|t| t.parse::<f64>().ok());
-    let bytes = std::fs::read(&values).ok();
-    let _ = std::fs::remove_file(&values);
-    match (ns, bytes) {
-        (Some(ns), Some(b)) => Some((
-            ns,
-            b.chunks_exact(8)
-                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
-                .collect(),
-        )),
-        _ => {
-            eprintln!("numpy peer: SKIPPED (unexpected output {text:?})");
-            None
-        }
-    }
 }
 
 /// Structure-of-arrays inputs in one precision.
@@ -421,11 +377,14 @@ impl EvalBench {
         std::fs::create_dir_all(&self.out)
             .with_context(|| format!("cannot create {}", self.out.display()))?;
         if !self.no_numpy {
-            if let Some((ns, values)) = numpy_peer(self.points, self.max_theta, &p64, &self.out) {
-                if values.len() != n {
-                    bail!("numpy peer returned {} values for {n} directions", values.len());
+            match numpy_eval(self.points, self.max_theta, &p64, &self.out) {
+                Ok((ns, values)) => {
+                    if values.len() != n {
+                        bail!("numpy peer returned {} values for {n} directions", values.len());
+                    }
+                    add("numpy f64".into(), 1, ns, &values);
                 }
-                add("numpy f64".into(), 1, ns, &values);
+                Err(why) => eprintln!("numpy peer: SKIPPED ({why})"),
             }
         }
 
@@ -452,7 +411,6 @@ impl EvalBench {
                 label: r.name.clone(),
                 cost: r.ns_per_eval,
                 error: r.max_rel_error,
-                worst: None,
             })
             .collect();
         let dev: Vec<TradePoint> = rows
@@ -462,7 +420,6 @@ impl EvalBench {
                     label: r.name.clone(),
                     cost: r.device_instructions?,
                     error: r.max_rel_error,
-                    worst: None,
                 })
             })
             .collect();

@@ -1,0 +1,106 @@
+//! What every chart shares: the bundled font, the palette, the SVG/PNG backend choice, log
+//! axis ranges and angle labels.
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::{register_font, FontStyle};
+
+use crate::PlotError;
+
+pub(crate) const FONT: &str = "sans-serif";
+pub(crate) const PALETTE: [RGBColor; 5] = [
+    RGBColor(213, 94, 0),
+    RGBColor(0, 114, 178),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+];
+
+pub(crate) fn ensure_font() {
+    static DONE: OnceLock<()> = OnceLock::new();
+    DONE.get_or_init(|| {
+        // The bundled font is valid TrueType; a failure would only lose the text.
+        let _ = register_font(FONT, FontStyle::Normal, include_bytes!("../fonts/DejaVuSans.ttf"));
+    });
+}
+
+pub(crate) type Res = Result<(), String>;
+
+pub(crate) fn err<E: std::fmt::Debug>(e: E) -> String {
+    format!("{e:?}")
+}
+
+/// Renders with the backend the extension names.
+pub(crate) fn render(
+    path: &Path,
+    size: (u32, u32),
+    svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Res,
+    png: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Res,
+) -> Result<(), PlotError> {
+    ensure_font();
+    let file = path.display().to_string();
+    let wrap = |message: String| PlotError::Draw {
+        file: file.clone(),
+        message,
+    };
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("svg") => {
+            let root = SVGBackend::new(path, size).into_drawing_area();
+            root.fill(&WHITE).map_err(err).map_err(wrap)?;
+            svg(&root).map_err(wrap)?;
+            root.present().map_err(err).map_err(wrap)
+        }
+        Some("png") => {
+            let root = BitMapBackend::new(path, size).into_drawing_area();
+            root.fill(&WHITE).map_err(err).map_err(wrap)?;
+            png(&root).map_err(wrap)?;
+            root.present().map_err(err).map_err(wrap)
+        }
+        _ => Err(PlotError::Format(file)),
+    }
+}
+
+/// Degrees with up to two decimals, trailing zeros dropped (11.25, 30, 78.75).
+pub(crate) fn deg(rad: f64) -> String {
+    let s = format!("{:.2}", rad.to_degrees());
+    s.trim_end_matches('0').trim_end_matches('.').to_owned()
+}
+
+/// Log-axis range around the data spanning at least two decades, so that the axis always
+/// carries labelled ticks.
+pub(crate) fn log_range(lo: f64, hi: f64) -> (f64, f64) {
+    let (lo, hi) = (lo / 3.0, hi * 3.0);
+    if hi / lo >= 100.0 {
+        return (lo, hi);
+    }
+    let mid = (lo * hi).sqrt();
+    (mid / 10.0, mid * 10.0)
+}
+
+/// The circle of radius `r` about the origin as 181 points, the last equal to the first.
+pub(crate) fn circle(r: f64) -> Vec<(f64, f64)> {
+    (0..=180)
+        .map(|k| {
+            let a = f64::from(k) * std::f64::consts::TAU / 180.0;
+            (r * a.cos(), r * a.sin())
+        })
+        .collect()
+}
+
+/// The charts' test fixture: synthetic in-plane khaki data at 0 and 30 degrees incidence,
+/// and the model that made it.
+#[cfg(test)]
+pub(crate) fn khaki() -> (brdf_fit::Dataset, crate::Fitted) {
+    use brdf_core::{AnyModel, ModelKind};
+    let p = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+    let data = brdf_fit::synth::in_plane(ModelKind::Six, &p, &[0.0, 30.0], 5.0, 0.01, 7).unwrap();
+    let model = AnyModel::new(ModelKind::Six, &p).unwrap();
+    let fit = crate::Fitted {
+        label: "six".into(),
+        model,
+    };
+    (data, fit)
+}

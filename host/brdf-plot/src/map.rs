@@ -1,0 +1,167 @@
+//! The paper's Fig. 2d–f: the BRDF over the viewing hemisphere as a polar heat map.
+
+use std::path::Path;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use brdf_core::{AnyModel, Brdf};
+
+use crate::common::{circle, deg, err, render, Res, FONT};
+use crate::PlotError;
+
+/// (b) The BRDF over the viewing hemisphere for incidence `theta_i` (radians), as a
+/// heat-mapped polar projection: `(sin theta_r cos phi, sin theta_r sin phi)`, mirror
+/// direction on the left (`phi = 180°`), colour = log10 BRDF.
+pub fn hemisphere_map(
+    path: &Path,
+    title: &str,
+    model: &AnyModel<f64>,
+    theta_i: f64,
+) -> Result<(), PlotError> {
+    const N: usize = 90;
+    let mut cells = Vec::with_capacity(N * N);
+    for i in 0..N {
+        for j in 0..N {
+            let x = -1.0 + (i as f64 + 0.5) * 2.0 / N as f64;
+            let y = -1.0 + (j as f64 + 0.5) * 2.0 / N as f64;
+            let r = (x * x + y * y).sqrt();
+            if r >= 0.999 {
+                continue;
+            }
+            let theta_r = r.asin();
+            let phi = y.atan2(x);
+            let f = model.eval_angles(theta_i, theta_r, phi);
+            if f > 0.0 {
+                cells.push((x, y, f.log10()));
+            }
+        }
+    }
+    if cells.is_empty() {
+        return Err(PlotError::Empty {
+            file: path.display().to_string(),
+            why: "the model is zero over the hemisphere".into(),
+        });
+    }
+    let lo = cells.iter().map(|c| c.2).fold(f64::INFINITY, f64::min);
+    let hi = cells.iter().map(|c| c.2).fold(f64::NEG_INFINITY, f64::max);
+    let span = (hi - lo).max(1e-9);
+    fn draw<DB: DrawingBackend>(
+        root: &DrawingArea<DB, Shift>,
+        title: &str,
+        theta_i: f64,
+        cells: &[(f64, f64, f64)],
+        (lo, span): (f64, f64),
+    ) -> Res {
+        let (head, body) = root.split_vertically(70);
+        head.draw(&Text::new(title, (16, 8), (FONT, 18).into_font()))
+            .map_err(err)?;
+        head.draw(&Text::new(
+            format!("theta_i = {} deg; colour: log10 BRDF (1/sr)", deg(theta_i)),
+            (16, 38),
+            (FONT, 16).into_font(),
+        ))
+        .map_err(err)?;
+        let (map_area, bar_area) = body.split_horizontally(640);
+        let mut chart = ChartBuilder::on(&map_area)
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(56)
+            .build_cartesian_2d(-1f64..1f64, -1f64..1f64)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("sin(theta_r) cos(phi)   (mirror side: left)")
+            .y_desc("sin(theta_r) sin(phi)")
+            .label_style((FONT, 14))
+            .axis_desc_style((FONT, 15))
+            .draw()
+            .map_err(err)?;
+        let h = 1.0 / N as f64;
+        chart
+            .draw_series(cells.iter().map(|&(x, y, v)| {
+                Rectangle::new(
+                    [(x - h, y - h), (x + h, y + h)],
+                    viridis((v - lo) / span).filled(),
+                )
+            }))
+            .map_err(err)?;
+        // Zenith rings at 30 and 60 degrees.
+        for deg in [30.0f64, 60.0] {
+            let r = deg.to_radians().sin();
+            let ring = circle(r);
+            chart
+                .draw_series(LineSeries::new(ring, WHITE.mix(0.6).stroke_width(1)))
+                .map_err(err)?;
+        }
+        let mut bar = ChartBuilder::on(&bar_area)
+            .caption("log10 BRDF (1/sr)", (FONT, 15))
+            .margin_top(40)
+            .margin_bottom(56)
+            .margin_right(50)
+            .y_label_area_size(50)
+            .build_cartesian_2d(0f64..1f64, lo..lo + span)
+            .map_err(err)?;
+        bar.configure_mesh()
+            .disable_mesh()
+            .disable_x_axis()
+            .label_style((FONT, 14))
+            .draw()
+            .map_err(err)?;
+        let steps = 100;
+        bar.draw_series((0..steps).map(|k| {
+            let a = lo + span * k as f64 / steps as f64;
+            let b = lo + span * (k + 1) as f64 / steps as f64;
+            Rectangle::new([(0.0, a), (1.0, b)], viridis((a - lo) / span).filled())
+        }))
+        .map_err(err)?;
+        Ok(())
+    }
+    render(
+        path,
+        (820, 770),
+        |r| draw(r, title, theta_i, &cells, (lo, span)),
+        |r| draw(r, title, theta_i, &cells, (lo, span)),
+    )
+}
+
+/// Five-stop viridis, `t` in [0, 1].
+fn viridis(t: f64) -> RGBColor {
+    const STOPS: [(f64, f64, f64); 5] = [
+        (68.0, 1.0, 84.0),
+        (59.0, 82.0, 139.0),
+        (33.0, 145.0, 140.0),
+        (94.0, 201.0, 98.0),
+        (253.0, 231.0, 37.0),
+    ];
+    let t = t.clamp(0.0, 1.0) * 4.0;
+    let k = (t.floor() as usize).min(3);
+    let f = t - k as f64;
+    let (a, b) = (STOPS[k], STOPS[k + 1]);
+    let mix = |x: f64, y: f64| (x + (y - x) * f).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_svg_and_png() {
+        let model = crate::common::khaki().1.model;
+        let dir = tempfile::tempdir().unwrap();
+        for ext in ["svg", "png"] {
+            let b = dir.path().join(format!("b.{ext}"));
+            hemisphere_map(&b, "t", &model, 0.5).unwrap();
+            assert!(std::fs::metadata(&b).unwrap().len() > 1000, "{}", b.display());
+        }
+    }
+
+    #[test]
+    fn viridis_runs_from_purple_to_yellow() {
+        assert_eq!(viridis(0.0), RGBColor(68, 1, 84));
+        assert_eq!(viridis(1.0), RGBColor(253, 231, 37));
+        assert_eq!(viridis(-1.0), viridis(0.0));
+    }
+}
