@@ -154,8 +154,7 @@ fn flash_reads_slot_addresses_from_the_elf_and_needs_a_probe() {
             .status
             .success()
     );
-    let elf = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../firmware/target/thumbv7em-none-eabihf/release/brdf-fw");
+    let elf = brdf_link::firmware::in_repo(brdf_link::firmware::qemu_elf("brdf-fw"));
     let args = |extra: &[&str]| {
         let mut a = vec![
             "flash",
