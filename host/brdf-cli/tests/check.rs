@@ -4,7 +4,6 @@
 //! Needs `qemu-system-arm` and the cross target; fails without them unless `BRDF_SKIP_QEMU=1`
 //! (set by `.ci/run` after printing a `SKIPPED:` line).
 
-use std::path::PathBuf;
 use std::process::Command;
 
 fn brdf(args: &[&str]) -> std::process::Output {
