@@ -298,7 +298,7 @@ pub mod qemu {
             .ok()?;
         status
             .success()
-            .then(|| dir.join("target/thumbv7em-none-eabihf/release").join(bin))
+            .then(|| brdf_link::firmware::in_repo(brdf_link::firmware::qemu_elf(bin)))
     }
 
     /// Builds the firmware and returns its ELF. Without `qemu-system-arm` or the cross target

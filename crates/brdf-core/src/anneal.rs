@@ -24,7 +24,8 @@ use rand_core::RngCore;
 use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;
-use crate::model::{Brdf, Model, ModelKind, MAX_PARAMS};
+use crate::model::{AnyModel, Brdf, Model, ModelKind, MAX_PARAMS};
+use crate::models::{FiveParam, Lambert, Minnaert, SixParam, SixParamCos2};
 
 /// One field measurement, its geometry precomputed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,6 +62,19 @@ impl<T: core::fmt::Debug> core::fmt::Display for SampleError<T> {
 }
 
 impl<T: core::fmt::Debug> core::error::Error for SampleError<T> {}
+
+/// The [`Display`](core::fmt::Display) text, without the handed-back sample.
+#[cfg(feature = "defmt")]
+impl<T> defmt::Format for SampleError<T> {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        match self {
+            SampleError::NotFinite => defmt::write!(f, "sample is not finite"),
+            SampleError::ZenithOutOfRange => defmt::write!(f, "zenith outside [0, pi/2)"),
+            SampleError::NonPositiveBrdf => defmt::write!(f, "brdf must be > 0"),
+            SampleError::Full(_) => defmt::write!(f, "sample buffer is full"),
+        }
+    }
+}
 
 /// Up to `N` samples, without heap.
 #[derive(Clone, Debug)]
@@ -122,7 +136,17 @@ impl<T: Float, const N: usize> Samples<T, N> {
     }
 }
 
-/// Search box: per parameter (paper order) its bounds, and whether it is searched in log space.
+/// Search box of the on-sensor annealer: per parameter, in the paper's order and sign, its
+/// bounds and whether it is searched in log space. `b` is the paper's `b <= 0`, so its box is
+/// `[-200, 0]`.
+///
+/// The host fitter's box (`brdf_fit::problem::bounds`) spans the same `kr`, `b`, `a`, `c`
+/// ranges in the fitter's internal coordinates instead (`ln kr`, and `beta = |b| = -b` in
+/// `[0, 200]`) and leaves the linear weights unbounded above. They stay two boxes because the
+/// annealer maps a uniform draw `u` to `lo + (hi - lo) u`: storing `beta` here would mirror
+/// every draw of `b` and so change every device answer (pinned bit for bit by the QEMU FIT
+/// tests and `known_answer_for_a_fixed_seed`), and the finite bounds on `kb`, `kd` and `rho0`
+/// are what the solved weights are clamped to here.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SearchBox<T> {
     /// Lower bounds.
@@ -134,7 +158,7 @@ pub struct SearchBox<T> {
 }
 
 impl<T: Float> SearchBox<T> {
-    /// The host engine's box for `kind`: `kb` [0, 1e4], `kr` [0.01, 1000] (log), `b` [-200, 0],
+    /// The box for `kind` (the device's FIT and [`anneal_kind`] use it): `kb` [0, 1e4], `kr` [0.01, 1000] (log), `b` [-200, 0],
     /// `a` [0.05, 4], `kd` [0, 10], `c` [0, 5]; Minnaert `rho0` [0, 100], `k` [0.01, 1];
     /// Lambert `rho0` [0, 100].
     pub fn for_kind(kind: ModelKind) -> Self {
@@ -198,6 +222,7 @@ impl<T: Float> Default for AnnealConfig<T> {
 
 /// Why a run could not start.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum AnnealError {
     /// No samples.
@@ -307,6 +332,15 @@ pub fn relative_cost<T: Float, M: Brdf<T>>(model: &M, samples: &[Sample<T>]) -> 
 /// Non-negative least squares for one or two weights from the normal equations
 /// `[a00 a01; a01 a11] w = [b0 b1]`: the best of the unconstrained solution (if both
 /// weights are >= 0) and each single-weight solution.
+///
+/// The host fitter's `brdf_fit::problem::ProjectionSums::solve` picks among the same three
+/// candidates but stays separate: it returns the residual cost
+/// `0.5 (w^T A w - 2 b^T w + y^T y)` that the fitter minimises, compares candidates by that
+/// cost (with `y^T y`) and guards `det` relative to `a00 a11`. Here, in f32 with relative
+/// residuals, `y^T y` is the sample count and would swamp the differences being compared, so
+/// candidates are compared by `0.5 w^T A w - b^T w` alone. One shared solver would change the
+/// rounding of one side: the device's answers are pinned bit for bit (QEMU FIT tests), the
+/// host's by the fit and report tests.
 fn nnls2<T: Float>(a00: T, a01: T, a11: T, b0: T, b1: T, nb: usize) -> [T; 2] {
     // 0.5 * cost up to a constant: 0.5 w^T A w - b^T w.
     let q = |w0: T, w1: T| {
@@ -354,6 +388,47 @@ fn normal<T: Float, R: RngCore>(rng: &mut R) -> T {
         s = s + unit::<T, R>(rng);
     }
     (s - T::TWO) * T::from_f64(1.732_050_807_568_877_2)
+}
+
+/// Seed of the device's annealer generator: the firmware seeds `rand_pcg::Pcg32` with it for
+/// every FIT, so that a host seeding the same generator with it reproduces the device's
+/// answer bit for bit (the QEMU tests do; `brdf_fit::embedded` does at its default seed).
+pub const DEVICE_SEED: u64 = 1;
+
+/// The annealer for the model `kind` names, within its box ([`SearchBox::for_kind`]): the one
+/// dispatch from a run-time [`ModelKind`] to the annealer's instantiations, for the firmware's
+/// FIT and the host's embedded engine. The outcome is [`anneal_with_progress`]'s, with the
+/// model as an [`AnyModel`].
+pub fn anneal_kind<T: Float, R: RngCore, const N: usize>(
+    kind: ModelKind,
+    samples: &Samples<T, N>,
+    cfg: &AnnealConfig<T>,
+    rng: &mut R,
+    progress: impl FnMut(u32),
+) -> Result<AnnealOutcome<T, AnyModel<T>>, AnnealError> {
+    fn run<T: Float, M: Model<T>, R: RngCore, const N: usize>(
+        samples: &Samples<T, N>,
+        cfg: &AnnealConfig<T>,
+        rng: &mut R,
+        progress: impl FnMut(u32),
+        wrap: fn(M) -> AnyModel<T>,
+    ) -> Result<AnnealOutcome<T, AnyModel<T>>, AnnealError> {
+        let o =
+            anneal_with_progress::<T, M, R, N>(samples, &SearchBox::for_kind(M::KIND), cfg, rng, progress)?;
+        Ok(AnnealOutcome {
+            model: wrap(o.model),
+            params: o.params,
+            rms_rel: o.rms_rel,
+            evals: o.evals,
+        })
+    }
+    match kind {
+        ModelKind::Six => run::<T, SixParam<T>, R, N>(samples, cfg, rng, progress, AnyModel::Six),
+        ModelKind::SixCos2 => run::<T, SixParamCos2<T>, R, N>(samples, cfg, rng, progress, AnyModel::SixCos2),
+        ModelKind::Five => run::<T, FiveParam<T>, R, N>(samples, cfg, rng, progress, AnyModel::Five),
+        ModelKind::Minnaert => run::<T, Minnaert<T>, R, N>(samples, cfg, rng, progress, AnyModel::Minnaert),
+        ModelKind::Lambert => run::<T, Lambert<T>, R, N>(samples, cfg, rng, progress, AnyModel::Lambert),
+    }
 }
 
 /// Runs the annealer for model `M` on `samples` within `bounds`, with the generator it is
@@ -518,8 +593,74 @@ pub fn anneal_with_progress<T: Float, M: Model<T>, R: RngCore, const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::models::{Lambert, SixParam};
     use rand_core::SeedableRng;
+
+    /// Khaki (Table 1), noise-free, at 24 directions over 3 incidences.
+    fn khaki_24() -> Samples<f32, 32> {
+        let m = SixParam::<f32>::from_params(&[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
+        let mut s = Samples::new();
+        for k in 0..24 {
+            let (ti, tr) = ((k % 3) as f32 * 0.3, 0.05 + 0.06 * k as f32);
+            s.push_angles(ti, tr, 3.0, m.eval_angles(ti, tr, 3.0)).unwrap();
+        }
+        s
+    }
+
+    /// The run-time dispatch runs exactly the typed annealer of each kind, in its box.
+    #[test]
+    fn dispatch_by_kind_is_the_typed_annealer() {
+        fn typed<M: Model<f32>>(
+            s: &Samples<f32, 32>,
+            cfg: &AnnealConfig<f32>,
+        ) -> AnnealOutcome<f32, AnyModel<f32>> {
+            let mut rng = rand_pcg::Pcg32::seed_from_u64(DEVICE_SEED);
+            let o = anneal::<f32, M, _, 32>(s, &SearchBox::for_kind(M::KIND), cfg, &mut rng).unwrap();
+            AnnealOutcome {
+                model: AnyModel::new(M::KIND, &o.params[..M::KIND.param_count()]).unwrap(),
+                params: o.params,
+                rms_rel: o.rms_rel,
+                evals: o.evals,
+            }
+        }
+        let s = khaki_24();
+        let cfg = AnnealConfig {
+            budget: 300,
+            ..AnnealConfig::default()
+        };
+        let want = [
+            typed::<SixParam<f32>>(&s, &cfg),
+            typed::<SixParamCos2<f32>>(&s, &cfg),
+            typed::<FiveParam<f32>>(&s, &cfg),
+            typed::<Minnaert<f32>>(&s, &cfg),
+            typed::<Lambert<f32>>(&s, &cfg),
+        ];
+        for (kind, want) in ModelKind::ALL.into_iter().zip(want) {
+            let mut rng = rand_pcg::Pcg32::seed_from_u64(DEVICE_SEED);
+            let mut calls = 0;
+            let got = anneal_kind(kind, &s, &cfg, &mut rng, |_| calls += 1).unwrap();
+            assert_eq!(got.model.kind(), kind);
+            assert_eq!(
+                (got.params, got.rms_rel, got.evals),
+                (want.params, want.rms_rel, want.evals),
+                "{kind:?}"
+            );
+            assert_eq!(got.model.to_params(), want.model.to_params(), "{kind:?}");
+            // Every evaluation is reported (Lambert has nothing to anneal after its screen).
+            let reported = if kind == ModelKind::Lambert {
+                cfg.screen
+            } else {
+                cfg.budget
+            };
+            assert_eq!(calls, reported, "{kind:?}");
+        }
+        // Its errors are the annealer's.
+        let empty: Samples<f32, 32> = Samples::new();
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(DEVICE_SEED);
+        assert_eq!(
+            anneal_kind(ModelKind::Six, &empty, &cfg, &mut rng, |_| {}).unwrap_err(),
+            AnnealError::NoSamples
+        );
+    }
 
     #[test]
     fn ram_is_pinned() {
@@ -614,12 +755,7 @@ mod tests {
 
     #[test]
     fn progress_is_reported_after_every_evaluation_and_changes_nothing() {
-        let m = SixParam::<f32>::from_params(&[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
-        let mut s: Samples<f32, 32> = Samples::new();
-        for k in 0..24 {
-            let (ti, tr) = ((k % 3) as f32 * 0.3, 0.05 + 0.06 * k as f32);
-            s.push_angles(ti, tr, 3.0, m.eval_angles(ti, tr, 3.0)).unwrap();
-        }
+        let s = khaki_24();
         let cfg = AnnealConfig {
             budget: 500,
             ..AnnealConfig::default()

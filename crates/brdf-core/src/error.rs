@@ -20,6 +20,7 @@ impl fmt::Display for Compact {
 
 /// A parameter set a model cannot be built from.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum ParamError {
     /// The slice holds the wrong number of values for the model.
@@ -67,6 +68,7 @@ impl core::error::Error for ParamError {}
 
 /// An input direction the checked evaluation API refuses.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum DomainError {
     /// An input is NaN or infinite.

@@ -75,6 +75,7 @@ pub trait Model<T: Float>: Brdf<T> + Sized {
 
 /// The members of the model family, for run-time selection (CLI, wire formats).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ModelKind {
     /// Six-parameter model, eq. 3 (canonical).
     Six,

@@ -249,6 +249,28 @@ impl core::fmt::Display for BlobError {
 
 impl core::error::Error for BlobError {}
 
+/// The firmware's log names the fault in a word or two (`CRC`, `version`, `table`); the
+/// host prints the [`Display`](core::fmt::Display) sentence.
+#[cfg(feature = "defmt")]
+impl defmt::Format for BlobError {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        match self {
+            BlobError::Length => defmt::write!(f, "length"),
+            BlobError::Magic => defmt::write!(f, "magic"),
+            BlobError::Version(_) => defmt::write!(f, "version"),
+            BlobError::Flags(_) => defmt::write!(f, "flags"),
+            BlobError::Reserved(_) => defmt::write!(f, "reserved field"),
+            BlobError::Crc => defmt::write!(f, "CRC"),
+            BlobError::MaterialCount(_) => defmt::write!(f, "material count"),
+            BlobError::ModelId(..) => defmt::write!(f, "model id"),
+            BlobError::ParamCount(_) => defmt::write!(f, "parameter count"),
+            BlobError::Params(_) => defmt::write!(f, "parameters"),
+            BlobError::Table(_) => defmt::write!(f, "table"),
+            BlobError::BufferTooSmall => defmt::write!(f, "buffer too small"),
+        }
+    }
+}
+
 /// A decoded, validated parameter blob.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Blob {

@@ -55,7 +55,9 @@ const _: () = assert!(3 + crate::blob::MAX_BLOB_LEN <= MAX_PAYLOAD);
 pub const MAX_FRAME: usize = cobs::max_encoding_length(MAX_PAYLOAD + 4) + 1;
 
 /// Error codes carried by ERROR replies (and returned by the reader).
+/// With the `defmt` feature it logs as its name, as [`ErrorCode::name`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
 pub enum ErrorCode {
     /// The frame's CRC does not match (or its COBS encoding is broken).
@@ -105,6 +107,35 @@ impl ErrorCode {
         ]
         .into_iter()
         .find(|c| *c as u8 == b)
+    }
+}
+
+/// The code's name as the host prints it (`OutOfDomain`, `StaleSequence`, ...): a stable
+/// identifier to search the documentation of [`ErrorCode`] for.
+impl core::fmt::Display for ErrorCode {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl ErrorCode {
+    /// The code's name (`"OutOfDomain"`, ...), as [`Display`](core::fmt::Display) and the
+    /// firmware's log print it.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ErrorCode::BadCrc => "BadCrc",
+            ErrorCode::UnknownVersion => "UnknownVersion",
+            ErrorCode::UnknownMaterial => "UnknownMaterial",
+            ErrorCode::OutOfDomain => "OutOfDomain",
+            ErrorCode::FrameTooLarge => "FrameTooLarge",
+            ErrorCode::Busy => "Busy",
+            ErrorCode::Malformed => "Malformed",
+            ErrorCode::UnknownKind => "UnknownKind",
+            ErrorCode::InvalidBlob => "InvalidBlob",
+            ErrorCode::FitFailed => "FitFailed",
+            ErrorCode::StaleSequence => "StaleSequence",
+            ErrorCode::FlashFailed => "FlashFailed",
+        }
     }
 }
 

@@ -20,8 +20,9 @@ use crate::blob::{Blob, BlobError, MAX_BLOB_LEN};
 /// Bytes of a slot image: the length word and the largest blob.
 pub const SLOT_IMAGE_LEN: usize = 4 + MAX_BLOB_LEN;
 
-/// The two slots.
+/// The two slots (with the `defmt` feature, logged as `A` and `B`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SlotId {
     /// Slot A.
     A,
@@ -73,6 +74,43 @@ impl SlotState {
         match self {
             SlotState::Valid { sequence, .. } => Some(*sequence),
             _ => None,
+        }
+    }
+}
+
+/// One line for the host (`brdf flash`): `empty`, `invalid (length 5000)`,
+/// `invalid (blob CRC mismatch)` or `valid, sequence 6, 76 bytes, CRC 0x8bc7d10b`. The
+/// firmware's boot log prints the same facts in its own form (the `defmt` feature).
+impl core::fmt::Display for SlotState {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            SlotState::Empty => write!(f, "empty"),
+            SlotState::BadLength(n) => write!(f, "invalid (length {n})"),
+            SlotState::Invalid(e) => write!(f, "invalid ({e})"),
+            SlotState::Valid { sequence, crc, len } => {
+                write!(f, "valid, sequence {sequence}, {len} bytes, CRC {crc:#010x}")
+            }
+        }
+    }
+}
+
+/// What the firmware's boot log prints after `boot: slot A `: `empty`, `invalid: length 5000`,
+/// `invalid: CRC` (the blob error's short name) or
+/// `valid: sequence 6, 76 bytes, CRC 0x8bc7d10b` (the golden boot logs pin this text).
+#[cfg(feature = "defmt")]
+impl defmt::Format for SlotState {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        match self {
+            SlotState::Empty => defmt::write!(f, "empty"),
+            SlotState::BadLength(n) => defmt::write!(f, "invalid: length {=u32}", n),
+            SlotState::Invalid(e) => defmt::write!(f, "invalid: {}", e),
+            SlotState::Valid { sequence, crc, len } => defmt::write!(
+                f,
+                "valid: sequence {=u32}, {=u32} bytes, CRC {=u32:#010x}",
+                sequence,
+                len,
+                crc
+            ),
         }
     }
 }
@@ -160,6 +198,129 @@ impl core::fmt::Display for CommitError {
                  after a restart the older blob would win",
                 active.wrapping_add(1)
             ),
+        }
+    }
+}
+
+/// Both slots as read: their states, the decoded contents of the valid ones, and the one to
+/// boot from. The one reading of the slot pair, for the firmware's boot and COMMIT and for
+/// `brdf flash`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SlotPair<'a> {
+    /// What slot A holds.
+    pub a: SlotState,
+    /// What slot B holds.
+    pub b: SlotState,
+    /// The slot to boot from ([`select`]): the valid one with the newer sequence number.
+    pub newest: Option<SlotId>,
+    contents: [Option<(&'a [u8], Blob)>; 2],
+}
+
+impl<'a> SlotPair<'a> {
+    /// Reads the images of slot A and slot B ([`read_slot`]) and selects the newest valid one.
+    pub fn read(image_a: &'a [u8], image_b: &'a [u8]) -> SlotPair<'a> {
+        let (a, ca) = read_slot(image_a);
+        let (b, cb) = read_slot(image_b);
+        let newest = select(&a, &b);
+        SlotPair {
+            a,
+            b,
+            newest,
+            contents: [ca, cb],
+        }
+    }
+
+    /// The state of slot `id`.
+    pub fn state(&self, id: SlotId) -> &SlotState {
+        match id {
+            SlotId::A => &self.a,
+            SlotId::B => &self.b,
+        }
+    }
+
+    /// The newest valid slot's sequence number (`None`: no valid slot).
+    pub fn newest_sequence(&self) -> Option<u32> {
+        self.newest.and_then(|id| self.state(id).sequence())
+    }
+
+    /// The slot a new blob goes to ([`commit_target`]): never the newest valid one.
+    pub fn target(&self) -> SlotId {
+        commit_target(self.newest)
+    }
+
+    /// The slot to boot from with its blob bytes and the blob they decode to, or `None` for
+    /// the built-in default.
+    pub fn into_active(self) -> Option<(SlotId, &'a [u8], Blob)> {
+        let id = self.newest?;
+        let [a, b] = self.contents;
+        let (bytes, blob) = match id {
+            SlotId::A => a,
+            SlotId::B => b,
+        }?;
+        Some((id, bytes, blob))
+    }
+
+    /// Plans committing `blob` over these slots: checks it ([`slot_image`] against
+    /// [`SlotPair::newest_sequence`]), writes its slot image into `out` and names the slot it
+    /// goes to ([`SlotPair::target`]).
+    pub fn plan(&self, blob: &[u8], out: &mut [u8]) -> Result<CommitPlan, CommitError> {
+        let (image_len, blob) = slot_image(blob, self.newest_sequence(), out)?;
+        Ok(CommitPlan {
+            a: self.a,
+            b: self.b,
+            target: self.target(),
+            image_len,
+            blob,
+        })
+    }
+}
+
+/// How a blob is committed over two slots ([`plan_commit`]): what both slots held, the slot
+/// to write, and the image to write there (in the caller's buffer).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CommitPlan {
+    /// What slot A held.
+    pub a: SlotState,
+    /// What slot B held.
+    pub b: SlotState,
+    /// The slot to write: never the newest valid one.
+    pub target: SlotId,
+    /// Bytes of the slot image (length word and blob) at the start of the caller's buffer.
+    pub image_len: usize,
+    /// The blob, decoded and checked.
+    pub blob: Blob,
+}
+
+impl CommitPlan {
+    /// The new blob's sequence number.
+    pub fn sequence(&self) -> u32 {
+        self.blob.sequence
+    }
+}
+
+/// The slot commit plan, for the firmware's COMMIT and for `brdf flash`: reads the images of
+/// slot A and slot B, finds the newest valid one, checks that `blob` decodes and has a newer
+/// sequence number ([`is_newer`]), writes its slot image into `out` and chooses the slot to
+/// write ([`commit_target`]). Program `out[..image_len]` there blob-first, length word last,
+/// then read it back.
+pub fn plan_commit(
+    image_a: &[u8],
+    image_b: &[u8],
+    blob: &[u8],
+    out: &mut [u8],
+) -> Result<CommitPlan, CommitError> {
+    SlotPair::read(image_a, image_b).plan(blob, out)
+}
+
+/// The firmware's log text: `sequence 5 not newer than 5`, or the blob error's short name.
+#[cfg(feature = "defmt")]
+impl defmt::Format for CommitError {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        match self {
+            CommitError::Blob(e) => defmt::write!(f, "{}", e),
+            CommitError::Stale { sequence, active } => {
+                defmt::write!(f, "sequence {=u32} not newer than {=u32}", sequence, active)
+            }
         }
     }
 }
@@ -299,6 +460,136 @@ mod tests {
         let mut img = [0u8; SLOT_IMAGE_LEN];
         assert!(slot_image(&blob[..n], Some(2), &mut img).is_err());
         assert!(slot_image(&blob[..n], None, &mut img).is_ok());
+    }
+
+    fn encoded(sequence: u32) -> ([u8; MAX_BLOB_LEN], usize) {
+        let mut b = table1_blob();
+        b.sequence = sequence;
+        let mut blob = [0u8; MAX_BLOB_LEN];
+        let n = b.encode(&mut blob).unwrap();
+        (blob, n)
+    }
+
+    #[test]
+    fn commit_plan_over_both_empty_slots_writes_a() {
+        let erased = [0xFFu8; SLOT_IMAGE_LEN];
+        let (blob, n) = encoded(7);
+        let mut out = [0u8; SLOT_IMAGE_LEN];
+        let p = plan_commit(&erased, &erased, &blob[..n], &mut out).unwrap();
+        assert_eq!(
+            (p.a, p.b, p.target),
+            (SlotState::Empty, SlotState::Empty, SlotId::A)
+        );
+        assert_eq!((p.image_len, p.sequence()), (n + 4, 7));
+        // The image in `out` reads back as the blob.
+        let (state, contents) = read_slot(&out[..p.image_len]);
+        assert!(matches!(state, SlotState::Valid { sequence: 7, .. }));
+        assert_eq!(contents.unwrap().0, &blob[..n]);
+        assert_eq!(SlotPair::read(&erased, &erased).into_active(), None);
+    }
+
+    #[test]
+    fn commit_plan_writes_the_slot_that_is_not_the_newest_valid_one() {
+        let erased = [0xFFu8; SLOT_IMAGE_LEN];
+        let mut out = [0u8; SLOT_IMAGE_LEN];
+        let (blob, n) = encoded(9);
+        // One valid slot, either one: the other is written.
+        let p = plan_commit(&image(5), &erased, &blob[..n], &mut out).unwrap();
+        assert_eq!(p.target, SlotId::B);
+        assert!(matches!(p.a, SlotState::Valid { sequence: 5, .. }));
+        let p = plan_commit(&erased, &image(5), &blob[..n], &mut out).unwrap();
+        assert_eq!((p.a, p.target), (SlotState::Empty, SlotId::A));
+        // Both valid: the older one is overwritten.
+        assert_eq!(
+            plan_commit(&image(5), &image(6), &blob[..n], &mut out)
+                .unwrap()
+                .target,
+            SlotId::A
+        );
+        assert_eq!(
+            plan_commit(&image(6), &image(5), &blob[..n], &mut out)
+                .unwrap()
+                .target,
+            SlotId::B
+        );
+        // The active contents are the newest slot's.
+        let (a, b) = (image(5), image(6));
+        let (id, bytes, decoded) = SlotPair::read(&a, &b).into_active().unwrap();
+        assert_eq!((id, decoded.sequence, bytes.len()), (SlotId::B, 6, n));
+    }
+
+    #[test]
+    fn commit_plan_across_the_sequence_wrap() {
+        let (a, b) = (image(0xFFFF_FFFF), image(0));
+        // 0 follows 0xFFFF_FFFF: B is the newest, A is written, and 1 is accepted.
+        let pair = SlotPair::read(&a, &b);
+        assert_eq!(
+            (pair.newest, pair.newest_sequence(), pair.target()),
+            (Some(SlotId::B), Some(0), SlotId::A)
+        );
+        let mut out = [0u8; SLOT_IMAGE_LEN];
+        let (blob, n) = encoded(1);
+        let p = plan_commit(&a, &b, &blob[..n], &mut out).unwrap();
+        assert_eq!((p.target, p.sequence()), (SlotId::A, 1));
+        // 0xFFFF_FFFF (older than 0 in serial-number order) is stale.
+        let (old, m) = encoded(0xFFFF_FFFF);
+        assert_eq!(
+            plan_commit(&a, &b, &old[..m], &mut out),
+            Err(CommitError::Stale {
+                sequence: 0xFFFF_FFFF,
+                active: 0
+            })
+        );
+    }
+
+    #[test]
+    fn commit_plan_skips_a_torn_slot_and_refuses_bad_blobs() {
+        let erased = [0xFFu8; SLOT_IMAGE_LEN];
+        let valid = image(4);
+        // A torn write: length word over a partly erased blob. It never counts as newest,
+        // so it is the slot written next.
+        let mut torn = image(8);
+        torn[60..].fill(0xFF);
+        let mut out = [0u8; SLOT_IMAGE_LEN];
+        let (blob, n) = encoded(5);
+        let p = plan_commit(&torn, &valid, &blob[..n], &mut out).unwrap();
+        assert!(matches!(p.a, SlotState::Invalid(_)));
+        assert_eq!(p.target, SlotId::A);
+        // A blob that does not decode, one that is not newer, and one too large for `out`.
+        assert_eq!(
+            plan_commit(&torn, &valid, &blob[..n - 1], &mut out),
+            Err(CommitError::Blob(BlobError::Crc))
+        );
+        let (stale, m) = encoded(4);
+        assert!(matches!(
+            plan_commit(&torn, &valid, &stale[..m], &mut out),
+            Err(CommitError::Stale {
+                sequence: 4,
+                active: 4
+            })
+        ));
+        assert_eq!(
+            plan_commit(&erased, &erased, &blob[..n], &mut out[..n]),
+            Err(CommitError::Blob(BlobError::BufferTooSmall))
+        );
+    }
+
+    #[test]
+    fn slot_states_print_one_line_each() {
+        extern crate std;
+        use std::string::ToString;
+        assert_eq!(SlotState::Empty.to_string(), "empty");
+        assert_eq!(SlotState::BadLength(5000).to_string(), "invalid (length 5000)");
+        assert_eq!(
+            SlotState::Invalid(BlobError::Crc).to_string(),
+            "invalid (blob CRC mismatch)"
+        );
+        let valid = SlotState::Valid {
+            sequence: 6,
+            crc: 0x8bc7_d10b,
+            len: 76,
+        };
+        assert_eq!(valid.to_string(), "valid, sequence 6, 76 bytes, CRC 0x8bc7d10b");
     }
 
     #[test]

@@ -237,3 +237,19 @@ proptest! {
         let _ = parse_response(&bytes);
     }
 }
+
+/// Every code's printed name is its variant's name (what `brdf query` and the link's errors
+/// print), and every wire byte maps back to it.
+#[test]
+fn error_codes_print_their_names() {
+    let mut n = 0;
+    for b in 0..=u8::MAX {
+        if let Some(code) = ErrorCode::from_u8(b) {
+            assert_eq!(code as u8, b);
+            assert_eq!(code.to_string(), format!("{code:?}"));
+            n += 1;
+        }
+    }
+    assert_eq!(n, 12);
+    assert_eq!(ErrorCode::StaleSequence.to_string(), "StaleSequence");
+}

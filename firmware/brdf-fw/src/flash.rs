@@ -61,7 +61,7 @@ pub trait Flash {
     fn program(&mut self, slot: SlotId, offset: usize, bytes: &[u8]) -> Result<(), FlashError>;
 }
 
-/// Writes a slot image (from `brdf_wire::slots::slot_image`) to `slot`: erase, the blob
+/// Writes a slot image (from `brdf_wire::slots::plan_commit`) to `slot`: erase, the blob
 /// bytes, then the length word, then a full read-back. Interrupted anywhere, the slot reads
 /// as empty or invalid and the other slot is untouched.
 pub fn write_slot<F: Flash>(flash: &mut F, slot: SlotId, image: &[u8]) -> Result<(), FlashError> {

@@ -11,19 +11,15 @@
 #![no_std]
 #![no_main]
 
-use brdf_core::anneal::{anneal_with_progress, AnnealConfig, Samples, SearchBox};
+use brdf_core::anneal::{anneal_kind, AnnealConfig, Samples, DEVICE_SEED};
 use brdf_core::table::{SixTable, TableConsts};
-use brdf_core::{
-    AnyModel, Brdf, FiveParam, Geometry, Lambert, Minnaert, Model, ModelKind, SixParam, SixParamCos2,
-};
+use brdf_core::{AnyModel, Brdf, Geometry, ModelKind};
 use brdf_wire::blob::{blob_crc, table1_blob, Blob, TableRef, BLOB_VERSION, MAX_BLOB_LEN};
 use brdf_wire::frame::{
     encode_response, parse_request, samples, ErrorCode, FrameReader, Input, Request, Response, MAX_BATCH,
     MAX_FIT_BUDGET, MAX_FIT_SAMPLES, MAX_FRAME, PROGRESS_SAMPLE_EVALS,
 };
-use brdf_wire::slots::{
-    commit_target, read_slot, select, slot_image, CommitError, SlotId, SlotState, SLOT_IMAGE_LEN,
-};
+use brdf_wire::slots::{plan_commit, CommitError, SlotId, SlotPair, SlotState, SLOT_IMAGE_LEN};
 use cortex_m_rt::entry;
 use rand_core::SeedableRng;
 
@@ -137,27 +133,6 @@ impl FitJob {
     }
 }
 
-fn fit<M: Model<f32>>(
-    s: &Samples<f32, MAX_FIT_SAMPLES>,
-    budget: u32,
-    progress: impl FnMut(u32),
-) -> Result<([f32; 6], f32, u32), ErrorCode> {
-    let mut rng = rand_pcg::Pcg32::seed_from_u64(1);
-    let cfg = AnnealConfig {
-        budget,
-        ..AnnealConfig::default()
-    };
-    anneal_with_progress::<f32, M, _, MAX_FIT_SAMPLES>(
-        s,
-        &SearchBox::for_kind(M::KIND),
-        &cfg,
-        &mut rng,
-        progress,
-    )
-    .map(|o| (o.params, o.rms_rel, o.evals))
-    .map_err(|_| ErrorCode::FitFailed)
-}
-
 /// Runs a FIT (request tag `tag`). After every evaluation it answers the requests that have
 /// arrived meanwhile with `Busy` (bad frames with their error, as always), and after every
 /// `PROGRESS_SAMPLE_EVALS` sample evaluations it sends PROGRESS with the FIT's tag.
@@ -191,22 +166,19 @@ fn run_fit<P: Port>(
             }
         }
     };
-    let s = &job.samples;
-    let r = match job.model {
-        ModelKind::Six => fit::<SixParam<f32>>(s, budget, progress),
-        ModelKind::SixCos2 => fit::<SixParamCos2<f32>>(s, budget, progress),
-        ModelKind::Five => fit::<FiveParam<f32>>(s, budget, progress),
-        ModelKind::Minnaert => fit::<Minnaert<f32>>(s, budget, progress),
-        ModelKind::Lambert => fit::<Lambert<f32>>(s, budget, progress),
+    let cfg = AnnealConfig {
+        budget,
+        ..AnnealConfig::default()
     };
-    match r {
-        Ok((params, rms_rel, evals)) => Response::Fitted {
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(DEVICE_SEED);
+    match anneal_kind(job.model, &job.samples, &cfg, &mut rng, progress) {
+        Ok(o) => Response::Fitted {
             model: job.model,
-            params,
-            rms_rel,
-            evals,
+            params: o.params,
+            rms_rel: o.rms_rel,
+            evals: o.evals,
         },
-        Err(e) => Response::Error(e),
+        Err(_) => Response::Error(ErrorCode::FitFailed),
     }
 }
 
@@ -268,35 +240,19 @@ fn handle<'v, F: Flash>(
 
 /// Reads both slots, logs what each holds, and returns the newest valid one's contents.
 fn boot<F: Flash>(flash: &F) -> Active {
-    let [a, b] = [SlotId::A, SlotId::B].map(|id| read_slot(flash.slot(id)));
-    let states = [a.0, b.0];
-    for (id, state) in [SlotId::A, SlotId::B].into_iter().zip(&states) {
-        match state {
-            SlotState::Empty => defmt::info!("boot: slot {=str} empty", id.name()),
-            SlotState::BadLength(n) => {
-                defmt::warn!("boot: slot {=str} invalid: length {=u32}", id.name(), n)
-            }
-            SlotState::Invalid(e) => {
-                defmt::warn!("boot: slot {=str} invalid: {=str}", id.name(), blob_error(e))
-            }
-            SlotState::Valid { sequence, crc, len } => defmt::info!(
-                "boot: slot {=str} valid: sequence {=u32}, {=u32} bytes, CRC {=u32:#010x}",
-                id.name(),
-                sequence,
-                len,
-                crc
-            ),
+    let slots = SlotPair::read(flash.slot(SlotId::A), flash.slot(SlotId::B));
+    for (id, state) in [(SlotId::A, &slots.a), (SlotId::B, &slots.b)] {
+        if matches!(state, SlotState::Empty | SlotState::Valid { .. }) {
+            defmt::info!("boot: slot {} {}", id, state);
+        } else {
+            defmt::warn!("boot: slot {} {}", id, state);
         }
     }
-    if let Some(id) = select(&states[0], &states[1]) {
-        let decoded = match id {
-            SlotId::A => a.1,
-            SlotId::B => b.1,
-        };
-        if let Some(a) = decoded.and_then(|(bytes, blob)| Active::from_decoded(blob, bytes)) {
+    if let Some((id, bytes, blob)) = slots.into_active() {
+        if let Some(a) = Active::from_decoded(blob, bytes) {
             defmt::info!(
-                "boot: active slot {=str}, sequence {=u32}, {=usize} materials",
-                id.name(),
+                "boot: active slot {}, sequence {=u32}, {=usize} materials",
+                id,
                 a.blob.sequence,
                 a.blob.materials.len()
             );
@@ -310,50 +266,26 @@ fn boot<F: Flash>(flash: &F) -> Active {
     }
 }
 
-fn blob_error(e: &brdf_wire::blob::BlobError) -> &'static str {
-    use brdf_wire::blob::BlobError::*;
-    match e {
-        Length => "length",
-        Magic => "magic",
-        Version(_) => "version",
-        Flags(_) => "flags",
-        Crc => "CRC",
-        MaterialCount(_) => "material count",
-        ModelId(..) => "model id",
-        ParamCount(_) => "parameter count",
-        Params(_) => "parameters",
-        Reserved(_) => "reserved field",
-        Table(_) => "table",
-        _ => "other",
-    }
-}
-
-/// COMMIT: checks the blob, writes it to the slot that is not the newest valid one, and
-/// returns it as the new active set. The newest valid slot is never touched.
+/// COMMIT: checks the blob, writes it to the slot that is not the newest valid one
+/// ([`plan_commit`]), and returns it as the new active set. The newest valid slot is never
+/// touched.
 fn commit<F: Flash>(bytes: &[u8], flash: &mut F) -> Result<Active, ErrorCode> {
-    let states = [SlotId::A, SlotId::B].map(|id| read_slot(flash.slot(id)).0);
-    let newest = select(&states[0], &states[1]);
-    let newest_sequence = newest.and_then(|id| states[id as usize].sequence());
     let mut image = [0u8; SLOT_IMAGE_LEN];
-    let (n, blob) = match slot_image(bytes, newest_sequence, &mut image) {
-        Ok(r) => r,
-        Err(CommitError::Stale { sequence, active }) => {
-            defmt::warn!(
-                "commit refused: sequence {=u32} not newer than {=u32}",
-                sequence,
-                active
-            );
+    let plan = match plan_commit(flash.slot(SlotId::A), flash.slot(SlotId::B), bytes, &mut image) {
+        Ok(p) => p,
+        Err(e @ CommitError::Stale { .. }) => {
+            defmt::warn!("commit refused: {}", e);
             return Err(ErrorCode::StaleSequence);
         }
         Err(CommitError::Blob(_)) => return Err(ErrorCode::InvalidBlob),
     };
-    let next = Active::from_decoded(blob, bytes).ok_or(ErrorCode::InvalidBlob)?;
-    let target = commit_target(newest);
-    match write_slot(flash, target, &image[..n]) {
+    let target = plan.target;
+    let next = Active::from_decoded(plan.blob, bytes).ok_or(ErrorCode::InvalidBlob)?;
+    match write_slot(flash, target, &image[..plan.image_len]) {
         Ok(()) => {
             defmt::info!(
-                "commit: slot {=str}, sequence {=u32}, {=usize} bytes, CRC {=u32:#010x}",
-                target.name(),
+                "commit: slot {}, sequence {=u32}, {=usize} bytes, CRC {=u32:#010x}",
+                target,
                 next.blob.sequence,
                 bytes.len(),
                 next.crc
@@ -361,7 +293,7 @@ fn commit<F: Flash>(bytes: &[u8], flash: &mut F) -> Result<Active, ErrorCode> {
             Ok(next)
         }
         Err(e) => {
-            defmt::error!("commit: writing slot {=str} failed: {}", target.name(), e);
+            defmt::error!("commit: writing slot {} failed: {}", target, e);
             Err(ErrorCode::FlashFailed)
         }
     }

@@ -126,9 +126,9 @@ fn device_counts() -> Result<Vec<(String, f64)>> {
     if !built.success() {
         bail!("the cost firmware did not build (is the thumbv7em-none-eabihf target installed?)");
     }
-    Ok(brdf_link::instruction_counts(
-        &dir.join("target/thumbv7em-none-eabihf/release/cost"),
-    )?)
+    Ok(brdf_link::instruction_counts(&brdf_link::firmware::in_repo(
+        brdf_link::firmware::qemu_elf("cost"),
+    ))?)
 }
 
 /// Fits `kind` to the six-parameter values at `points` (relative residuals) and returns it.

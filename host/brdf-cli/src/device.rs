@@ -90,6 +90,5 @@ impl DeviceArgs {
 
 /// Default firmware location in this repository.
 pub fn default_elf() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../firmware/target/thumbv7em-none-eabihf/release/brdf-fw")
+    brdf_link::firmware::in_repo(brdf_link::firmware::qemu_elf("brdf-fw"))
 }

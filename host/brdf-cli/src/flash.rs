@@ -35,8 +35,7 @@ pub struct FlashCmd {
 
 /// Default firmware location of the hardware build in this repository.
 fn default_hardware_elf() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../firmware/target/hardware/thumbv7em-none-eabihf/release/brdf-fw")
+    brdf_link::firmware::in_repo(brdf_link::firmware::hardware_elf())
 }
 
 impl FlashCmd {

@@ -4,7 +4,6 @@
 //! Needs `qemu-system-arm` and the cross target; fails without them unless `BRDF_SKIP_QEMU=1`
 //! (set by `.ci/run` after printing a `SKIPPED:` line).
 
-use std::path::PathBuf;
 use std::process::Command;
 
 fn brdf(args: &[&str]) -> std::process::Output {
@@ -154,8 +153,7 @@ fn flash_reads_slot_addresses_from_the_elf_and_needs_a_probe() {
             .status
             .success()
     );
-    let elf = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../firmware/target/thumbv7em-none-eabihf/release/brdf-fw");
+    let elf = brdf_link::firmware::in_repo(brdf_link::firmware::qemu_elf("brdf-fw"));
     let args = |extra: &[&str]| {
         let mut a = vec![
             "flash",

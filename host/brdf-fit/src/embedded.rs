@@ -3,8 +3,8 @@
 
 use std::time::Instant;
 
-use brdf_core::anneal::{anneal, AnnealConfig, AnnealError, SampleError, Samples, SearchBox};
-use brdf_core::{FiveParam, Lambert, Minnaert, Model, ModelKind, SixParam, SixParamCos2, MAX_PARAMS};
+use brdf_core::anneal::{anneal_kind, AnnealConfig, AnnealError, SampleError, Samples};
+use brdf_core::{ModelKind, MAX_PARAMS};
 use rand_core::SeedableRng;
 use rand_pcg::Pcg32;
 use thiserror::Error;
@@ -55,18 +55,10 @@ pub enum EmbeddedError {
     },
 }
 
-fn run<M: Model<f32>>(
-    samples: &Samples<f32, HOST_CAPACITY>,
-    cfg: &AnnealConfig<f32>,
-    seed: u64,
-) -> Result<[f32; MAX_PARAMS], AnnealError> {
-    let mut rng = Pcg32::seed_from_u64(seed);
-    anneal::<f32, M, _, HOST_CAPACITY>(samples, &SearchBox::for_kind(M::KIND), cfg, &mut rng)
-        .map(|o| o.params)
-}
-
 /// Fits `kind` to `data` with the embedded f32 annealer and `budget` evaluations; the result
-/// is scored in f64 on `problem` exactly as a full fit is.
+/// is scored in f64 on `problem` exactly as a full fit is. With `seed` =
+/// [`brdf_core::anneal::DEVICE_SEED`] (the default fit seed) the parameters are the device's
+/// FIT answer for the same samples and budget.
 pub fn fit_embedded(
     kind: ModelKind,
     data: &Dataset,
@@ -96,17 +88,13 @@ pub fn fit_embedded(
         budget,
         ..AnnealConfig::default()
     };
-    let params = match kind {
-        ModelKind::Six => run::<SixParam<f32>>(&samples, &cfg, seed),
-        ModelKind::SixCos2 => run::<SixParamCos2<f32>>(&samples, &cfg, seed),
-        ModelKind::Five => run::<FiveParam<f32>>(&samples, &cfg, seed),
-        ModelKind::Minnaert => run::<Minnaert<f32>>(&samples, &cfg, seed),
-        ModelKind::Lambert => run::<Lambert<f32>>(&samples, &cfg, seed),
-    }
-    .map_err(|source| EmbeddedError::Anneal {
-        dataset: data.name.clone(),
-        source,
-    })?;
+    let mut rng = Pcg32::seed_from_u64(seed);
+    let params = anneal_kind(kind, &samples, &cfg, &mut rng, |_| {})
+        .map_err(|source| EmbeddedError::Anneal {
+            dataset: data.name.clone(),
+            source,
+        })?
+        .params;
     let natural: Vec<f64> = params[..kind.param_count()]
         .iter()
         .map(|&v| f64::from(v))

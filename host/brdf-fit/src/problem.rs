@@ -127,6 +127,10 @@ pub const BRIGHTENING_C_MIN: f64 = -0.99;
 /// linear in (`kb`, the six-parameter `kd`, `rho0`) are only non-negative: they carry the
 /// data's units, so any upper bound would make the fit depend on them (data in other units
 /// must give the same relative fit).
+///
+/// Sign convention: the box holds `beta = |b| = -b`, never the paper's `b <= 0`; the device
+/// annealer's box (`brdf_core::anneal::SearchBox`) holds the paper's `b` in `[-200, 0]`, and
+/// says why the two stay apart.
 pub fn bounds(kind: ModelKind) -> ([f64; MAX_PARAMS], [f64; MAX_PARAMS]) {
     let lkr = (0.01_f64.ln(), 1000.0_f64.ln());
     let inf = f64::INFINITY;

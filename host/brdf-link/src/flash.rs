@@ -2,9 +2,9 @@
 //!
 //! The slot addresses come from the firmware ELF's symbols (`BRDF_SLOT_A`, `BRDF_SLOT_B`,
 //! `BRDF_SLOT_SIZE`, defined by its memory map). [`flash_blob`] reads both slots through a
-//! [`SlotTarget`], decides like the firmware's COMMIT which slot to write (never the newest
-//! valid one) and whether the blob's sequence number is newer (the serial-number rule of
-//! [`brdf_wire::slots::is_newer`]), writes the slot image,
+//! [`SlotTarget`], plans the write with the firmware COMMIT's own function
+//! ([`brdf_wire::slots::plan_commit`]: never the newest valid slot, only a blob with a newer
+//! sequence number), writes the slot image,
 //! reads it back, and finally resets the device so that it boots from the new slot. An
 //! interruption at any point leaves the newest valid slot as it was.
 //!
@@ -13,7 +13,7 @@
 
 use std::path::Path;
 
-use brdf_wire::slots::{commit_target, read_slot, select, slot_image, SlotId, SlotState, SLOT_IMAGE_LEN};
+use brdf_wire::slots::{plan_commit, read_slot, SlotId, SlotState, SLOT_IMAGE_LEN};
 
 /// Why flashing failed.
 #[derive(Debug, thiserror::Error)]
@@ -117,8 +117,8 @@ pub struct FlashPlan {
 
 impl std::fmt::Display for FlashPlan {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        writeln!(f, "slot A: {}", describe(&self.a))?;
-        writeln!(f, "slot B: {}", describe(&self.b))?;
+        writeln!(f, "slot A: {}", self.a)?;
+        writeln!(f, "slot B: {}", self.b)?;
         write!(
             f,
             "{} {} bytes (blob sequence {}) to slot {} at {:#010x}{}",
@@ -136,18 +136,6 @@ impl std::fmt::Display for FlashPlan {
     }
 }
 
-/// One line for a slot's state.
-pub fn describe(s: &SlotState) -> String {
-    match s {
-        SlotState::Empty => "empty".into(),
-        SlotState::BadLength(n) => format!("invalid (length {n})"),
-        SlotState::Invalid(e) => format!("invalid ({e})"),
-        SlotState::Valid { sequence, crc, len } => {
-            format!("valid, sequence {sequence}, {len} bytes, CRC {crc:#010x}")
-        }
-    }
-}
-
 /// Writes `blob` into the inactive slot of the device behind `target`, verifies it, and
 /// resets the device; with `dry_run` only reads the slots and returns the plan.
 pub fn flash_blob<T: SlotTarget + ?Sized>(
@@ -159,36 +147,26 @@ pub fn flash_blob<T: SlotTarget + ?Sized>(
     let mut images = [vec![0u8; SLOT_IMAGE_LEN], vec![0u8; SLOT_IMAGE_LEN]];
     target.read(map.a, &mut images[0])?;
     target.read(map.b, &mut images[1])?;
-    let (a, b) = (read_slot(&images[0]).0, read_slot(&images[1]).0);
-    let newest = select(&a, &b);
-    let newest_sequence = newest.and_then(|id| {
-        if id == SlotId::A {
-            a.sequence()
-        } else {
-            b.sequence()
-        }
-    });
     let mut image = vec![0u8; SLOT_IMAGE_LEN];
-    let (n, decoded) = slot_image(blob, newest_sequence, &mut image).map_err(FlashError::Refused)?;
-    image.truncate(n);
-    let slot = commit_target(newest);
+    let commit = plan_commit(&images[0], &images[1], blob, &mut image).map_err(FlashError::Refused)?;
+    image.truncate(commit.image_len);
     let plan = FlashPlan {
-        a,
-        b,
-        target: slot,
-        address: map.address(slot),
-        image_len: n,
-        sequence: decoded.sequence,
+        a: commit.a,
+        b: commit.b,
+        target: commit.target,
+        address: map.address(commit.target),
+        image_len: commit.image_len,
+        sequence: commit.sequence(),
         dry_run,
     };
     if dry_run {
         return Ok(plan);
     }
     target.program(plan.address, &image)?;
-    let mut back = vec![0u8; n];
+    let mut back = vec![0u8; image.len()];
     target.read(plan.address, &mut back)?;
     if back != image || !matches!(read_slot(&back).0, SlotState::Valid { .. }) {
-        return Err(FlashError::Verify(slot.name()));
+        return Err(FlashError::Verify(plan.target.name()));
     }
     target.reset()?;
     Ok(plan)
@@ -198,6 +176,7 @@ pub fn flash_blob<T: SlotTarget + ?Sized>(
 mod tests {
     use super::*;
     use brdf_wire::blob::{table1_blob, MAX_BLOB_LEN};
+    use brdf_wire::slots::select;
 
     /// Flash with erase units of `unit` bytes; `budget` bytes may be programmed before the
     /// "power" fails (the rest of that program call is lost).

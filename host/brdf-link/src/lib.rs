@@ -17,6 +17,7 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+pub mod firmware;
 pub mod flash;
 #[cfg(feature = "probe")]
 pub mod probe;
@@ -51,7 +52,7 @@ pub enum LinkError {
     #[error("link: {0}")]
     Io(std::io::Error),
     /// The device answered with an error code.
-    #[error("device error: {0:?}")]
+    #[error("device error: {0}")]
     Device(ErrorCode),
     /// The device sent something that is not a valid reply.
     #[error("unexpected reply: {0}")]

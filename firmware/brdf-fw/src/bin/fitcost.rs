@@ -7,7 +7,7 @@
 #![no_std]
 #![no_main]
 
-use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox};
+use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox, DEVICE_SEED};
 use brdf_core::{Brdf, Model, ModelKind, SixParam};
 use brdf_fw::exit;
 use brdf_fw::ticks::Ticks;
@@ -48,7 +48,7 @@ fn main() -> ! {
         }
     }
     let cfg = AnnealConfig::default();
-    let mut rng = rand_pcg::Pcg32::seed_from_u64(1);
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(DEVICE_SEED);
     let t0 = ticks.now();
     let r = anneal::<f32, SixParam<f32>, _, N>(&s, &SearchBox::for_kind(ModelKind::Six), &cfg, &mut rng);
     let t1 = ticks.now();
