@@ -28,7 +28,7 @@
 
 use crate::tolerance::F32_FLOOR_OF_MAX;
 
-/// How far an `f32` path is from the exact model over a set of inputs.
+/// How far an evaluation path (`f32` or `f64`) is from the exact model over a set of inputs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Accuracy<X = [f32; 3]> {
     /// Largest relative error (infinite where the path returned a non-finite value).
@@ -54,11 +54,12 @@ pub struct Accuracy<X = [f32; 3]> {
 /// over the inputs where `exact` is above [`F32_FLOOR_OF_MAX`] of its maximum over the set.
 /// A non-finite path value counts as an infinite error. Two passes over `inputs` (the
 /// reference is evaluated twice), no allocation.
-pub fn compare<X, I, P, E>(inputs: I, path: P, mut exact: E) -> Accuracy<X>
+pub fn compare<X, V, I, P, E>(inputs: I, path: P, mut exact: E) -> Accuracy<X>
 where
     X: Copy,
+    V: Into<f64>,
     I: IntoIterator<Item = X> + Clone,
-    P: FnMut(X) -> f32,
+    P: FnMut(X) -> V,
     E: FnMut(X) -> f64,
 {
     let top = inputs.clone().into_iter().map(&mut exact).fold(0.0, f64::max);
@@ -67,11 +68,12 @@ where
 
 /// [`compare`] with the floor given: relative errors where `exact > floor`, absolute errors
 /// everywhere. One pass.
-pub fn compare_above<X, I, P, E>(inputs: I, mut path: P, mut exact: E, floor: f64) -> Accuracy<X>
+pub fn compare_above<X, V, I, P, E>(inputs: I, mut path: P, mut exact: E, floor: f64) -> Accuracy<X>
 where
     X: Copy,
+    V: Into<f64>,
     I: IntoIterator<Item = X>,
-    P: FnMut(X) -> f32,
+    P: FnMut(X) -> V,
     E: FnMut(X) -> f64,
 {
     let mut acc = Accuracy {
@@ -86,7 +88,7 @@ where
     };
     for x in inputs {
         let e = exact(x);
-        let t = f64::from(path(x));
+        let t: f64 = path(x).into();
         let a = if t.is_finite() {
             (t - e).abs()
         } else {

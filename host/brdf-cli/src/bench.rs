@@ -8,10 +8,10 @@ use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
 use brdf_bench::peer::numpy_eval;
+use brdf_core::accuracy::compare;
 use brdf_core::batch::{Batch, Level};
 use brdf_core::fast::FastSix;
 use brdf_core::table::{fill_six_table, table_len, SixTable, TABLE_SIZES};
-use brdf_core::tolerance::F32_FLOOR_OF_MAX;
 use brdf_core::{AnyModel, Brdf, Float, ModelKind, SixParam, SixParams};
 use brdf_fit::{Dataset, Point};
 use brdf_plot::{pareto_front, tradeoff, TradePoint};
@@ -278,7 +278,6 @@ impl EvalBench {
         let reference: Vec<f64> = (0..n)
             .map(|k| exact64.eval_angles(g64.angles[0][k], g64.angles[1][k], g64.angles[2][k]))
             .collect();
-        let floor = F32_FLOOR_OF_MAX * reference.iter().copied().fold(0.0, f64::max);
         let points: Vec<Point> = dirs
             .iter()
             .zip(&reference)
@@ -326,22 +325,14 @@ impl EvalBench {
 
         let mut rows: Vec<Row> = Vec::new();
         let mut add = |name: String, threads: usize, ns: f64, values: &[f64]| {
-            let (mut max, mut sum, mut m) = (0.0f64, 0.0, 0usize);
-            for (&v, &r) in values.iter().zip(&reference) {
-                if r > floor {
-                    let e = ((v - r) / r).abs();
-                    max = max.max(if e.is_nan() { f64::INFINITY } else { e });
-                    sum += e * e;
-                    m += 1;
-                }
-            }
+            let acc = compare(0..values.len(), |k| values[k], |k| reference[k]);
             let device_instructions = if threads == 1 { device_of(&name) } else { None };
             rows.push(Row {
                 name,
                 ns_per_eval: ns,
                 threads,
-                max_rel_error: max,
-                rms_rel_error: (sum / m.max(1) as f64).sqrt(),
+                max_rel_error: acc.max,
+                rms_rel_error: acc.rms,
                 device_instructions,
             });
         };
