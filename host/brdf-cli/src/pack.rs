@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::{anyhow, bail, Context, Result};
 use brdf_core::table::{promise_accuracy, table_len, SixTable, TableError, MAX_TABLE_NODES, MIN_TABLE_NODES};
 use brdf_core::tolerance::{table_max_rel, TABLE_MAX_REL, TABLE_MAX_ZENITH_DEG};
-use brdf_fit::report::FitReport;
+use brdf_fit::report::FittedModel;
 use brdf_wire::blob::{Material, MAX_MATERIALS};
 use clap::Args;
 
@@ -43,7 +43,7 @@ impl PackCmd {
         for path in &self.fits {
             let file = path.display().to_string();
             let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {file}"))?;
-            for (i, r) in FitReport::from_json(&text, &file)?.iter().enumerate() {
+            for (i, r) in FittedModel::from_json(&text, &file)?.iter().enumerate() {
                 let origin = format!("{file}: fit {i}");
                 let params = r
                     .params_array()

@@ -908,45 +908,99 @@ impl ReadError {
     }
 }
 
-impl FitReport {
-    /// Reads `brdf fit --json` output: one report, or an array of them (a batch fit).
-    /// `origin` names the source in errors (`fits.json: fit 2: line 40, column 12: ...`).
-    pub fn from_json(text: &str, origin: &str) -> Result<Vec<FitReport>, ReadError> {
-        let items: Vec<&serde_json::value::RawValue> = if text.trim_start().starts_with('[') {
-            serde_json::from_str(text).map_err(|e| ReadError::json(origin.to_owned(), text, text, &e))?
-        } else {
-            vec![serde_json::from_str(text).map_err(|e| ReadError::json(origin.to_owned(), text, text, &e))?]
-        };
-        let mut out = Vec::with_capacity(items.len());
-        for (i, item) in items.into_iter().enumerate() {
-            let origin = format!("{origin}: fit {i}");
-            let part = item.get();
-            let r: FitReport =
-                serde_json::from_str(part).map_err(|e| ReadError::json(origin.clone(), text, part, &e))?;
-            r.params_array().map_err(|name| ReadError::MissingParam {
-                origin,
-                name,
-                model: r.model.name(),
-            })?;
-            out.push(r);
-        }
-        Ok(out)
+/// The part of a fit result a device or a scene needs: the model and its parameters. Reads
+/// whole `brdf fit --json` output (the other fields are skipped) as well as a hand-written
+/// `{"model": "six", "params": {"kb": 0.25, ...}}`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct FittedModel {
+    /// The model (written as its name).
+    #[serde(with = "model_name")]
+    pub model: ModelKind,
+    /// Parameters by name, paper order and signs (`b` negative).
+    pub params: Ordered<f64>,
+}
+
+/// The parameters of `kind` from a name-to-value map, in paper order (unused entries 0), or
+/// the name of one that is missing.
+fn params_in_order(kind: ModelKind, params: &Ordered<f64>) -> Result<[f64; MAX_PARAMS], &'static str> {
+    let mut p = [0.0; MAX_PARAMS];
+    for (v, name) in p.iter_mut().zip(kind.param_names()) {
+        *v = *params.get(name).ok_or(*name)?;
+    }
+    Ok(p)
+}
+
+/// One fit result, or an array of them, from `text`, each checked to name every parameter
+/// of its model.
+fn read_fits<T: serde::de::DeserializeOwned>(
+    text: &str,
+    origin: &str,
+    params: impl Fn(&T) -> (ModelKind, Result<[f64; MAX_PARAMS], &'static str>),
+) -> Result<Vec<T>, ReadError> {
+    let items: Vec<&serde_json::value::RawValue> = if text.trim_start().starts_with('[') {
+        serde_json::from_str(text).map_err(|e| ReadError::json(origin.to_owned(), text, text, &e))?
+    } else {
+        vec![serde_json::from_str(text).map_err(|e| ReadError::json(origin.to_owned(), text, text, &e))?]
+    };
+    let mut out = Vec::with_capacity(items.len());
+    for (i, item) in items.into_iter().enumerate() {
+        let origin = format!("{origin}: fit {i}");
+        let part = item.get();
+        let r: T = serde_json::from_str(part).map_err(|e| ReadError::json(origin.clone(), text, part, &e))?;
+        let (kind, p) = params(&r);
+        p.map_err(|name| ReadError::MissingParam {
+            origin,
+            name,
+            model: kind.name(),
+        })?;
+        out.push(r);
+    }
+    Ok(out)
+}
+
+impl FittedModel {
+    /// Reads one fit result or an array of them (see [`FitReport::from_json`]).
+    pub fn from_json(text: &str, origin: &str) -> Result<Vec<FittedModel>, ReadError> {
+        read_fits(text, origin, |r: &FittedModel| (r.model, r.params_array()))
     }
 
     /// The parameters in paper order (unused entries 0), or the name of one that is missing.
     pub fn params_array(&self) -> Result<[f64; MAX_PARAMS], &'static str> {
-        let mut p = [0.0; MAX_PARAMS];
-        for (v, name) in p.iter_mut().zip(self.model.param_names()) {
-            *v = *self.params.get(name).ok_or(*name)?;
+        params_in_order(self.model, &self.params)
+    }
+
+    /// The model in f64, refused naming the parameter when one is missing or outside its
+    /// range.
+    pub fn model(&self) -> Result<AnyModel<f64>, brdf_core::ParamError> {
+        let p = self.params_array().unwrap_or([f64::NAN; MAX_PARAMS]);
+        AnyModel::new(self.model, &p[..self.model.param_count()])
+    }
+}
+
+impl FitReport {
+    /// Reads `brdf fit --json` output: one report, or an array of them (a batch fit).
+    /// `origin` names the source in errors (`fits.json: fit 2: line 40, column 12: ...`).
+    pub fn from_json(text: &str, origin: &str) -> Result<Vec<FitReport>, ReadError> {
+        read_fits(text, origin, |r: &FitReport| (r.model, r.params_array()))
+    }
+
+    /// The model and parameters alone.
+    pub fn fitted(&self) -> FittedModel {
+        FittedModel {
+            model: self.model,
+            params: self.params.clone(),
         }
-        Ok(p)
+    }
+
+    /// The parameters in paper order (unused entries 0), or the name of one that is missing.
+    pub fn params_array(&self) -> Result<[f64; MAX_PARAMS], &'static str> {
+        params_in_order(self.model, &self.params)
     }
 
     /// The fitted model in f64 (refused, naming the parameter, when a parameter is outside
     /// its range: see [`FitReport::outside_ranges`]).
     pub fn model(&self) -> Result<AnyModel<f64>, brdf_core::ParamError> {
-        let p = self.params_array().unwrap_or([f64::NAN; MAX_PARAMS]);
-        AnyModel::new(self.model, &p[..self.model.param_count()])
+        self.fitted().model()
     }
 
     /// Names of the parameters flagged as not determined by the data, in paper order.

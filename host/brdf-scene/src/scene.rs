@@ -23,6 +23,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
+use brdf_fit::report::FittedModel;
 use serde::Deserialize;
 use thiserror::Error;
 use toml::Spanned;
@@ -576,33 +577,25 @@ fn resolve_material(
 }
 
 /// Model and parameters of a `brdf fit --json` result (one object, or the `index`-th of an
-/// array).
+/// array), read by [`FittedModel::from_json`].
 fn fit_params(text: &str, index: Option<usize>) -> Result<(ModelKind, [f64; MAX_PARAMS], usize), String> {
-    let v: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("not JSON: {e}"))?;
-    let (fit, k) = match (&v, index) {
-        (serde_json::Value::Array(a), Some(k)) => (
-            a.get(k)
-                .ok_or_else(|| format!("holds {} fits; there is no index {k}", a.len()))?,
-            k,
-        ),
-        (serde_json::Value::Array(a), None) if a.len() == 1 => (&a[0], 0),
-        (serde_json::Value::Array(a), None) => {
+    let fits = FittedModel::from_json(text, "fit result").map_err(|e| e.to_string())?;
+    let n = fits.len();
+    let k = match index {
+        Some(k) if k < n => k,
+        Some(k) if n == 1 => return Err(format!("holds one fit; there is no index {k}")),
+        Some(k) => return Err(format!("holds {n} fits; there is no index {k}")),
+        None if n == 1 => 0,
+        None => {
             return Err(format!(
-                "holds {} fits: say which with index = 0..{}",
-                a.len(),
-                a.len().saturating_sub(1)
+                "holds {n} fits: say which with index = 0..{}",
+                n.saturating_sub(1)
             ))
         }
-        (other, None | Some(0)) => (other, 0),
-        (_, Some(k)) => return Err(format!("holds one fit; there is no index {k}")),
     };
-    let name = fit["model"].as_str().ok_or("no `model`")?;
-    let kind = ModelKind::from_name(name).ok_or_else(|| format!("unknown model `{name}`"))?;
-    let mut p = [0.0; MAX_PARAMS];
-    for (j, n) in kind.param_names().iter().enumerate() {
-        p[j] = fit["params"][*n]
-            .as_f64()
-            .ok_or_else(|| format!("parameter `{n}` missing or not a number"))?;
-    }
-    Ok((kind, p, k))
+    let fit = &fits[k];
+    let p = fit
+        .params_array()
+        .map_err(|p| format!("parameter `{p}` missing"))?;
+    Ok((fit.model, p, k))
 }
