@@ -5,11 +5,10 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
-use brdf_core::table::{table_accuracy, table_len, SixTable, TABLE_SIZES};
-use brdf_core::{Brdf, ModelKind};
+use brdf_core::ModelKind;
 use brdf_fit::report::FitReport;
 use brdf_fit::Dataset;
-use brdf_wire::blob::{Material, MAX_BLOB_LEN};
+use brdf_scene::represent::{choose, representations, Choice, Representation};
 use clap::Args;
 use serde::Serialize;
 
@@ -76,48 +75,6 @@ struct Selection<'a> {
     representations: &'a [Representation],
 }
 
-/// One way the device could answer lookups for this data.
-#[derive(Clone, Debug, Serialize)]
-struct Representation {
-    /// `six exact`, `six table 256`, ...
-    name: String,
-    model: &'static str,
-    /// Table nodes, if tabulated.
-    nodes: Option<usize>,
-    /// Cortex-M4F instructions per lookup from cosines (`brdf_core::cost`).
-    device_instructions: u32,
-    /// Host nanoseconds per f32 lookup from cosines, measured in this run.
-    host_ns: f64,
-    /// RMS and max relative error against the data over the domain.
-    rms_rel: f64,
-    max_rel: f64,
-    /// Max relative error of the table against the exact model at the data points.
-    table_vs_exact: Option<f64>,
-    /// Blob bytes; false `fits_blob` when over a slot's 4,096.
-    blob_bytes: usize,
-    fits_blob: bool,
-    /// `f(i, r) = f(r, i)` (the five-parameter model is not reciprocal).
-    reciprocal: bool,
-    /// `f` stays bounded towards the horizon (not so for the five-parameter model, Minnaert
-    /// with `k < 1`, the six-parameter models with `c < 0`).
-    bounded: bool,
-}
-
-impl Representation {
-    fn physical(&self) -> bool {
-        self.reciprocal && self.bounded
-    }
-
-    fn caveat(&self) -> String {
-        match (self.reciprocal, self.bounded) {
-            (true, true) => String::new(),
-            (false, true) => "not reciprocal".into(),
-            (true, false) => "unbounded at grazing".into(),
-            (false, false) => "not reciprocal, unbounded at grazing".into(),
-        }
-    }
-}
-
 impl SelectCmd {
     pub fn run(self) -> Result<()> {
         let Some(data) = self.data.clone() else {
@@ -173,56 +130,8 @@ impl SelectCmd {
             .iter()
             .flat_map(|&k| brdf_fit::fit_all(&self.engine.settings(k), std::slice::from_ref(&domain)))
             .collect();
-        let (reprs, materials) = representations(&reports, &domain)?;
-        let eligible = |r: &Representation| r.fits_blob && (self.allow_nonphysical || r.physical());
-        let best = reprs
-            .iter()
-            .enumerate()
-            .filter(|(_, r)| r.rms_rel <= self.budget && eligible(r))
-            // Cheapest per lookup, then smallest in flash, then most accurate.
-            .min_by(|a, b| {
-                (a.1.device_instructions, a.1.blob_bytes, a.1.rms_rel)
-                    .partial_cmp(&(b.1.device_instructions, b.1.blob_bytes, b.1.rms_rel))
-                    .unwrap_or(std::cmp::Ordering::Equal)
-            })
-            .map(|(i, _)| i);
-        let reason = match best {
-            Some(i) => format!(
-                "the cheapest representation on the device ({} Cortex-M4F instructions per lookup) whose RMS \
-                 relative error over the domain, {:.3}%, meets the {:.2}% budget{}",
-                reprs[i].device_instructions,
-                100.0 * reprs[i].rms_rel,
-                100.0 * self.budget,
-                if self.allow_nonphysical { "" } else { ", among reciprocal models bounded at grazing" }
-            ),
-            None => {
-                let closest = reprs
-                    .iter()
-                    .filter(|r| eligible(r))
-                    .min_by(|a, b| a.rms_rel.total_cmp(&b.rms_rel));
-                let excluded = reprs
-                    .iter()
-                    .filter(|r| r.rms_rel <= self.budget && r.fits_blob && !r.physical())
-                    .map(|r| format!("{} ({})", r.name, r.caveat()))
-                    .collect::<Vec<_>>();
-                let mut why = match closest {
-                    Some(c) => format!(
-                        "nothing meets the {:.2}% budget; the closest is {} at {:.3}%",
-                        100.0 * self.budget,
-                        c.name,
-                        100.0 * c.rms_rel
-                    ),
-                    None => "no representation fits a flash slot".to_owned(),
-                };
-                if !self.allow_nonphysical && !excluded.is_empty() {
-                    why.push_str(&format!(
-                        "; within budget but not chosen without --allow-nonphysical: {}",
-                        excluded.join(", ")
-                    ));
-                }
-                why
-            }
-        };
+        let (reprs, materials) = representations(&reports, &domain).map_err(|e| anyhow!(e))?;
+        let Choice { best, reason } = choose(&reprs, self.budget, self.allow_nonphysical);
         if let (Some(path), Some(i)) = (&self.output, best) {
             let (m, table) = materials[i].clone();
             let mut v = heapless::Vec::new();
@@ -361,105 +270,4 @@ impl SelectCmd {
         }
         Ok(())
     }
-}
-
-/// Encoded size of a blob holding `m` alone.
-fn blob_len(m: Material) -> usize {
-    brdf_wire::blob::blob_overhead() + m.encoded_len()
-}
-
-/// Every representation of every fitted model, with its error against the data over the
-/// domain and its cost; and the material (with table bytes) each would be flashed as.
-#[allow(clippy::type_complexity)]
-fn representations(
-    reports: &[FitReport],
-    domain: &Dataset,
-) -> Result<(Vec<Representation>, Vec<(Material, Option<Vec<u8>>)>)> {
-    let mut reprs = Vec::new();
-    let mut materials = Vec::new();
-    let cos: Vec<[f32; 3]> = domain
-        .points
-        .iter()
-        .map(|p| [p.theta_i.cos() as f32, p.theta_r.cos() as f32, p.phi.cos() as f32])
-        .collect();
-    let errors = |f: &dyn Fn(&[f32; 3]) -> f64| -> (f64, f64) {
-        let rel: Vec<f64> = domain
-            .points
-            .iter()
-            .zip(&cos)
-            .map(|(p, c)| ((f(c) - p.brdf) / p.brdf).abs())
-            .collect();
-        let rms = (rel.iter().map(|r| r * r).sum::<f64>() / rel.len() as f64).sqrt();
-        (rms, rel.iter().copied().fold(0.0, f64::max))
-    };
-    let host_ns = |f: &dyn Fn(&[f32; 3]) -> f32| -> f64 {
-        let reps = (200_000 / cos.len()).max(1);
-        let t = std::time::Instant::now();
-        let mut acc = 0.0f32;
-        for _ in 0..reps {
-            for c in &cos {
-                acc += f(std::hint::black_box(c));
-            }
-        }
-        std::hint::black_box(acc);
-        t.elapsed().as_secs_f64() * 1e9 / (reps * cos.len()) as f64
-    };
-    for r in reports {
-        let kind = r.model;
-        let params = r
-            .params_array()
-            .map_err(|p| anyhow!("{}: no parameter `{p}`", r.dataset))?;
-        let material =
-            Material::from_params(kind, &params).map_err(|e| anyhow!("{}: refused: {e}", r.dataset))?;
-        let exact = material.model().map_err(|e| anyhow!("{}: {e}", r.model))?;
-        let (reciprocal, bounded) = (exact.reciprocal(), exact.bounded_at_grazing());
-        let (rms, max) = errors(&|c| f64::from(exact.eval_cosines(c[0], c[1], c[2])));
-        let blob_bytes = blob_len(material);
-        reprs.push(Representation {
-            name: format!("{} exact", r.model),
-            model: r.model.name(),
-            nodes: None,
-            device_instructions: brdf_core::cost::exact_instructions(kind),
-            host_ns: host_ns(&|c| exact.eval_cosines(c[0], c[1], c[2])),
-            rms_rel: rms,
-            max_rel: max,
-            table_vs_exact: None,
-            blob_bytes,
-            fits_blob: blob_bytes <= MAX_BLOB_LEN,
-            reciprocal,
-            bounded,
-        });
-        materials.push((material, None));
-        // Tables hold mu^c, unbounded at the horizon for c < 0.
-        if kind != ModelKind::Six || !bounded {
-            continue;
-        }
-        for nodes in TABLE_SIZES {
-            let mut m = material;
-            let mut bytes = vec![0u8; table_len(nodes)];
-            m.tabulate(nodes, &mut bytes).map_err(|e| anyhow!("{e}"))?;
-            let p = m.six_params().ok_or_else(|| anyhow!("six-parameter material"))?;
-            let table = SixTable::new(p, &bytes).map_err(|e| anyhow!("{e}"))?;
-            let (rms, max) = errors(&|c| f64::from(table.eval_cosines(c[0], c[1], c[2])));
-            let exact64 = brdf_core::SixParam::new(p.widen()).map_err(|e| anyhow!("{e}"))?;
-            let vs_exact = table_accuracy(&table, &exact64, cos.iter().copied()).max;
-            let blob_bytes = blob_len(m);
-            reprs.push(Representation {
-                name: format!("six table {nodes}"),
-                model: r.model.name(),
-                nodes: Some(nodes),
-                device_instructions: brdf_core::cost::TABLE_INSTRUCTIONS,
-                host_ns: host_ns(&|c| table.eval_cosines(c[0], c[1], c[2])),
-                rms_rel: rms,
-                max_rel: max,
-                table_vs_exact: Some(vs_exact),
-                blob_bytes,
-                fits_blob: blob_bytes <= MAX_BLOB_LEN,
-                reciprocal,
-                bounded,
-            });
-            materials.push((m, Some(bytes)));
-        }
-    }
-    Ok((reprs, materials))
 }

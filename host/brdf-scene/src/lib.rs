@@ -24,6 +24,7 @@ pub mod lrcs;
 pub mod mesh;
 pub mod occlusion;
 pub mod progress;
+pub mod represent;
 pub mod scene;
 pub mod select;
 pub mod shapes;
