@@ -8,7 +8,7 @@ use brdf_fit::anneal::AnnealOptions;
 use brdf_fit::{load_csv, Dataset, FitOptions, FitSettings, LoadOptions, Loss, LossKind, Residual};
 use clap::{Args, ValueEnum};
 
-use crate::import::{import_reporting, ChannelArg, FormatArg};
+use crate::formats::{import_reporting, ChannelArg, FormatArg};
 
 /// Residual form on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

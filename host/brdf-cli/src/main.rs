@@ -10,6 +10,7 @@ mod device;
 mod eval;
 mod fit;
 mod flash;
+mod formats;
 mod import;
 mod pack;
 mod params;

@@ -12,7 +12,7 @@ use brdf_fit::{Dataset, Loss, LossKind};
 use clap::Args;
 
 use crate::common::{legend, parse_fraction, EngineArgs};
-use crate::import::import_reporting;
+use crate::formats::import_reporting;
 
 /// Regenerate the model-comparison report: every measured dataset (Garnet Red R channel,
 /// each PTFE wavelength, MERL aluminium) through the model ladder, one table (`table.md`),
