@@ -5,7 +5,7 @@
 //! An `f32` path is judged at its own `f32` inputs, widened exactly for the `f64` reference,
 //! so that the comparison measures the path's arithmetic, not the rounding of its inputs.
 //! Relative errors are taken where the reference is above
-//! [`F32_FLOOR_OF_MAX`](crate::tolerance::F32_FLOOR_OF_MAX) of its largest value over the set:
+//! [`crate::tolerance::F32_FLOOR_OF_MAX`] of its largest value over the set:
 //! below it the value is a negligible share of the signal, and a relative error there says
 //! nothing about what a sensor sees.
 //!
