@@ -20,7 +20,7 @@ const N: usize = 256;
 #[entry]
 fn main() -> ! {
     let ticks = Ticks::start();
-    let Ok(khaki) = SixParam::from_params(&[0.2545_f32, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]) else {
+    let Ok(khaki) = SixParam::from_params(&brdf_core::table1_f32(0)) else {
         exit(false)
     };
     let mut s: Samples<f32, N> = Samples::new();
