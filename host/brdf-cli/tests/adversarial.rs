@@ -481,7 +481,7 @@ fn query_prints_what_eval_prints_byte_for_byte() {
             "--model",
             "six",
             "--params",
-            KHAKI.as_str(),
+            &KHAKI,
             "--precision",
             "f32",
             path.to_str().unwrap(),
@@ -536,7 +536,7 @@ fn query_prints_what_eval_prints_byte_for_byte() {
 #[test]
 fn eval_writes_as_it_reads() {
     let mut child = brdf()
-        .args(["eval", "--model", "six", "--params", KHAKI.as_str(), "/dev/stdin"])
+        .args(["eval", "--model", "six", "--params", &KHAKI, "/dev/stdin"])
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -594,14 +594,7 @@ fn a_bad_row_stops_eval_after_whole_chunks() {
     }
     let f = dir.path().join("late.csv");
     std::fs::write(&f, rows).unwrap();
-    let out = run(&[
-        "eval",
-        "--model",
-        "six",
-        "--params",
-        KHAKI.as_str(),
-        f.to_str().unwrap(),
-    ]);
+    let out = run(&["eval", "--model", "six", "--params", &KHAKI, f.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     assert!(text(&out.stderr).contains("late.csv: line 4502: column theta_r: zenith 95 deg"));
     assert_eq!(text(&out.stdout).lines().count(), 1 + 4096);

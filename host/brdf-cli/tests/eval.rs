@@ -51,14 +51,7 @@ fn f64_output_reproduces_reference_values_with_17_digits_and_passes_columns_thro
         "a.csv",
         "label,theta_i,theta_r,phi\nnormal,0,0,0\nmirror,10,10,180\nretro,10,10,0\ngrazing,0,89,180\n",
     );
-    let rows = eval_ok(&[
-        "eval",
-        "--model",
-        "six",
-        "--params",
-        KHAKI.as_str(),
-        f.to_str().unwrap(),
-    ]);
+    let rows = eval_ok(&["eval", "--model", "six", "--params", &KHAKI, f.to_str().unwrap()]);
     assert_eq!(rows[0], ["label", "theta_i", "theta_r", "phi", "brdf"]);
     let expect = [
         0.198020580194936,
@@ -97,7 +90,7 @@ fn f32_output_is_the_core_f32_path_exactly() {
         "--model",
         "six",
         "--params",
-        KHAKI.as_str(),
+        &KHAKI,
         "--precision",
         "f32",
         f.to_str().unwrap(),
@@ -129,7 +122,7 @@ fn other_models_by_name() {
     for (model, params) in [
         ("minnaert", "rho0=0.5,k=0.7"),
         ("five", "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676"),
-        ("six-cos2", KHAKI.as_str()),
+        ("six-cos2", &KHAKI),
     ] {
         let rows = eval_ok(&["eval", "--model", model, "--params", params, f.to_str().unwrap()]);
         assert!(rows[1][3].parse::<f64>().unwrap() > 0.0);
@@ -175,14 +168,7 @@ fn bad_input_names_file_line_and_column() {
     ];
     for (name, text, want) in cases {
         let f = write(&dir, name, text);
-        let err = eval_err(&[
-            "eval",
-            "--model",
-            "six",
-            "--params",
-            KHAKI.as_str(),
-            f.to_str().unwrap(),
-        ]);
+        let err = eval_err(&["eval", "--model", "six", "--params", &KHAKI, f.to_str().unwrap()]);
         assert!(
             err.contains(name),
             "{name}: message does not name the file: {err}"
@@ -211,7 +197,7 @@ fn bad_input_names_file_line_and_column() {
         "--model",
         "six",
         "--params",
-        KHAKI.as_str(),
+        &KHAKI,
         "/nonexistent/angles.csv",
     ]);
     assert!(err.contains("/nonexistent/angles.csv"), "{err}");
@@ -262,14 +248,7 @@ fn large_files_are_evaluated_in_chunks_in_order_and_match_the_scalar_path() {
         text += &format!("{k},{},{},{}\n", 89.9 * next(), 89.9 * next(), 360.0 * next());
     }
     let f = write(&dir, "big.csv", &text);
-    let rows = eval_ok(&[
-        "eval",
-        "--model",
-        "six",
-        "--params",
-        KHAKI.as_str(),
-        f.to_str().unwrap(),
-    ]);
+    let rows = eval_ok(&["eval", "--model", "six", "--params", &KHAKI, f.to_str().unwrap()]);
     assert_eq!(rows.len(), n + 1);
     let model = AnyModel::<f64>::new(ModelKind::Six, &brdf_core::TABLE1[0].1).unwrap();
     for (k, row) in rows[1..].iter().enumerate() {
@@ -286,14 +265,7 @@ fn large_files_are_evaluated_in_chunks_in_order_and_match_the_scalar_path() {
     // chunks of 4,096 rows before the one holding it have been written, and nothing more.
     text += "70000,30,90.5,180\n";
     let f = write(&dir, "bad.csv", &text);
-    let out = brdf(&[
-        "eval",
-        "--model",
-        "six",
-        "--params",
-        KHAKI.as_str(),
-        f.to_str().unwrap(),
-    ]);
+    let out = brdf(&["eval", "--model", "six", "--params", &KHAKI, f.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(err.contains(&format!("line {}: column theta_r", n + 2)), "{err}");

@@ -34,7 +34,7 @@ fn bundled_dataset_is_what_the_readme_says() {
         "--model",
         "six",
         "--params",
-        KHAKI.as_str(),
+        &KHAKI,
         "--theta-i",
         "0,10,30",
         "--noise",
