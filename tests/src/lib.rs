@@ -3,12 +3,26 @@
 
 use brdf_core::SixParams;
 
-/// Table 1 of the paper: (material, [kb, kr, b, a, kd, c]).
-pub const TABLE1: [(&str, [f64; 6]); 3] = [
-    ("khaki", [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2000]),
-    ("yellow", [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420]),
-    ("white", [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415]),
-];
+pub use brdf_core::TABLE1;
+
+/// Row `i` of [`TABLE1`] as the `--params` argument of `brdf` (`kb=0.2545,kr=21.8031,...`),
+/// each value in its shortest decimal form.
+///
+/// ```
+/// assert_eq!(
+///     brdf_tests::table1_params_arg(0),
+///     "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2"
+/// );
+/// ```
+pub fn table1_params_arg(i: usize) -> String {
+    let names = brdf_core::ModelKind::Six.param_names();
+    names
+        .iter()
+        .zip(TABLE1[i].1)
+        .map(|(n, v)| format!("{n}={v}"))
+        .collect::<Vec<_>>()
+        .join(",")
+}
 
 /// docs/model.md reference values of the six-parameter model (50-digit evaluation rounded to 15
 /// significant digits): (theta_i, theta_r, phi in degrees, [khaki, yellow, white]).

@@ -50,8 +50,7 @@ fn main() {
         a[1].iter().zip(&a[2]).map(|(t, p)| t.sin() * p.sin()).collect(),
         a[1].iter().map(|t| t.cos()).collect(),
     ];
-    let six =
-        AnyModel::<f64>::new(ModelKind::Six, &[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
+    let six = AnyModel::<f64>::new(ModelKind::Six, &brdf_core::TABLE1[0].1).unwrap();
     let lambert = AnyModel::<f64>::new(ModelKind::Lambert, &[0.5]).unwrap();
     let mut out = vec![0.0; a[0].len()];
     let mut x = vec![0.0; a[0].len()];

@@ -597,7 +597,7 @@ mod tests {
 
     /// Khaki (Table 1), noise-free, at 24 directions over 3 incidences.
     fn khaki_24() -> Samples<f32, 32> {
-        let m = SixParam::<f32>::from_params(&[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
+        let m = SixParam::<f32>::from_params(&crate::table1_f32(0)).unwrap();
         let mut s = Samples::new();
         for k in 0..24 {
             let (ti, tr) = ((k % 3) as f32 * 0.3, 0.05 + 0.06 * k as f32);
@@ -778,7 +778,7 @@ mod tests {
     #[test]
     fn known_answer_for_a_fixed_seed() {
         // Khaki, noise-free, 3 incidences x 12 viewing angles in the plane.
-        let m = SixParam::<f32>::from_params(&[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
+        let m = SixParam::<f32>::from_params(&crate::table1_f32(0)).unwrap();
         let mut s: Samples<f32, 64> = Samples::new();
         for ti in [0.0f32, 10.0, 30.0] {
             for k in 0..12 {

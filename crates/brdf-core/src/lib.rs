@@ -33,7 +33,7 @@
 //! | module | what it holds | use it when |
 //! |---|---|---|
 //! | crate root | the models ([`SixParam`], [`FiveParam`], [`Minnaert`], [`Lambert`], [`SixParamCos2`]), [`AnyModel`] and [`ModelKind`], the [`Brdf`] and [`Model`] traits, [`Geometry`], [`Float`] | you evaluate one material at one direction pair (exact, `f32` or `f64`) |
-//! | [`models`] | one file per model with its parameter struct | you need a model's parameter names, order or derived terms |
+//! | [`models`] | one file per model with its parameter struct; [`TABLE1`], the paper's three materials ([`table1_f32`] for a row in `f32`) | you need a model's parameter names, order or derived terms, or the paper's reference materials |
 //! | [`ranges`] | the valid range of every parameter, used by every constructor | you validate parameters coming from outside (files, frames, fits) |
 //! | [`tolerance`] | every promised accuracy, with its reason | a test or a check compares two values |
 //! | [`checks`] | reciprocity, the energy bound, albedo by quadrature | you judge whether a parameter set is physical |
@@ -165,8 +165,8 @@ pub use float::Float;
 pub use geometry::{Geometry, UNIT_NORM_TOLERANCE};
 pub use model::{AnyModel, Brdf, Model, ModelKind, MAX_PARAMS};
 pub use models::{
-    FiveParam, FiveParams, Lambert, LambertParams, Minnaert, MinnaertParams, SixParam, SixParamCos2,
-    SixParams,
+    table1_f32, FiveParam, FiveParams, Lambert, LambertParams, Minnaert, MinnaertParams, SixParam,
+    SixParamCos2, SixParams, TABLE1,
 };
 
 /// The README's example, compiled and run as a doctest.

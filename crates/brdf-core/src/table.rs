@@ -318,7 +318,7 @@ impl Brdf<f32> for SixTable<'_> {
 mod tests {
     use super::*;
 
-    const KHAKI: SixParams<f64> = SixParams::from_array([0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]);
+    const KHAKI: SixParams<f64> = SixParams::from_array(crate::TABLE1[0].1);
 
     fn f32_params(p: SixParams<f64>) -> SixParams<f32> {
         SixParams::from_array(p.as_array().map(|v| v as f32))

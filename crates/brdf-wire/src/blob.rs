@@ -19,7 +19,7 @@
 //! [`SixTable::verify`]), each with its own [`BlobError`].
 
 use brdf_core::table::{table_len, SixTable, MAX_TABLE_NODES, MIN_TABLE_NODES};
-use brdf_core::{AnyModel, ModelKind, SixParams, MAX_PARAMS};
+use brdf_core::{table1_f32, AnyModel, ModelKind, SixParams, MAX_PARAMS, TABLE1};
 
 use crate::crc32;
 
@@ -74,13 +74,9 @@ pub const fn kind_from_id(id: u8) -> Option<ModelKind> {
 /// The paper's Table 1 (khaki, yellow, white painted plates) as a blob with sequence 0: the
 /// firmware's built-in default materials, known to the host too.
 pub fn table1_blob() -> Blob {
-    const TABLE1: [[f32; 6]; 3] = [
-        [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2],
-        [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420],
-        [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415],
-    ];
     let mut materials = heapless::Vec::new();
-    for params in TABLE1 {
+    for row in 0..TABLE1.len() {
+        let params = table1_f32(row);
         // Capacity MAX_MATERIALS = 8 > 3.
         let _ = materials.push(Material {
             kind: ModelKind::Six,
@@ -428,7 +424,7 @@ mod tests {
 
     fn khaki() -> Material {
         let mut params = [0.0; MAX_PARAMS];
-        params.copy_from_slice(&[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]);
+        params.copy_from_slice(&table1_f32(0));
         Material {
             kind: ModelKind::Six,
             params,
@@ -495,7 +491,7 @@ mod table_tests {
     use brdf_core::table::fill_six_table;
     use brdf_core::Brdf;
 
-    const KHAKI: [f32; 6] = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+    const KHAKI: [f32; 6] = table1_f32(0);
 
     fn tabled(nodes: u16) -> (Blob, std::vec::Vec<u8>) {
         let six = SixParams::from_array(KHAKI).widen();

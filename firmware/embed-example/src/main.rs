@@ -16,8 +16,10 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use panic_halt as _;
 
-/// Khaki painted plate (Table 1 of the paper), in the paper's order `kb, kr, b, a, kd, c`.
-const KHAKI: SixParams<f32> = SixParams::from_array([0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]);
+/// Khaki painted plate (Table 1 of the paper, `brdf_core::TABLE1`), in the paper's order
+/// `kb, kr, b, a, kd, c`; your own material is `SixParams::from_array([kb, kr, b, a, kd, c])`
+/// with its six `f32` values.
+const KHAKI: SixParams<f32> = SixParams::from_array(brdf_core::table1_f32(0));
 
 /// One query: incidence 30 deg, viewing 60 deg, `phi` = 180 deg (the plane of incidence,
 /// forward side), as the cosines a sensor's own geometry would supply.

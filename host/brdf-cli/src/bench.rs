@@ -46,11 +46,7 @@ impl BenchCmd {
 }
 
 /// Table 1 of the paper.
-const MATERIALS: [(&str, [f64; 6]); 3] = [
-    ("khaki", [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]),
-    ("yellow", [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420]),
-    ("white", [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415]),
-];
+const MATERIALS: [(&str, [f64; 6]); 3] = brdf_core::TABLE1;
 
 /// Every evaluation path on one material, timed in one run: the scalar path (the device's
 /// code) and the batch path (`brdf_core::batch`), f64 and f32, from angles, cosines and unit

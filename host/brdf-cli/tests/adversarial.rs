@@ -10,12 +10,14 @@ use std::collections::HashSet;
 use std::io::{BufRead, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
+use std::sync::LazyLock;
 use std::time::{Duration, Instant};
 
 use brdf_core::{AnyModel, Brdf, ModelKind};
 use brdf_wire::frame::{encode_response, Response, MAX_FRAME};
 
-const KHAKI: &str = "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2";
+/// Khaki (Table 1) as a `--params` argument.
+static KHAKI: LazyLock<String> = LazyLock::new(|| brdf_tests::table1_params_arg(0));
 
 fn brdf() -> Command {
     Command::new(env!("CARGO_BIN_EXE_brdf"))
@@ -300,9 +302,7 @@ fn no_local_process_can_pose_as_the_device() {
         "brdf query listened on {} socket(s)",
         attacked.len()
     );
-    let p: Vec<f32> = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]
-        .map(|v: f64| v as f32)
-        .to_vec();
+    let p = brdf_core::table1_f32(0).to_vec();
     let m = AnyModel::<f32>::new(ModelKind::Six, &p).unwrap();
     let x = [10f64, 10.0, 0.0].map(|d| d.to_radians() as f32);
     assert_eq!(
@@ -481,7 +481,7 @@ fn query_prints_what_eval_prints_byte_for_byte() {
             "--model",
             "six",
             "--params",
-            KHAKI,
+            &KHAKI,
             "--precision",
             "f32",
             path.to_str().unwrap(),
@@ -536,7 +536,7 @@ fn query_prints_what_eval_prints_byte_for_byte() {
 #[test]
 fn eval_writes_as_it_reads() {
     let mut child = brdf()
-        .args(["eval", "--model", "six", "--params", KHAKI, "/dev/stdin"])
+        .args(["eval", "--model", "six", "--params", &KHAKI, "/dev/stdin"])
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -594,7 +594,7 @@ fn a_bad_row_stops_eval_after_whole_chunks() {
     }
     let f = dir.path().join("late.csv");
     std::fs::write(&f, rows).unwrap();
-    let out = run(&["eval", "--model", "six", "--params", KHAKI, f.to_str().unwrap()]);
+    let out = run(&["eval", "--model", "six", "--params", &KHAKI, f.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     assert!(text(&out.stderr).contains("late.csv: line 4502: column theta_r: zenith 95 deg"));
     assert_eq!(text(&out.stdout).lines().count(), 1 + 4096);
@@ -605,7 +605,14 @@ fn a_bad_row_stops_eval_after_whole_chunks() {
 fn messages_say_each_thing_once_and_numbers_briefly() {
     let os = "No such file or directory";
     for args in [
-        &["eval", "--model", "six", "--params", KHAKI, "/nonexistent/a.csv"][..],
+        &[
+            "eval",
+            "--model",
+            "six",
+            "--params",
+            KHAKI.as_str(),
+            "/nonexistent/a.csv",
+        ][..],
         &["fit", "/nonexistent/a.csv"][..],
         &["pack", "/nonexistent/a.json", "-o", "/tmp/x.bin"][..],
         &["query", "--qemu", "/nonexistent/a.csv"][..],

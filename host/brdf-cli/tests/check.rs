@@ -47,7 +47,7 @@ fn check_qemu_passes_for_table1_and_a_fresh_fit() {
         "--model",
         "six",
         "--params",
-        "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2",
+        &brdf_tests::table1_params_arg(0),
         "--precision",
         "f32",
         angles.to_str().unwrap(),

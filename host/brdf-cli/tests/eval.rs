@@ -2,11 +2,13 @@
 
 use std::path::PathBuf;
 use std::process::{Command, Output};
+use std::sync::LazyLock;
 
 use brdf_core::tolerance::{BATCH_F64_REL, F64_REFERENCE_REL, F64_REFORMULATION_REL};
 use brdf_core::{AnyModel, Brdf, ModelKind};
 
-const KHAKI: &str = "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2";
+/// Khaki (Table 1) as a `--params` argument.
+static KHAKI: LazyLock<String> = LazyLock::new(|| brdf_tests::table1_params_arg(0));
 
 fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
     let p = dir.path().join(name);
@@ -49,7 +51,7 @@ fn f64_output_reproduces_reference_values_with_17_digits_and_passes_columns_thro
         "a.csv",
         "label,theta_i,theta_r,phi\nnormal,0,0,0\nmirror,10,10,180\nretro,10,10,0\ngrazing,0,89,180\n",
     );
-    let rows = eval_ok(&["eval", "--model", "six", "--params", KHAKI, f.to_str().unwrap()]);
+    let rows = eval_ok(&["eval", "--model", "six", "--params", &KHAKI, f.to_str().unwrap()]);
     assert_eq!(rows[0], ["label", "theta_i", "theta_r", "phi", "brdf"]);
     let expect = [
         0.198020580194936,
@@ -88,15 +90,12 @@ fn f32_output_is_the_core_f32_path_exactly() {
         "--model",
         "six",
         "--params",
-        KHAKI,
+        &KHAKI,
         "--precision",
         "f32",
         f.to_str().unwrap(),
     ]);
-    let p: Vec<f32> = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]
-        .iter()
-        .map(|&v: &f64| v as f32)
-        .collect();
+    let p = brdf_core::table1_f32(0).to_vec();
     let model = AnyModel::<f32>::new(ModelKind::Six, &p).unwrap();
     for row in &rows[1..] {
         let [ti, tr, phi] = [0, 1, 2].map(|k| (row[k].parse::<f64>().unwrap().to_radians()) as f32);
@@ -123,7 +122,7 @@ fn other_models_by_name() {
     for (model, params) in [
         ("minnaert", "rho0=0.5,k=0.7"),
         ("five", "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676"),
-        ("six-cos2", KHAKI),
+        ("six-cos2", &KHAKI),
     ] {
         let rows = eval_ok(&["eval", "--model", model, "--params", params, f.to_str().unwrap()]);
         assert!(rows[1][3].parse::<f64>().unwrap() > 0.0);
@@ -169,7 +168,7 @@ fn bad_input_names_file_line_and_column() {
     ];
     for (name, text, want) in cases {
         let f = write(&dir, name, text);
-        let err = eval_err(&["eval", "--model", "six", "--params", KHAKI, f.to_str().unwrap()]);
+        let err = eval_err(&["eval", "--model", "six", "--params", &KHAKI, f.to_str().unwrap()]);
         assert!(
             err.contains(name),
             "{name}: message does not name the file: {err}"
@@ -198,7 +197,7 @@ fn bad_input_names_file_line_and_column() {
         "--model",
         "six",
         "--params",
-        KHAKI,
+        &KHAKI,
         "/nonexistent/angles.csv",
     ]);
     assert!(err.contains("/nonexistent/angles.csv"), "{err}");
@@ -249,10 +248,9 @@ fn large_files_are_evaluated_in_chunks_in_order_and_match_the_scalar_path() {
         text += &format!("{k},{},{},{}\n", 89.9 * next(), 89.9 * next(), 360.0 * next());
     }
     let f = write(&dir, "big.csv", &text);
-    let rows = eval_ok(&["eval", "--model", "six", "--params", KHAKI, f.to_str().unwrap()]);
+    let rows = eval_ok(&["eval", "--model", "six", "--params", &KHAKI, f.to_str().unwrap()]);
     assert_eq!(rows.len(), n + 1);
-    let model =
-        AnyModel::<f64>::new(ModelKind::Six, &[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
+    let model = AnyModel::<f64>::new(ModelKind::Six, &brdf_core::TABLE1[0].1).unwrap();
     for (k, row) in rows[1..].iter().enumerate() {
         assert_eq!(row[0], k.to_string());
         let [ti, tr, phi] = [1, 2, 3].map(|c| row[c].parse::<f64>().unwrap().to_radians());
@@ -267,7 +265,7 @@ fn large_files_are_evaluated_in_chunks_in_order_and_match_the_scalar_path() {
     // chunks of 4,096 rows before the one holding it have been written, and nothing more.
     text += "70000,30,90.5,180\n";
     let f = write(&dir, "bad.csv", &text);
-    let out = brdf(&["eval", "--model", "six", "--params", KHAKI, f.to_str().unwrap()]);
+    let out = brdf(&["eval", "--model", "six", "--params", &KHAKI, f.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(err.contains(&format!("line {}: column theta_r", n + 2)), "{err}");

@@ -28,12 +28,7 @@ fn ok(out: &std::process::Output) -> String {
 
 /// The bundled scene's materials (hull, caps, fin): Table 1 khaki, yellow, white.
 fn models() -> [AnyModel<f64>; 3] {
-    [
-        [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2],
-        [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420],
-        [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415],
-    ]
-    .map(|p| AnyModel::new(ModelKind::Six, &p).unwrap())
+    brdf_core::TABLE1.map(|(_, p)| AnyModel::new(ModelKind::Six, &p).unwrap())
 }
 
 #[test]

@@ -32,21 +32,9 @@ fn main() {
         };
     }
     let mut sets: Vec<(&str, [f64; 6], Vec<f64>)> = vec![
-        (
-            "khaki",
-            [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2],
-            vec![0.0, 10.0, 30.0],
-        ),
-        (
-            "yellow",
-            [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420],
-            vec![0.0, 10.0],
-        ),
-        (
-            "white",
-            [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415],
-            vec![30.0],
-        ),
+        ("khaki", brdf_core::TABLE1[0].1, vec![0.0, 10.0, 30.0]),
+        ("yellow", brdf_core::TABLE1[1].1, vec![0.0, 10.0]),
+        ("white", brdf_core::TABLE1[2].1, vec![30.0]),
     ];
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(99);
     for k in 0..6 {

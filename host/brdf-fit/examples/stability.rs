@@ -11,8 +11,8 @@ use brdf_fit::anneal::AnnealOptions;
 use brdf_fit::report::{report, FitReport};
 use brdf_fit::{fit, synth, Dataset, FitOptions, Problem, Residual};
 
-const KHAKI: [f64; 6] = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
-const WHITE: [f64; 6] = [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415];
+const KHAKI: [f64; 6] = brdf_core::TABLE1[0].1;
+const WHITE: [f64; 6] = brdf_core::TABLE1[2].1;
 /// A hand-picked steep lobe (`a` = 1.2, `|b|` = 40) measured at two incidences with 10%
 /// noise: a hard case for every method.
 const HARD: [f64; 6] = [0.3, 2.0, -40.0, 1.2, 0.2, 0.8];

@@ -195,7 +195,7 @@ mod tests {
             let p: Vec<f64> = match kind {
                 ModelKind::Five => vec![0.2545, 1.8, -27.5721, 0.6705, 0.3676],
                 ModelKind::Minnaert => vec![0.6, 0.7],
-                _ => vec![0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2],
+                _ => brdf_core::TABLE1[0].1.to_vec(),
             };
             let d = synth::in_plane(kind, &p, &[0.0, 30.0], 5.0, 0.01, 3).unwrap();
             let pr = Problem::from_dataset(kind, Residual::Relative, &d);

@@ -359,7 +359,7 @@ mod tests {
 
     fn params(kind: ModelKind) -> Vec<f64> {
         match kind {
-            ModelKind::Six | ModelKind::SixCos2 => vec![0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2],
+            ModelKind::Six | ModelKind::SixCos2 => brdf_core::TABLE1[0].1.to_vec(),
             ModelKind::Five => vec![0.2545, 1.8, -27.5721, 0.6705, 0.3676],
             ModelKind::Minnaert => vec![0.6, 0.7],
             ModelKind::Lambert => vec![0.6],

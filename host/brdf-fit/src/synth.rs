@@ -121,7 +121,7 @@ mod tests {
 
     #[test]
     fn noise_is_reproducible_and_of_the_stated_size() {
-        let p = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+        let p = brdf_core::TABLE1[0].1; // khaki
         let a = in_plane(ModelKind::Six, &p, &[0.0, 30.0], 1.0, 0.02, 7).unwrap();
         let b = in_plane(ModelKind::Six, &p, &[0.0, 30.0], 1.0, 0.02, 7).unwrap();
         assert_eq!(a, b);

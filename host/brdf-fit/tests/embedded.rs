@@ -32,21 +32,9 @@ fn rms(problem: &Problem, d: &Dataset, q: &[f64]) -> f64 {
 fn embedded_within_10_percent_of_host() {
     let mut sets: Vec<Dataset> = Vec::new();
     for (name, p, inc) in [
-        (
-            "khaki",
-            [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2],
-            &[0.0, 10.0, 30.0][..],
-        ),
-        (
-            "yellow",
-            [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420],
-            &[0.0, 10.0][..],
-        ),
-        (
-            "white",
-            [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415],
-            &[30.0][..],
-        ),
+        ("khaki", brdf_core::TABLE1[0].1, &[0.0, 10.0, 30.0][..]),
+        ("yellow", brdf_core::TABLE1[1].1, &[0.0, 10.0][..]),
+        ("white", brdf_core::TABLE1[2].1, &[30.0][..]),
     ] {
         let mut d = synth::in_plane(ModelKind::Six, &p, inc, 2.5, 0.005, 7).unwrap();
         d.name = format!("synthetic {name}");

@@ -4,8 +4,8 @@ use brdf_core::ModelKind;
 use brdf_fit::report::{metrics, report};
 use brdf_fit::{fit, synth, FitOptions, Problem, Residual};
 
-const KHAKI: [f64; 6] = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
-const YELLOW: [f64; 6] = [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420];
+const KHAKI: [f64; 6] = brdf_core::TABLE1[0].1;
+const YELLOW: [f64; 6] = brdf_core::TABLE1[1].1;
 
 fn check_recovery(name: &str, truth: &[f64; 6], incidences: &[f64]) {
     let data = synth::in_plane(ModelKind::Six, truth, incidences, 1.0, 0.005, 7).unwrap();

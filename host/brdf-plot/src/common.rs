@@ -95,7 +95,7 @@ pub(crate) fn circle(r: f64) -> Vec<(f64, f64)> {
 #[cfg(test)]
 pub(crate) fn khaki() -> (brdf_fit::Dataset, crate::Fitted) {
     use brdf_core::{AnyModel, ModelKind};
-    let p = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+    let p = brdf_core::TABLE1[0].1;
     let data = brdf_fit::synth::in_plane(ModelKind::Six, &p, &[0.0, 30.0], 5.0, 0.01, 7).unwrap();
     let model = AnyModel::new(ModelKind::Six, &p).unwrap();
     let fit = crate::Fitted {

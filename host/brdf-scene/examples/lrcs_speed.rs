@@ -10,7 +10,7 @@
 
 use std::time::Instant;
 
-use brdf_core::{AnyModel, ModelKind};
+use brdf_core::{AnyModel, ModelKind, TABLE1};
 use brdf_scene::eval::{sigma, Evaluator};
 use brdf_scene::lrcs::{domain, lrcs};
 use brdf_scene::scene::{Mode, Scene, SceneMaterial, Sensor};
@@ -39,9 +39,9 @@ fn main() {
     let build_mesh = t.elapsed().as_secs_f64();
     let six = |p: [f64; 6]| AnyModel::new(ModelKind::Six, &p).expect("Table 1 parameters");
     let materials = vec![
-        SceneMaterial::new("hull", six([0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2])),
-        SceneMaterial::new("caps", six([0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420])),
-        SceneMaterial::new("fin", six([49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415])),
+        SceneMaterial::new("hull", six(TABLE1[0].1)),
+        SceneMaterial::new("caps", six(TABLE1[1].1)),
+        SceneMaterial::new("fin", six(TABLE1[2].1)),
     ];
     let cores = rayon::current_num_threads();
     println!(

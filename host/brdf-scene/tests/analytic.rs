@@ -20,7 +20,7 @@ use brdf_scene::occlusion::{EDGE_SLACK, T_MIN};
 use brdf_scene::scene::{direction, Mode, Scene, SceneMaterial, Sensor};
 use brdf_scene::shapes::{target, MeshBuilder, TargetSpec};
 
-const KHAKI: [f64; 6] = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+const KHAKI: [f64; 6] = brdf_core::TABLE1[0].1;
 
 fn lambert(rho: f64) -> AnyModel<f64> {
     AnyModel::new(ModelKind::Lambert, &[rho]).unwrap()

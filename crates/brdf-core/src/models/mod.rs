@@ -12,6 +12,32 @@ pub use minnaert::{Minnaert, MinnaertParams};
 pub use six::{SixParam, SixParams};
 pub use six_cos2::SixParamCos2;
 
+/// Table 1 of the paper (Yang, Wu and Cao 2012): the six parameters `[kb, kr, b, a, kd, c]`
+/// fitted to three painted plates, by material name. Every test, benchmark, example and
+/// firmware measurement that needs "the paper's materials" reads them here.
+pub const TABLE1: [(&str, [f64; 6]); 3] = [
+    ("khaki", [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2000]),
+    ("yellow", [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420]),
+    ("white", [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415]),
+];
+
+/// Row `i` of [`TABLE1`] (0 khaki, 1 yellow, 2 white) in `f32`, usable in `const` items.
+///
+/// Each value is the `f64` entry rounded to `f32`, which for these 18 decimals is bit for bit
+/// the `f32` literal of the same digits (a unit test checks it). Panics at compile time (in a
+/// `const`) or at run time if `i > 2`.
+pub const fn table1_f32(i: usize) -> [f32; 6] {
+    let r = TABLE1[i].1;
+    [
+        r[0] as f32,
+        r[1] as f32,
+        r[2] as f32,
+        r[3] as f32,
+        r[4] as f32,
+        r[5] as f32,
+    ]
+}
+
 use crate::float::{product_error, split, Float};
 use crate::geometry::Geometry;
 
@@ -58,5 +84,30 @@ impl<T: Float> Lobe<T> {
         let e_hi = self.abs_b * p;
         let e_lo = product_error(self.abs_b_hi, self.abs_b_lo, p, e_hi);
         (-e_hi).exp() * (T::ONE - e_lo)
+    }
+}
+
+#[cfg(test)]
+mod table1_tests {
+    use super::{table1_f32, TABLE1};
+
+    /// The `f32` rows equal the `f32` literals of the paper's digits: rounding the decimal to
+    /// `f64` first and then to `f32` changes none of the 18 values.
+    #[test]
+    fn table1_f32_equals_f32_literals() {
+        let literals: [[f32; 6]; 3] = [
+            [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2000],
+            [0.1932, 11.8999, -39.5679, 0.8295, 0.3723, 0.0420],
+            [49.3261, 0.1020, -35.4609, 0.6465, 0.6268, 0.2415],
+        ];
+        for (i, row) in literals.iter().enumerate() {
+            assert_eq!(
+                table1_f32(i).map(f32::to_bits),
+                row.map(f32::to_bits),
+                "{}",
+                TABLE1[i].0
+            );
+        }
+        assert_eq!(TABLE1.map(|(name, _)| name), ["khaki", "yellow", "white"]);
     }
 }

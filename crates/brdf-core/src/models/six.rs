@@ -222,7 +222,7 @@ mod tests {
 
     #[test]
     fn terms_add_up_and_horizon_gives_zero() {
-        let m = SixParam::from_params(&[0.2545_f64, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
+        let m = SixParam::from_params(&crate::TABLE1[0].1).unwrap();
         let g = Geometry::from_angles(0.3, 0.9, 2.0);
         assert_eq!(m.eval(&g), m.specular(&g) + m.diffuse(&g));
         assert_eq!(m.eval_angles(0.3, 1.7, 2.0), 0.0);

@@ -92,7 +92,7 @@ mod tests {
 
     #[test]
     fn equals_canonical_at_mirror_and_normal() {
-        let p = [0.2545_f64, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+        let p = crate::TABLE1[0].1; // khaki
         let six = SixParam::from_params(&p).unwrap();
         let cos2 = SixParamCos2::from_params(&p).unwrap();
         // cos(alpha) = 1 at the mirror direction: both denominators equal kr^2.
@@ -107,7 +107,7 @@ mod tests {
     fn facet_exceeds_one_for_large_kr() {
         // kr = 21.8: peak of kr^2 c/(1 + (kr^2-1) c^2) is at c = 1/sqrt(kr^2 - 1) with value
         // about kr/2, so the kb + kd bound is void.
-        let m = SixParamCos2::from_params(&[0.2545_f64, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
+        let m = SixParamCos2::from_params(&crate::TABLE1[0].1).unwrap();
         assert_eq!(m.energy_bound(), None);
         let m = SixParamCos2::from_params(&[0.2_f64, 1.2, -5.0, 0.7, 0.3, 1.0]).unwrap();
         assert_eq!(m.energy_bound(), Some(0.5));

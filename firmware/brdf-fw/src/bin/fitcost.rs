@@ -17,10 +17,13 @@ use rand_core::SeedableRng;
 
 const N: usize = 256;
 
+/// The khaki plate, Table 1 of the paper.
+const KHAKI: [f32; 6] = brdf_core::table1_f32(0);
+
 #[entry]
 fn main() -> ! {
     let ticks = Ticks::start();
-    let Ok(khaki) = SixParam::from_params(&[0.2545_f32, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]) else {
+    let Ok(khaki) = SixParam::from_params(&KHAKI) else {
         exit(false)
     };
     let mut s: Samples<f32, N> = Samples::new();

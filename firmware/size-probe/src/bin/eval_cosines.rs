@@ -8,7 +8,7 @@ use core::hint::black_box;
 
 #[no_mangle]
 pub extern "C" fn _start() -> ! {
-    let p = black_box([0.2545_f32, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]);
+    let p = black_box(brdf_core::table1_f32(0));
     let m = match SixParam::from_params(&p) {
         Ok(m) => m,
         Err(_) => halt(),
