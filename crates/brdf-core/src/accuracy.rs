@@ -143,3 +143,49 @@ pub fn regular_grid(
         ]
     })
 }
+
+/// One step of SplitMix64 (Steele, Lea and Flood 2014): advances `state` and returns 64
+/// random bits. The generator of the reproducible random directions and parameter sets the
+/// accuracy checks draw (`brdf check --seed`, the cross-check tests): the same sequence on
+/// every machine, from a seed alone.
+pub fn splitmix64(state: &mut u64) -> u64 {
+    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The next [`splitmix64`] draw as a uniform `f64` in `[0, 1)` (its top 53 bits).
+pub fn splitmix64_unit(state: &mut u64) -> f64 {
+    (splitmix64(state) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn splitmix64_is_the_published_sequence() {
+        // The reference implementation (Vigna, splitmix64.c) from state 0.
+        let mut s = 0u64;
+        assert_eq!(splitmix64(&mut s), 0xE220_A839_7B1D_CDAF);
+        assert_eq!(splitmix64(&mut s), 0x6E78_9E6A_A1B9_65F4);
+        assert_eq!(splitmix64(&mut s), 0x06C4_5D18_8009_454F);
+        let u = splitmix64_unit(&mut s);
+        assert!((0.0..1.0).contains(&u));
+    }
+
+    #[test]
+    fn a_non_finite_answer_is_an_infinite_error_and_the_floor_applies() {
+        let exact = [1.0, 2.0, 1e-9];
+        let path = [1.0f32, f32::NAN, 5.0];
+        let a = compare(0..3, |k| path[k], |k| exact[k]);
+        // The third input is below 1e-6 of the largest reference: not judged.
+        assert_eq!((a.n, a.total), (2, 3));
+        assert!(a.max.is_infinite());
+        assert_eq!(a.worst_at, Some(1));
+        let b = compare(0..2, |k| [1.5f64, 2.0][k], |k| exact[k]);
+        assert_eq!((b.max, b.mean, b.worst_at), (0.5, 0.25, Some(0)));
+    }
+}
