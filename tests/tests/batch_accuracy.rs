@@ -412,3 +412,113 @@ fn albedo_through_the_batch_path_matches_the_scalar_rule() {
     assert!(rel_err(albedo_batch(&Batch::new(m), 0.5, fine), albedo(m, 0.5, fine)) <= BATCH_F64_REL);
     println!("albedo, batch against scalar rule: max rel {worst:.2e}");
 }
+
+#[test]
+fn a_ring_is_bit_for_bit_what_angles_gives() {
+    let mut rng = SplitMix(0x0072_1a6e);
+    let mut sets: Vec<(ModelKind, Vec<f64>)> =
+        TABLE1.iter().map(|(_, p)| (ModelKind::Six, p.to_vec())).collect();
+    for kind in ModelKind::ALL {
+        for _ in 0..4 {
+            sets.push((kind, random_params(kind, &mut rng)));
+        }
+    }
+    // Zenith pairs: retro/mirror (equal), at and beyond the horizon, the ends of [0, pi].
+    let mut zeniths: Vec<(f64, f64)> = vec![
+        (0.0, 0.0),
+        (0.3, 0.3),
+        (0.3, 0.3 + 1e-7),
+        (rad(89.9), rad(89.9)),
+        (rad(90.0), 0.3),
+        (0.3, 2.0),
+        (std::f64::consts::PI, 0.0),
+    ];
+    for _ in 0..40 {
+        zeniths.push((rng.uniform(0.0, rad(89.9)), rng.uniform(0.0, rad(89.9))));
+    }
+    // More azimuths than one chunk holds, near retro and mirror, and beyond the vector
+    // reduction's range.
+    let mut phi: Vec<f64> = (0..600)
+        .map(|_| rng.uniform(-2.0 * std::f64::consts::PI, 4.0 * std::f64::consts::PI))
+        .collect();
+    phi.extend([
+        0.0,
+        1e-7,
+        std::f64::consts::PI,
+        std::f64::consts::PI - 1e-7,
+        3000.0,
+        -1e6,
+        1e300,
+    ]);
+    let n = phi.len();
+    let mut checked = 0usize;
+    for level in levels() {
+        for (kind, p) in &sets {
+            let m = AnyModel::<f64>::new(*kind, p).unwrap();
+            let b = Batch::new(&m).at_level(level).unwrap();
+            let m32 = AnyModel::<f32>::new(*kind, &p.iter().map(|&v| v as f32).collect::<Vec<_>>()).unwrap();
+            let b32 = Batch::new(&m32).at_level(level).unwrap();
+            // (1e300 is infinite in f32: the largest finite f32 instead.)
+            let phi32: Vec<f32> = phi.iter().map(|&v| (v as f32).min(f32::MAX)).collect();
+            for &(ti, tr) in &zeniths {
+                let (mut ring, mut each) = (vec![0.0; n], vec![0.0; n]);
+                b.ring(ti, tr, &phi, &mut ring).unwrap();
+                b.angles(&vec![ti; n], &vec![tr; n], &phi, &mut each).unwrap();
+                for k in 0..n {
+                    assert_eq!(
+                        ring[k].to_bits(),
+                        each[k].to_bits(),
+                        "{level:?} {kind:?} {p:?} at ({ti}, {tr}, {}): {} vs {}",
+                        phi[k],
+                        ring[k],
+                        each[k]
+                    );
+                }
+                let (ti32, tr32) = (ti as f32, tr as f32);
+                let (mut ring, mut each) = (vec![0.0f32; n], vec![0.0f32; n]);
+                b32.ring(ti32, tr32, &phi32, &mut ring).unwrap();
+                b32.angles(&vec![ti32; n], &vec![tr32; n], &phi32, &mut each)
+                    .unwrap();
+                assert!(ring.iter().zip(&each).all(|(a, b)| a.to_bits() == b.to_bits()));
+                checked += 2 * n;
+            }
+        }
+    }
+    println!("ring against angles: {checked} values, all bit-identical");
+
+    // Errors: an invalid zenith makes every lane NaN and is reported at index 0; an invalid
+    // azimuth as `angles` reports it; a length mismatch leaves `out` alone.
+    let b = Batch::new(&AnyModel::<f64>::new(ModelKind::Six, &TABLE1[0].1).unwrap());
+    let mut out = [5.0; 3];
+    assert_eq!(
+        b.ring(f64::NAN, 0.3, &[0.1; 3], &mut out),
+        Err(BatchError::Domain {
+            index: 0,
+            error: DomainError::NotFinite { what: "theta_i" }
+        })
+    );
+    assert!(out.iter().all(|v| v.is_nan()));
+    assert!(matches!(
+        b.ring(0.3, 4.0, &[0.1; 3], &mut out),
+        Err(BatchError::Domain {
+            index: 0,
+            error: DomainError::OutOfRange { what: "theta_r", .. }
+        })
+    ));
+    let mut out = [5.0; 3];
+    assert_eq!(
+        b.ring(0.3, 0.4, &[0.1, f64::INFINITY, 0.2], &mut out),
+        Err(BatchError::Domain {
+            index: 1,
+            error: DomainError::NotFinite { what: "phi" }
+        })
+    );
+    assert!(out[0].is_finite() && out[1].is_nan() && out[2].is_nan());
+    let mut out = [5.0; 4];
+    assert!(matches!(
+        b.ring(0.3, 0.4, &[0.1; 3], &mut out),
+        Err(BatchError::Length { .. })
+    ));
+    assert_eq!(out, [5.0; 4]);
+    assert_eq!(b.ring(f64::NAN, 0.3, &[], &mut []), Ok(()));
+}

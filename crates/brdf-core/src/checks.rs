@@ -101,14 +101,11 @@ pub fn albedo<T: Float, M: Brdf<T>>(model: &M, theta_i: T, rule: AlbedoRule) -> 
 }
 
 /// [`albedo`] through the batch path ([`crate::batch`]): each ring's azimuth nodes in one
-/// call. Agrees with [`albedo`] to [`crate::tolerance::BATCH_F64_REL`] in f64.
+/// [`Batch::ring`] call. Agrees with [`albedo`] to [`crate::tolerance::BATCH_F64_REL`] in f64.
 pub fn albedo_batch<T: Float>(model: &Batch<T>, theta_i: T, rule: AlbedoRule) -> T {
-    let ti = [theta_i; RING];
     albedo_by(theta_i, rule, |theta_r, phi, out| {
-        let n = phi.len();
-        let tr = [theta_r; RING];
-        // An invalid lane (a NaN theta_r from a NaN theta_i) leaves NaN, which the sum carries.
-        let _ = model.angles(&ti[..n], &tr[..n], phi, out);
+        // An invalid ring (a NaN theta_r from a NaN theta_i) leaves NaN, which the sum carries.
+        let _ = model.ring(theta_i, theta_r, phi, out);
     })
 }
 
