@@ -1,5 +1,6 @@
 //! Where the batch path's time goes, per instruction-set level: the six-parameter model and
-//! Lambert (whose model costs nothing) from angles and from unit vectors, and the vectorised
+//! Lambert (whose model costs nothing) from angles and from unit vectors, the six-parameter
+//! model by rings (`Batch::ring`, as the albedo quadrature calls it), and the vectorised
 //! `exp` alone, on a 10^6-direction grid (ns per direction, best of 7, one core).
 //!
 //!     cargo run --release -p brdf-core --features std --example batch_floor
@@ -59,6 +60,13 @@ fn main() {
         let bl = Batch::new(&lambert).at_level(level).unwrap();
         let six_angles = best(|| b6.angles(&a[0], &a[1], &a[2], &mut out).unwrap());
         let six_vectors = best(|| b6.vectors(v(&wi), v(&wr), &mut out).unwrap());
+        // The same grid as rings: one call per (theta_i, theta_r) pair over its n azimuths.
+        let six_rings = best(|| {
+            for (k, o) in out.chunks_mut(n).enumerate() {
+                b6.ring(a[0][k * n], a[1][k * n], &a[2][k * n..(k + 1) * n], o)
+                    .unwrap();
+            }
+        });
         let lambert_angles = best(|| bl.angles(&a[0], &a[1], &a[2], &mut out).unwrap());
         let lambert_vectors = best(|| bl.vectors(v(&wi), v(&wr), &mut out).unwrap());
         let refill = |x: &mut [f64]| {
@@ -72,7 +80,7 @@ fn main() {
         });
         let fill = best(|| refill(&mut x));
         println!(
-            "{:8} six: angles {six_angles:6.2}, vectors {six_vectors:6.2} | lambert: angles {lambert_angles:6.2}, vectors {lambert_vectors:6.2} | \
+            "{:8} six: angles {six_angles:6.2}, rings {six_rings:6.2}, vectors {six_vectors:6.2} | lambert: angles {lambert_angles:6.2}, vectors {lambert_vectors:6.2} | \
              geometry+checks {lambert_vectors:.2}, sin/cos {:.2}, model {:.2}, one exp {:.2} ns",
             level.name(),
             lambert_angles - lambert_vectors,
