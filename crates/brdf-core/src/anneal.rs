@@ -7,24 +7,33 @@
 //! linear in ([`Model::LINEAR`]: `kb`, `kd`, `rho0`) are solved exactly at every step by a
 //! non-negative least-squares fit of at most two weights (variable projection), so the
 //! annealer searches only the nonlinear ones. Each move changes one of them in the unit cube
-//! of the search box (`kr` in log space), with a step that shrinks over the budget. A budget
-//! of `E` evaluations costs `E * (1 + linear weights)` model evaluations per sample.
+//! of the search box (`kr` in log space), with a step that shrinks over the budget.
 //!
-//! RAM: the annealer's state is a few dozen bytes on the stack; the samples are
-//! `size_of::<Sample<f32>>() = 28` bytes each, so `Samples<f32, 256>` is 7,176 bytes on a
-//! 64-bit host and 7,172 on the Cortex-M4 (a 4-byte length; pinned by the test
-//! `ram_is_pinned` and printed by `bench/firmware_cost.sh`).
+//! **Caching.** The model is a sum of linear weights times terms, and each term a product of
+//! factors ([`Model::TERM_FACTORS`]; the six-parameter model's `kb` term is
+//! `facet(kr) * lobe(b, a) * ln(1 + cos ti cos tr)`, its `kd` term `(cos ti cos tr)^c`). The
+//! annealer keeps every factor at every sample, and after a move of one parameter it
+//! re-evaluates only the factors that parameter enters ([`Model::factor_uses`]); the cost is
+//! then `sum (w0 t0 + w1 t1 - 1)^2` over the cached terms, with no further model evaluation.
+//! The values are those of evaluating the basis models afresh, bit for bit
+//! ([`Model::eval_factor`]).
+//!
+//! RAM: the samples are `size_of::<Sample<f32>>() = 28` bytes each, so `Samples<f32, 256>`
+//! is 7,176 bytes on a 64-bit host and 7,172 on the Cortex-M4 (a 4-byte length; pinned by
+//! the test `ram_is_pinned` and printed by `bench/firmware_cost.sh`). The caches are
+//! `2 (MAX_TERM_FACTORS + 2) N` values on the stack: 12 KiB for f32 and N = 256.
 //!
 //! Cost on the Cortex-M4F (`bench/firmware_cost.sh`): the six-parameter model at N = 256 and
-//! the default budget of 20,000 evaluations takes about 9.8e9 instructions (1,900 per
-//! sample and evaluation: three model evaluations with `powf`, `expf`, `log1pf`).
+//! the default budget of 20,000 evaluations takes 1.61e9 instructions (314 per sample and
+//! evaluation; about 10 s at 168 MHz), against 9.82e9 when every evaluation computed the
+//! model three times at every sample.
 
 use rand_core::RngCore;
 
 use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;
-use crate::model::{AnyModel, Brdf, Model, ModelKind, MAX_PARAMS};
+use crate::model::{AnyModel, Brdf, Model, ModelKind, MAX_PARAMS, MAX_TERM_FACTORS};
 use crate::models::{FiveParam, Lambert, Minnaert, SixParam, SixParamCos2};
 
 /// One field measurement, its geometry precomputed.
@@ -492,30 +501,108 @@ pub fn anneal_with_progress<T: Float, M: Model<T>, R: RngCore, const N: usize>(
         }
         q
     };
-    // Model with the nonlinear parameters of `q`, linear weights solved: (model, cost).
-    let evaluate = |u: &[T; MAX_PARAMS]| -> Option<(M, T)> {
-        let mut q = to_params(u);
-        let nb = linear.len().min(2);
-        // Basis models: one linear weight 1, the others 0.
-        let mut basis: [Option<M>; 2] = [None, None];
-        for (k, slot) in basis.iter_mut().enumerate().take(nb) {
-            let mut b = q;
-            for (m, &l) in linear.iter().enumerate() {
-                b[l] = if m == k { T::ONE } else { T::ZERO };
-            }
-            *slot = Some(M::from_params(&b[..p]).ok()?);
+    let nb = linear.len().min(2);
+    // The factor caches: slot `s` holds factor `slot[s].1` of term `slot[s].0` at every
+    // sample, in two buffers (`bufs[s][cur[s]]` the current state's, the other a candidate's).
+    // A model declaring more factors than fit is cached one factor per term.
+    let declared: usize = (0..nb)
+        .map(|k| M::TERM_FACTORS.get(k).copied().unwrap_or(1).max(1))
+        .sum();
+    let split = declared <= MAX_TERM_FACTORS;
+    let mut slot = [(0usize, 0usize); MAX_TERM_FACTORS];
+    let mut slots = 0;
+    for k in 0..nb {
+        let factors = if split {
+            M::TERM_FACTORS.get(k).copied().unwrap_or(1).max(1)
+        } else {
+            1
+        };
+        for f in 0..factors {
+            slot[slots] = (k, f);
+            slots += 1;
         }
+    }
+    // Slot buffers, then one pair per term (the term over the measured value), all indexed
+    // by `cur` (the term of `k` at slot `MAX_TERM_FACTORS + k`).
+    let mut bufs = [[[T::ZERO; N]; 2]; MAX_TERM_FACTORS + 2];
+    let mut cur = [0usize; MAX_TERM_FACTORS + 2];
+    // Evaluates at `u`, into the candidate buffers, every factor (`moved` None) or those the
+    // moved parameter changes; returns which buffer each slot's candidate value is in.
+    type Bufs<T, const N: usize> = [[[T; N]; 2]; MAX_TERM_FACTORS + 2];
+    type At = [usize; MAX_TERM_FACTORS + 2];
+    let refresh =
+        |u: &[T; MAX_PARAMS], moved: Option<usize>, cur: &At, bufs: &mut Bufs<T, N>| -> Option<At> {
+            let q = to_params(u);
+            let mut at = *cur;
+            let mut basis: [Option<M>; 2] = [None, None];
+            for s in 0..slots {
+                let (k, f) = slot[s];
+                let changes = match moved {
+                    None => true,
+                    Some(j) => !split || M::factor_uses(k, f, j),
+                };
+                if !changes {
+                    continue;
+                }
+                if basis[k].is_none() {
+                    let mut b = q;
+                    for (m, &l) in linear.iter().enumerate() {
+                        b[l] = if m == k { T::ONE } else { T::ZERO };
+                    }
+                    basis[k] = Some(M::from_params(&b[..p]).ok()?);
+                }
+                let model = basis[k].as_ref()?;
+                at[s] = 1 - cur[s];
+                let out = &mut bufs[s][at[s]];
+                for (v, x) in out.iter_mut().zip(data) {
+                    *v = if split {
+                        model.eval_factor(k, f, &x.geometry)
+                    } else {
+                        model.eval(&x.geometry)
+                    };
+                }
+            }
+            // Each term whose factors changed: their product, left to right, over the value.
+            for k in 0..nb {
+                let t = MAX_TERM_FACTORS + k;
+                if !(0..slots).any(|s| slot[s].0 == k && at[s] != cur[s]) {
+                    continue;
+                }
+                at[t] = 1 - cur[t];
+                // The term's slots are consecutive, from `first`.
+                let first = (0..slots).find(|&s| slot[s].0 == k)?;
+                let count = (first..slots).take_while(|&s| slot[s].0 == k).count();
+                let (factors, terms) = bufs.split_at_mut(MAX_TERM_FACTORS);
+                let out = &mut terms[k][at[t]];
+                for (i, x) in data.iter().enumerate() {
+                    let mut v = factors[first][at[first]][i];
+                    for s in first + 1..first + count {
+                        v = v * factors[s][at[s]][i];
+                    }
+                    out[i] = v / x.brdf;
+                }
+            }
+            Some(at)
+        };
+    // Parameters at `u`, the linear weights solved from the factors in `bufs` at `at`:
+    // (parameters, cost).
+    let solve = |u: &[T; MAX_PARAMS], at: &At, bufs: &Bufs<T, N>| -> Option<([T; MAX_PARAMS], T)> {
+        let mut q = to_params(u);
+        let zeros = [T::ZERO; N];
+        let t0 = &bufs[MAX_TERM_FACTORS][at[MAX_TERM_FACTORS]];
+        let t1 = if nb > 1 {
+            &bufs[MAX_TERM_FACTORS + 1][at[MAX_TERM_FACTORS + 1]]
+        } else {
+            &zeros
+        };
+        let n = data.len();
         let weights = if nb == 0 {
             [T::ZERO; 2]
         } else {
             // Normal equations of min sum ((sum_k w_k B_k - y) / y)^2.
             let (mut a00, mut a01, mut a11, mut b0, mut b1) = (T::ZERO, T::ZERO, T::ZERO, T::ZERO, T::ZERO);
-            for x in data {
-                let u0 = basis[0].as_ref()?.eval(&x.geometry) / x.brdf;
-                let u1 = match &basis[1] {
-                    Some(m) => m.eval(&x.geometry) / x.brdf,
-                    None => T::ZERO,
-                };
+            for i in 0..n {
+                let (u0, u1) = (t0[i], t1[i]);
                 a00 = a00 + u0 * u0;
                 a01 = a01 + u0 * u1;
                 a11 = a11 + u1 * u1;
@@ -524,12 +611,23 @@ pub fn anneal_with_progress<T: Float, M: Model<T>, R: RngCore, const N: usize>(
             }
             nnls2(a00, a01, a11, b0, b1, nb)
         };
+        let mut w = [T::ZERO; 2];
         for (k, &l) in linear.iter().enumerate().take(nb) {
             q[l] = weights[k].max(bounds.lo[l]).min(bounds.hi[l]);
+            w[k] = q[l];
         }
-        let m = M::from_params(&q[..p]).ok()?;
-        let c = relative_cost(&m, data);
-        c.is_finite().then_some((m, c))
+        let c = if nb == 0 {
+            relative_cost(&M::from_params(&q[..p]).ok()?, data)
+        } else {
+            // The model is linear in its weights: f / y = sum_k w_k t_k.
+            let mut s = T::ZERO;
+            for i in 0..n {
+                let r = w[0] * t0[i] + w[1] * t1[i] - T::ONE;
+                s = s + r * r;
+            }
+            s
+        };
+        c.is_finite().then_some((q, c))
     };
     let energy = |c: T| (c + T::from_f64(1e-30)).ln();
     let mut start: Option<([T; MAX_PARAMS], T)> = None;
@@ -538,14 +636,17 @@ pub fn anneal_with_progress<T: Float, M: Model<T>, R: RngCore, const N: usize>(
         for v in u.iter_mut().take(d) {
             *v = unit(rng);
         }
-        if let Some((_, c)) = evaluate(&u) {
-            if start.is_none_or(|s| c < s.1) {
-                start = Some((u, c));
+        if let Some(at) = refresh(&u, None, &cur, &mut bufs) {
+            if let Some((_, c)) = solve(&u, &at, &bufs) {
+                if start.is_none_or(|s| c < s.1) {
+                    start = Some((u, c));
+                }
             }
         }
         progress(i + 1);
     }
     let (mut u, mut cost) = start.ok_or(AnnealError::NoValidStart)?;
+    cur = refresh(&u, None, &cur, &mut bufs).ok_or(AnnealError::NoValidStart)?;
     let mut best = (u, cost);
     let moves = cfg.budget - screen;
     let steps = T::from_f64(f64::from(moves.max(1)));
@@ -567,19 +668,24 @@ pub fn anneal_with_progress<T: Float, M: Model<T>, R: RngCore, const N: usize>(
         }
         cand[j] = x;
         let accept_draw: T = unit(rng);
-        if let Some((_, c)) = evaluate(&cand) {
-            let de = energy(c) - energy(cost);
-            if de <= T::ZERO || accept_draw < (-de / t).exp() {
-                u = cand;
-                cost = c;
-                if cost < best.1 {
-                    best = (u, cost);
+        if let Some(at) = refresh(&cand, Some(free[j]), &cur, &mut bufs) {
+            if let Some((_, c)) = solve(&cand, &at, &bufs) {
+                let de = energy(c) - energy(cost);
+                if de <= T::ZERO || accept_draw < (-de / t).exp() {
+                    u = cand;
+                    cost = c;
+                    cur = at;
+                    if cost < best.1 {
+                        best = (u, cost);
+                    }
                 }
             }
         }
         progress(screen + k + 1);
     }
-    let (model, _) = evaluate(&best.0).ok_or(AnnealError::NoValidStart)?;
+    let at = refresh(&best.0, None, &cur, &mut bufs).ok_or(AnnealError::NoValidStart)?;
+    let (q, _) = solve(&best.0, &at, &bufs).ok_or(AnnealError::NoValidStart)?;
+    let model = M::from_params(&q[..p]).map_err(AnnealError::Param)?;
     let params = model.to_params();
     let n = T::from_f64(data.len() as f64);
     Ok(AnnealOutcome {
@@ -809,8 +915,8 @@ mod tests {
         // not determined by in-plane data).
         assert_eq!(
             a.params,
-            [0.25558797, 52.46363, -27.072037, 0.66586035, 0.36749667, 1.1998591]
+            [0.25558826, 50.904762, -27.072037, 0.66586035, 0.36749667, 1.1998591]
         );
-        assert_eq!(a.rms_rel, 0.00020561971);
+        assert_eq!(a.rms_rel, 0.00020559672);
     }
 }

@@ -9,6 +9,10 @@ use crate::models::{FiveParam, Lambert, Minnaert, SixParam, SixParamCos2};
 /// Largest parameter count of any model in the family.
 pub const MAX_PARAMS: usize = 6;
 
+/// Most factors, over all linear terms of a model, that [`Model::TERM_FACTORS`] may declare
+/// (the annealer keeps two buffers of one value per sample for each).
+pub const MAX_TERM_FACTORS: usize = 4;
+
 /// A bidirectional reflectance distribution function `f_r` in 1/sr.
 ///
 /// Implementors provide [`Brdf::eval`] on a precomputed [`Geometry`]; the other methods
@@ -60,6 +64,29 @@ pub trait Model<T: Float>: Brdf<T> + Sized {
     /// Indices of parameters the model is linear in (a weight times a parameter-free
     /// shape), e.g. `kb` and `kd` of the six-parameter model. Fitters solve these exactly.
     const LINEAR: &'static [usize] = &[];
+
+    /// How many factors the term weighted by each `LINEAR` parameter is the product of, in
+    /// the annealer's caches (at most [`MAX_TERM_FACTORS`] in all). Default: one per term,
+    /// the term itself.
+    const TERM_FACTORS: &'static [usize] = &[1, 1];
+
+    /// Whether factor `factor` of the term weighted by `LINEAR[term]` changes with the
+    /// nonlinear parameter `param` (paper order). After a move of one parameter the annealer
+    /// re-evaluates only the factors that change. Default: every factor changes with every
+    /// parameter.
+    fn factor_uses(term: usize, factor: usize, param: usize) -> bool {
+        let _ = (term, factor, param);
+        true
+    }
+
+    /// Factor `factor` of the term weighted by `LINEAR[term]`, for a model whose linear
+    /// weights are 1 for that term and 0 for the others (the annealer's basis models). The
+    /// product of a term's factors, left to right, is bit for bit what [`Brdf::eval`]
+    /// returns for such a model. Default: [`Brdf::eval`] (one factor).
+    fn eval_factor(&self, term: usize, factor: usize, g: &Geometry<T>) -> T {
+        let _ = (term, factor);
+        self.eval(g)
+    }
 
     /// Builds the model from `KIND.param_names().len()` values in that order, validating
     /// each (see each model's constructor for the ranges).

@@ -166,6 +166,33 @@ impl<T: Float> Model<T> for SixParam<T> {
     const KIND: ModelKind = ModelKind::Six;
     const LINEAR: &'static [usize] = &[0, 4];
 
+    /// The `kb` term (specular) is `spec_scale facet(kr)`, times the lobe (`b`, `a`), times
+    /// `ln(1 + cos ti cos tr)` (no parameter); the `kd` term (diffuse) is one factor (`c`).
+    const TERM_FACTORS: &'static [usize] = &[3, 1];
+
+    fn factor_uses(term: usize, factor: usize, param: usize) -> bool {
+        match (term, factor) {
+            (0, 0) => param == 1,
+            (0, 1) => param == 2 || param == 3,
+            (0, _) => false,
+            _ => param == 5,
+        }
+    }
+
+    /// The factors of [`SixParam::specular`] and [`SixParam::diffuse`], in their order.
+    fn eval_factor(&self, term: usize, factor: usize, g: &Geometry<T>) -> T {
+        if let Some(v) = g.outside() {
+            return if factor == 0 { v } else { T::ONE };
+        }
+        let m = g.cos_theta_i() * g.cos_theta_r();
+        match (term, factor) {
+            (0, 0) => self.spec_scale * facet(self.kr2, g),
+            (0, 1) => self.lobe.eval(g),
+            (0, _) => m.ln_1p(),
+            _ => self.diffuse_scale * m.powf(self.params.c),
+        }
+    }
+
     fn from_params(values: &[T]) -> Result<Self, ParamError> {
         Self::new(SixParams::from_slice(values)?)
     }

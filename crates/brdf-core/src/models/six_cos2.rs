@@ -1,6 +1,6 @@
 //! The `cos^2(alpha)` variant of the six-parameter model (the paper's eq. 4 denominator).
 
-use super::six::SixParams;
+use super::six::{SixParam, SixParams};
 use super::Lobe;
 use crate::error::ParamError;
 use crate::float::Float;
@@ -46,17 +46,24 @@ impl<T: Float> SixParamCos2<T> {
     }
 }
 
+impl<T: Float> SixParamCos2<T> {
+    /// The facet term `kr^2 cos(alpha) / (1 + (kr^2 - 1) cos^2(alpha))`.
+    #[inline]
+    fn facet(&self, g: &Geometry<T>) -> T {
+        let ca = g.cos_alpha();
+        // 1 + (kr^2 - 1) cos^2 = kr^2 cos^2 + (1 - cos)(1 + cos), without cancellation.
+        self.kr2 * ca / (self.kr2 * ca * ca + g.one_minus_cos_alpha() * (T::ONE + ca))
+    }
+}
+
 impl<T: Float> Brdf<T> for SixParamCos2<T> {
     #[inline]
     fn eval(&self, g: &Geometry<T>) -> T {
         if let Some(v) = g.outside() {
             return v;
         }
-        let ca = g.cos_alpha();
-        // 1 + (kr^2 - 1) cos^2 = kr^2 cos^2 + (1 - cos)(1 + cos), without cancellation.
-        let facet = self.kr2 * ca / (self.kr2 * ca * ca + g.one_minus_cos_alpha() * (T::ONE + ca));
         let m = g.cos_theta_i() * g.cos_theta_r();
-        let spec = self.spec_scale * facet * self.lobe.eval(g) * m.ln_1p();
+        let spec = self.spec_scale * self.facet(g) * self.lobe.eval(g) * m.ln_1p();
         spec + self.diffuse_scale * m.powf(self.params.c)
     }
 }
@@ -64,6 +71,27 @@ impl<T: Float> Brdf<T> for SixParamCos2<T> {
 impl<T: Float> Model<T> for SixParamCos2<T> {
     const KIND: ModelKind = ModelKind::SixCos2;
     const LINEAR: &'static [usize] = &[0, 4];
+
+    /// As the six-parameter model: `spec_scale facet(kr)`, the lobe, `ln(1 + m)`; `kd`'s
+    /// term one factor.
+    const TERM_FACTORS: &'static [usize] = SixParam::<T>::TERM_FACTORS;
+
+    fn factor_uses(term: usize, factor: usize, param: usize) -> bool {
+        SixParam::<T>::factor_uses(term, factor, param)
+    }
+
+    fn eval_factor(&self, term: usize, factor: usize, g: &Geometry<T>) -> T {
+        if let Some(v) = g.outside() {
+            return if factor == 0 { v } else { T::ONE };
+        }
+        let m = g.cos_theta_i() * g.cos_theta_r();
+        match (term, factor) {
+            (0, 0) => self.spec_scale * self.facet(g),
+            (0, 1) => self.lobe.eval(g),
+            (0, _) => m.ln_1p(),
+            _ => self.diffuse_scale * m.powf(self.params.c),
+        }
+    }
 
     fn from_params(values: &[T]) -> Result<Self, ParamError> {
         Self::new(SixParams::from_slice(values)?)
