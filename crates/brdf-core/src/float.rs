@@ -277,6 +277,8 @@ const SIN_COS_F32_MAX: f32 = 4096.0;
 /// (tested at 4 million arguments). IEEE single operations only, no fused multiply-add,
 /// so the host and the device compute the same bits. Beyond 4096, and for non-finite `x`,
 /// `libm::sincosf`.
+// The parts of pi/2 are written with the digits of their exact binary values.
+#[allow(clippy::excessive_precision)]
 fn sin_cos_f32(x: f32) -> (f32, f32) {
     const FRAC_2_PI: f32 = core::f32::consts::FRAC_2_PI;
     // 1.5 * 2^23: adding it rounds |v| < 2^22 to an integer.
@@ -285,7 +287,7 @@ fn sin_cos_f32(x: f32) -> (f32, f32) {
     const P2: f32 = 4.837_512_969_970_703e-4;
     const P3: f32 = 7.549_533_620_476_723e-8;
     const P4: f32 = 2.563_344_068_257_089_6e-12;
-    if !(libm::fabsf(x) <= SIN_COS_F32_MAX) {
+    if x.is_nan() || libm::fabsf(x) > SIN_COS_F32_MAX {
         return libm::sincosf(x);
     }
     let t = x * FRAC_2_PI + SHIFT;
@@ -317,6 +319,8 @@ fn cos_f32(x: f32) -> f32 {
 }
 
 /// fdlibm `__kernel_sinf(x, y, 1)` to degree 9 on `|x| <= pi/4`, tail `y`.
+// fdlibm's constants, digit for digit as published.
+#[allow(clippy::excessive_precision)]
 #[inline(always)]
 fn k_sinf(x: f32, y: f32) -> f32 {
     const S1: f32 = -1.666_666_716_3e-1;
@@ -331,6 +335,7 @@ fn k_sinf(x: f32, y: f32) -> f32 {
 
 /// fdlibm `__kernel_cosf` to degree 10 on `|x| <= pi/4`, tail `y`, with the exact
 /// compensation of `1 - x^2/2` (as in musl's `__cos`).
+#[allow(clippy::excessive_precision)]
 #[inline(always)]
 fn k_cosf(x: f32, y: f32) -> f32 {
     const C1: f32 = 4.166_666_790_8e-2;
