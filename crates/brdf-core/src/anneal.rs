@@ -768,6 +768,77 @@ mod tests {
         );
     }
 
+    /// The factors the annealer caches multiply, left to right, to what the basis models
+    /// evaluate, bit for bit, and change only with the parameters `factor_uses` names.
+    #[test]
+    fn factors_multiply_to_the_basis_models_bit_for_bit() {
+        fn check<M: Model<f32>>(params: &[f32]) -> usize {
+            let p = M::KIND.param_count();
+            let mut checked = 0;
+            for (k, _) in M::LINEAR.iter().enumerate() {
+                let mut b = [0.0f32; MAX_PARAMS];
+                b[..p].copy_from_slice(&params[..p]);
+                for (m, &l) in M::LINEAR.iter().enumerate() {
+                    b[l] = if m == k { 1.0 } else { 0.0 };
+                }
+                let basis = M::from_params(&b[..p]).unwrap();
+                let factors = M::TERM_FACTORS.get(k).copied().unwrap_or(1);
+                for ti in 0..12 {
+                    for tr in 0..12 {
+                        for ph in 0..8 {
+                            // Zeniths up to the horizon and beyond it, azimuths round the circle.
+                            let g =
+                                Geometry::from_angles(ti as f32 * 0.15, tr as f32 * 0.15, ph as f32 * 0.9);
+                            let mut v = basis.eval_factor(k, 0, &g);
+                            for f in 1..factors {
+                                v = v * basis.eval_factor(k, f, &g);
+                            }
+                            assert_eq!(v.to_bits(), basis.eval(&g).to_bits(), "{:?} term {k}", M::KIND);
+                            // A factor that does not use a parameter does not move with it.
+                            for j in 0..p {
+                                if M::LINEAR.contains(&j) {
+                                    continue;
+                                }
+                                for f in 0..factors {
+                                    if M::factor_uses(k, f, j) {
+                                        continue;
+                                    }
+                                    let mut moved = b;
+                                    moved[j] = if j == 1 { moved[j] * 1.7 } else { moved[j] * 0.6 };
+                                    let other = M::from_params(&moved[..p]).unwrap();
+                                    assert_eq!(
+                                        other.eval_factor(k, f, &g).to_bits(),
+                                        basis.eval_factor(k, f, &g).to_bits(),
+                                        "{:?} term {k} factor {f} moved with parameter {j}",
+                                        M::KIND
+                                    );
+                                }
+                            }
+                            checked += 1;
+                        }
+                    }
+                }
+            }
+            checked
+        }
+        let six = crate::table1_f32(0);
+        let n = check::<SixParam<f32>>(&six) + check::<SixParamCos2<f32>>(&six);
+        let n = n + check::<FiveParam<f32>>(&six[..5]) + check::<Minnaert<f32>>(&[0.3, 0.6]);
+        assert_eq!(
+            n,
+            (2 + 2 + 1 + 1) * 12 * 12 * 8,
+            "every term of every model checked"
+        );
+        // Every model's factors fit the annealer's caches.
+        fn declared<M: Model<f32>>() -> usize {
+            (0..M::LINEAR.len().min(2))
+                .map(|k| M::TERM_FACTORS.get(k).copied().unwrap_or(1))
+                .sum()
+        }
+        assert!(declared::<SixParam<f32>>() <= MAX_TERM_FACTORS);
+        assert!(declared::<SixParamCos2<f32>>() <= MAX_TERM_FACTORS);
+    }
+
     #[test]
     fn ram_is_pinned() {
         assert_eq!(core::mem::size_of::<Sample<f32>>(), 28);
