@@ -791,7 +791,7 @@ mod tests {
                                 Geometry::from_angles(ti as f32 * 0.15, tr as f32 * 0.15, ph as f32 * 0.9);
                             let mut v = basis.eval_factor(k, 0, &g);
                             for f in 1..factors {
-                                v = v * basis.eval_factor(k, f, &g);
+                                v *= basis.eval_factor(k, f, &g);
                             }
                             assert_eq!(v.to_bits(), basis.eval(&g).to_bits(), "{:?} term {k}", M::KIND);
                             // A factor that does not use a parameter does not move with it.
