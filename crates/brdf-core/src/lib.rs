@@ -163,7 +163,7 @@ pub mod tolerance;
 pub use error::{Compact, DomainError, ParamError};
 pub use float::Float;
 pub use geometry::{Geometry, UNIT_NORM_TOLERANCE};
-pub use model::{AnyModel, Brdf, Model, ModelKind, MAX_PARAMS};
+pub use model::{AnyModel, Brdf, Model, ModelKind, MAX_PARAMS, MAX_TERM_FACTORS};
 pub use models::{
     table1_f32, FiveParam, FiveParams, Lambert, LambertParams, Minnaert, MinnaertParams, SixParam,
     SixParamCos2, SixParams, TABLE1,
