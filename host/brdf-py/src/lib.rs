@@ -6,14 +6,18 @@
 //! Errors about one element are raised as [`ElementError`] with `(flat index, message)`;
 //! the Python half turns the flat index into the caller's array index.
 
+#![warn(missing_docs)]
+
 use brdf_core::anneal::check_directions;
 use brdf_core::batch::{Batch, BatchError};
 use brdf_core::{AnyModel, Brdf, Float, Geometry, ModelKind, MAX_PARAMS};
 use brdf_fit::import::{import, Channel, Format};
-use brdf_fit::{load_csv, Dataset, Engine, FitOptions, FitSettings, LoadOptions, Loss, LossKind, Point, Residual};
+use brdf_fit::{
+    load_csv, Dataset, Engine, FitOptions, FitSettings, LoadOptions, Loss, LossKind, Point, Residual,
+};
 use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
 use pyo3::create_exception;
-use pyo3::exceptions::{PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 create_exception!(
@@ -100,7 +104,10 @@ fn check_degrees(cols: [&[f64]; 3]) -> Result<(), Failure> {
         for k in 0..3 {
             let v = cols[k][i];
             if !v.is_finite() {
-                return Err(Failure::At(i, format!("column {}: `{v}` is not finite", NAMES[k])));
+                return Err(Failure::At(
+                    i,
+                    format!("column {}: `{v}` is not finite", NAMES[k]),
+                ));
             }
             if k < 2 && !(0.0..=90.0).contains(&v) {
                 return Err(Failure::At(
@@ -143,7 +150,9 @@ fn eval_angles<'py>(
                 check_degrees(cols)?;
                 let [a, b, c] = cols.map(radians::<f64>);
                 let mut out = vec![0.0; a.len()];
-                Batch::new(&m).angles(&a, &b, &c, &mut out).map_err(batch_failure)?;
+                Batch::new(&m)
+                    .angles(&a, &b, &c, &mut out)
+                    .map_err(batch_failure)?;
                 finite(&out, kind)?;
                 Ok(out)
             })?;
@@ -167,11 +176,7 @@ fn eval_angles<'py>(
 }
 
 /// Evaluates cosines or vectors in precision `T` through the batch path.
-fn eval_batch<T: Float>(
-    kind: ModelKind,
-    params: &str,
-    inputs: &[&[f64]],
-) -> Result<Vec<T>, Failure> {
+fn eval_batch<T: Float>(kind: ModelKind, params: &str, inputs: &[&[f64]]) -> Result<Vec<T>, Failure> {
     let m: AnyModel<T> = build(kind, params)?;
     let cols: Vec<Vec<T>> = inputs
         .iter()
@@ -182,7 +187,11 @@ fn eval_batch<T: Float>(
     let r = if cols.len() == 3 {
         b.cosines(&cols[0], &cols[1], &cols[2], &mut out)
     } else {
-        b.vectors([&cols[0], &cols[1], &cols[2]], [&cols[3], &cols[4], &cols[5]], &mut out)
+        b.vectors(
+            [&cols[0], &cols[1], &cols[2]],
+            [&cols[3], &cols[4], &cols[5]],
+            &mut out,
+        )
     };
     r.map_err(batch_failure)?;
     finite(&out, kind)?;
@@ -233,7 +242,12 @@ fn point(
     allow_zero: bool,
 ) -> Result<Point, Failure> {
     let bad = |m: String| Failure::At(i, m);
-    for (v, name) in [(deg[0], "theta_i"), (deg[1], "theta_r"), (deg[2], "phi"), (brdf, "brdf")] {
+    for (v, name) in [
+        (deg[0], "theta_i"),
+        (deg[1], "theta_r"),
+        (deg[2], "phi"),
+        (brdf, "brdf"),
+    ] {
         if !v.is_finite() {
             return Err(bad(format!("column {name}: `{v}` is not finite")));
         }
@@ -264,7 +278,10 @@ fn point(
                 return Err(bad(format!("column {name}: `{v}` is not finite")));
             }
             if v <= 0.0 {
-                return Err(bad(format!("column {name}: {} is outside > 0", brdf_core::Compact(v))));
+                return Err(bad(format!(
+                    "column {name}: {} is outside > 0",
+                    brdf_core::Compact(v)
+                )));
             }
         }
     }
@@ -317,17 +334,27 @@ impl Settings {
             "relative" => Residual::Relative,
             "absolute" => Residual::Absolute,
             "log" => Residual::Log,
-            o => return Err(PyValueError::new_err(format!("unknown residual `{o}` (expected relative, absolute, log)"))),
+            o => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown residual `{o}` (expected relative, absolute, log)"
+                )))
+            }
         };
         let loss_kind = match loss {
             "linear" => LossKind::Linear,
             "huber" => LossKind::Huber,
             "soft-l1" | "soft_l1" => LossKind::SoftL1,
             "cauchy" => LossKind::Cauchy,
-            o => return Err(PyValueError::new_err(format!("unknown loss `{o}` (expected linear, huber, soft-l1, cauchy)"))),
+            o => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown loss `{o}` (expected linear, huber, soft-l1, cauchy)"
+                )))
+            }
         };
         if !(loss_scale.is_finite() && loss_scale > 0.0) {
-            return Err(PyValueError::new_err(format!("loss_scale {loss_scale} is not a finite number greater than 0")));
+            return Err(PyValueError::new_err(format!(
+                "loss_scale {loss_scale} is not a finite number greater than 0"
+            )));
         }
         let range = |name: &str, v: Option<usize>, lo: usize, hi: usize, default: usize| -> PyResult<usize> {
             let v = v.unwrap_or(default);
@@ -345,14 +372,23 @@ impl Settings {
             min_chains: agree,
             hops: range("hops", hops, 0, 64, d.hops)?,
             anneal: brdf_fit::anneal::AnnealOptions {
-                evals: range("anneal_evals", anneal_evals, 1, 100_000_000, brdf_fit::anneal::AnnealOptions::default().evals)?,
+                evals: range(
+                    "anneal_evals",
+                    anneal_evals,
+                    1,
+                    100_000_000,
+                    brdf_fit::anneal::AnnealOptions::default().evals,
+                )?,
                 ..brdf_fit::anneal::AnnealOptions::default()
             },
             ..d
         };
         let mut settings = FitSettings {
             residual,
-            loss: Loss { kind: loss_kind, scale: loss_scale },
+            loss: Loss {
+                kind: loss_kind,
+                scale: loss_scale,
+            },
             brightening,
             options,
             ..FitSettings::new(kind)
@@ -361,30 +397,51 @@ impl Settings {
             "full" => {}
             "embedded" => {
                 if residual != Residual::Relative {
-                    return Err(PyValueError::new_err("the embedded engine fits relative residuals only"));
+                    return Err(PyValueError::new_err(
+                        "the embedded engine fits relative residuals only",
+                    ));
                 }
                 let budget = budget_evals.unwrap_or(brdf_fit::embedded::DEFAULT_BUDGET);
                 if !(65..=10_000_000).contains(&budget) {
-                    return Err(PyValueError::new_err(format!("budget_evals {budget} is not in 65..=10000000")));
+                    return Err(PyValueError::new_err(format!(
+                        "budget_evals {budget} is not in 65..=10000000"
+                    )));
                 }
                 settings.engine = Engine::Embedded { budget };
             }
-            o => return Err(PyValueError::new_err(format!("unknown engine `{o}` (expected full or embedded)"))),
+            o => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown engine `{o}` (expected full or embedded)"
+                )))
+            }
         }
         let format = match format {
             None => None,
             Some("cornell") => Some(Format::Cornell),
             Some("nist") => Some(Format::Nist),
             Some("merl-inplane") | Some("merl_inplane") => Some(Format::MerlInPlane),
-            Some(o) => return Err(PyValueError::new_err(format!("unknown format `{o}` (expected cornell, nist, merl-inplane)"))),
+            Some(o) => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown format `{o}` (expected cornell, nist, merl-inplane)"
+                )))
+            }
         };
         let channel = match channel.to_ascii_lowercase().as_str() {
             "r" => Channel::R,
             "g" => Channel::G,
             "b" => Channel::B,
-            o => return Err(PyValueError::new_err(format!("unknown channel `{o}` (expected r, g, b)"))),
+            o => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown channel `{o}` (expected r, g, b)"
+                )))
+            }
         };
-        Ok(Settings { settings, skip_invalid, format, channel })
+        Ok(Settings {
+            settings,
+            skip_invalid,
+            format,
+            channel,
+        })
     }
 }
 
@@ -431,7 +488,8 @@ fn load(s: &Settings, paths: &[String]) -> PyResult<(Vec<Dataset>, Vec<String>)>
             skip_invalid: s.skip_invalid,
             allow_zero_brdf: s.settings.residual == Residual::Absolute,
         };
-        let loaded = load_csv(path, opts).map_err(|e| PyValueError::new_err(format!("cannot use {f}: {e}")))?;
+        let loaded =
+            load_csv(path, opts).map_err(|e| PyValueError::new_err(format!("cannot use {f}: {e}")))?;
         for sk in &loaded.skipped {
             notes.push(format!("{f}: skipped line {}: {}", sk.line, sk.reason));
         }
@@ -442,7 +500,11 @@ fn load(s: &Settings, paths: &[String]) -> PyResult<(Vec<Dataset>, Vec<String>)>
 
 /// `brdf fit` on files: (reports as JSON text, rejected/skipped-row notes).
 #[pyfunction]
-fn fit_paths(py: Python<'_>, settings: &Settings, paths: Vec<String>) -> PyResult<(Vec<String>, Vec<String>)> {
+fn fit_paths(
+    py: Python<'_>,
+    settings: &Settings,
+    paths: Vec<String>,
+) -> PyResult<(Vec<String>, Vec<String>)> {
     let (datasets, notes) = load(settings, &paths)?;
     Ok((fit_datasets(py, settings, datasets)?, notes))
 }
@@ -453,7 +515,18 @@ fn fit_paths(py: Python<'_>, settings: &Settings, paths: Vec<String>) -> PyResul
 fn read_paths(
     settings: &Settings,
     paths: Vec<String>,
-) -> PyResult<(Vec<(String, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<Option<f64>>, Vec<Option<f64>>)>, Vec<String>)> {
+) -> PyResult<(
+    Vec<(
+        String,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<Option<f64>>,
+        Vec<Option<f64>>,
+    )>,
+    Vec<String>,
+)> {
     let (datasets, notes) = load(settings, &paths)?;
     let sets = datasets
         .into_iter()
@@ -503,7 +576,16 @@ fn fit_arrays<'py>(
     let wt = weight.as_ref().map(|a| slice(a, "weight")).transpose()?;
     let allow_zero = settings.settings.residual == Residual::Absolute;
     let points = (0..n)
-        .map(|i| point(i, [ti[i], tr[i], ph[i]], f[i], sg.map(|s| s[i]), wt.map(|w| w[i]), allow_zero))
+        .map(|i| {
+            point(
+                i,
+                [ti[i], tr[i], ph[i]],
+                f[i],
+                sg.map(|s| s[i]),
+                wt.map(|w| w[i]),
+                allow_zero,
+            )
+        })
         .collect::<Result<Vec<Point>, Failure>>()?;
     let mut reports = fit_datasets(py, settings, vec![Dataset { name, points }])?;
     Ok(reports.remove(0))
@@ -513,7 +595,10 @@ fn fit_arrays<'py>(
 #[pymodule]
 fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ElementError", m.py().get_type::<ElementError>())?;
-    m.add("MODELS", ModelKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>())?;
+    m.add(
+        "MODELS",
+        ModelKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>(),
+    )?;
     m.add_class::<Settings>()?;
     m.add_function(wrap_pyfunction!(eval_angles, m)?)?;
     m.add_function(wrap_pyfunction!(eval_columns, m)?)?;

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
 
 import numpy as np
@@ -226,7 +227,10 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
         isinstance(data, (list, tuple)) and data and all(isinstance(p, (str, os.PathLike)) for p in data)
     ):
         paths = [os.fspath(data)] if isinstance(data, (str, os.PathLike)) else [os.fspath(p) for p in data]
-        texts, _notes = _brdf.fit_paths(s, paths)
+        texts, notes = _brdf.fit_paths(s, paths)
+        for note in notes:
+            # What `brdf fit` lists on standard error (rows skipped or rejected).
+            warnings.warn(note, stacklevel=2)
         results = [FitResult(t) for t in texts]
         return results[0] if len(results) == 1 else results
     get = (lambda k: data.get(k)) if isinstance(data, Mapping) else (lambda k: getattr(data, k, None))

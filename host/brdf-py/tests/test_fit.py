@@ -1,0 +1,78 @@
+"""`brdf.fit`: the report `brdf fit --json` prints, from files and from arrays."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+import brdf
+
+KHAKI = "data/khaki-synthetic-inplane.csv"
+
+
+def without_time(text):
+    """A report without its wall time, the one field that differs between runs."""
+    r = json.loads(text)
+    r.pop("seconds")
+    return r
+
+
+def test_to_json_equals_the_cli(cli, root):
+    path = root / KHAKI
+    want = cli("fit", "--json", "--seed", "1", path).stdout.rstrip("\n")
+    got = brdf.fit(str(path), seed=1).to_json()
+    assert without_time(got) == without_time(want)
+    # Byte for byte once the time is equal.
+    seconds = json.loads(want)["seconds"]
+    lines = [l for l in got.splitlines() if not l.lstrip().startswith('"seconds"')]
+    wlines = [l for l in want.splitlines() if not l.lstrip().startswith('"seconds"')]
+    assert lines == wlines and seconds > 0
+
+
+def test_result_fields(root):
+    r = brdf.fit(str(root / KHAKI))
+    assert list(r.params) == ["kb", "kr", "b", "a", "kd", "c"]
+    assert set(r.std_errors) == set(r.params)
+    assert isinstance(r.undetermined, dict)
+    assert r.metrics["rms_rel"] < 0.01
+    assert "albedo" in r.energy
+
+
+def test_arrays_fit_like_the_file(root):
+    rows = list(csv.DictReader(open(root / KHAKI)))
+    ts = np.array([float(x["theta_s"]) for x in rows])
+    data = {
+        "theta_i": np.array([float(x["theta_i"]) for x in rows]),
+        "theta_r": np.abs(ts),
+        "phi": np.where(ts > 0, 180.0, 0.0),
+        "brdf": np.array([float(x["brdf"]) for x in rows]),
+    }
+    a = brdf.fit(data)
+    f = brdf.fit(str(root / KHAKI))
+    assert a.params == f.params
+    assert a.metrics == f.metrics
+
+
+def test_bad_rows_are_located():
+    data = {"theta_i": [10, 20, 30], "theta_r": [10, 20, 30], "phi": [0, 0, 0], "brdf": [0.1, -1, 0.2]}
+    with pytest.raises(ValueError, match=r"data at index \[1\]: column brdf: -1 is outside > 0"):
+        brdf.fit(data)
+    with pytest.raises(ValueError, match="missing `brdf`"):
+        brdf.fit({"theta_i": [1], "theta_r": [1], "phi": [1]})
+
+
+def test_file_errors_carry_the_cli_message(cli, tmp_path):
+    f = tmp_path / "bad.csv"
+    f.write_text("theta_i,theta_r,phi,brdf\n10,20,0,0.1\n10,95,0,0.1\n")
+    p = cli("fit", f, check=False)
+    assert p.returncode != 0
+    with pytest.raises(ValueError) as e:
+        brdf.fit(str(f))
+    assert str(e.value) in p.stderr
+    assert "line 3: column theta_r" in str(e.value)
+
+
+def test_unknown_options_raise():
+    with pytest.raises(TypeError, match="unknown option"):
+        brdf.fit({}, chainz=3)
