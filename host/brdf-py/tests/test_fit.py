@@ -76,3 +76,15 @@ def test_file_errors_carry_the_cli_message(cli, tmp_path):
 def test_unknown_options_raise():
     with pytest.raises(TypeError, match="unknown option"):
         brdf.fit({}, chainz=3)
+
+
+def test_read_gives_the_datasets_fit_uses(root):
+    path = root / "data" / "measured" / "merl-aluminium-inplane" / "aluminum_brdf.csv"
+    (d,) = brdf.read(path, format="merl-inplane")
+    assert d["theta_i"].dtype == np.float64 and len(d["brdf"]) == len(d["phi"]) > 100
+    assert np.all(d["brdf"] > 0) and np.all((d["theta_r"] >= 0) & (d["theta_r"] < 90))
+    a = brdf.fit({k: d[k] for k in ("theta_i", "theta_r", "phi", "brdf")})
+    f = brdf.fit(str(path), format="merl-inplane")
+    assert a.params == f.params
+    # The figure README.md quotes for this dataset.
+    assert round(100 * f.metrics["rms_rel"], 1) == 58.3

@@ -24,6 +24,7 @@ __all__ = [
     "eval_cosines",
     "eval_vectors",
     "fit",
+    "read",
 ]
 
 #: Model names accepted by every function (as ``brdf --model``).
@@ -255,3 +256,27 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
     except _brdf.ElementError as e:
         raise _located(["data"], shape, e) from None
     return FitResult(text)
+
+
+def read(path, format: Optional[str] = None, channel: Optional[str] = None, *, skip_invalid: bool = False):
+    """The datasets of a file as ``brdf fit`` reads it (``format`` as ``--format``:
+    ``cornell``, ``nist``, ``merl-inplane``; ``channel`` r, g or b for Cornell files).
+
+    Returns a list of dicts, one per dataset: ``name`` and float64 arrays ``theta_i``,
+    ``theta_r``, ``phi`` (degrees, canonical convention) and ``brdf`` (1/sr), plus ``sigma``
+    or ``weight`` where the file gives them. Rows the CLI would skip or reject are reported
+    as warnings.
+    """
+    opts = {"format": format, "channel": channel or "r", "skip_invalid": skip_invalid}
+    s = _settings("six", 1, "relative", "full", opts)
+    sets, notes = _brdf.read_paths(s, [os.fspath(path)])
+    for note in notes:
+        warnings.warn(note, stacklevel=2)
+    out = []
+    for name, ti, tr, phi, f, sigma, weight in sets:
+        d = {"name": name, "theta_i": np.array(ti), "theta_r": np.array(tr), "phi": np.array(phi), "brdf": np.array(f)}
+        for key, col in (("sigma", sigma), ("weight", weight)):
+            if col and all(v is not None for v in col):
+                d[key] = np.array(col, dtype=np.float64)
+        out.append(d)
+    return out

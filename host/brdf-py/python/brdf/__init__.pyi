@@ -59,3 +59,10 @@ def fit(
     engine: str = "full",
     **options: Any,
 ) -> Union[FitResult, List[FitResult]]: ...
+def read(
+    path: Union[str, os.PathLike],
+    format: Optional[str] = None,
+    channel: Optional[str] = None,
+    *,
+    skip_invalid: bool = False,
+) -> List[Dict[str, Any]]: ...
