@@ -2,6 +2,7 @@
 
 import csv
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -88,3 +89,28 @@ def test_read_gives_the_datasets_fit_uses(root):
     assert a.params == f.params
     # The figure README.md quotes for this dataset.
     assert round(100 * f.metrics["rms_rel"], 1) == 58.3
+
+
+def strip_seconds(text):
+    return "\n".join(l for l in text.splitlines() if not l.lstrip().startswith('"seconds"'))
+
+
+def test_several_datasets_equal_the_cli_array(cli, root, tmp_path):
+    a = root / KHAKI
+    b = tmp_path / "copy.csv"
+    b.write_text(a.read_text())
+    want = cli("fit", "--json", a, b).stdout.rstrip("\n")
+    got = brdf.fit([str(a), str(b)])
+    assert isinstance(got, list) and len(got) == 2
+    assert strip_seconds(brdf.to_json(got)) == strip_seconds(want)
+
+
+def test_imported_files_equal_the_cli_and_warn_its_rejects(cli, root):
+    path = root / "data" / "measured" / "ptfe-germer-nist" / "PTFE.data.random.csv"
+    p = cli("fit", "--json", "--format", "nist", path)
+    with warnings.catch_warnings(record=True) as notes:
+        warnings.simplefilter("always")
+        got = brdf.fit(str(path), format="nist")
+    rejected = [l for l in p.stderr.splitlines() if ": rejected line " in l]
+    assert [str(n.message) for n in notes] == rejected
+    assert strip_seconds(got.to_json()) == strip_seconds(p.stdout.rstrip("\n"))

@@ -25,6 +25,7 @@ __all__ = [
     "eval_vectors",
     "fit",
     "read",
+    "to_json",
 ]
 
 #: Model names accepted by every function (as ``brdf --model``).
@@ -280,3 +281,14 @@ def read(path, format: Optional[str] = None, channel: Optional[str] = None, *, s
                 d[key] = np.array(col, dtype=np.float64)
         out.append(d)
     return out
+
+
+def to_json(results) -> str:
+    """The text ``brdf fit --json`` prints for one result or a list of them (an array for
+    several), without the final newline."""
+    if isinstance(results, FitResult):
+        return results.to_json()
+    texts = [r.to_json() for r in results]
+    if len(texts) == 1:
+        return texts[0]
+    return "[\n" + ",\n".join(texts) + "\n]"
