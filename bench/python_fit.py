@@ -7,7 +7,6 @@ one process. Prints each one's best-of-3 wall time and RMS relative error, and t
 import os
 import pathlib
 import sys
-import time
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -15,6 +14,7 @@ from scipy.optimize import least_squares
 import brdf
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from python_eval import best_of  # noqa: E402
 from scipy_fit import HI, LO, load, make_model  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -33,15 +33,6 @@ def scipy_32(ti, tr, phi, y):
         if best is None or r.cost < best.cost:
             best = r
     return float(np.sqrt(np.mean(resid(best.x) ** 2)))
-
-
-def best_of(k, f):
-    best, out = float("inf"), None
-    for _ in range(k):
-        t = time.perf_counter()
-        out = f()
-        best = min(best, time.perf_counter() - t)
-    return best, out
 
 
 def main():

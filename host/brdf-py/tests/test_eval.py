@@ -132,3 +132,30 @@ def test_vectors_need_three_components_and_unit_length():
         brdf.eval_vectors("six", KHAKI, [0, 1], [0, 0, 1])
     with pytest.raises(ValueError, match=r"index \[1\]"):
         brdf.eval_vectors("six", KHAKI, [[0, 0, 1], [0, 0, 2]], [0, 0, 1])
+
+
+def test_the_gil_is_released_while_the_core_runs():
+    import threading
+    import time
+
+    n = 3_000_000
+    ti = np.full(n, 30.0)
+    stamps = []
+    stop = threading.Event()
+
+    def tick():
+        while not stop.is_set():
+            stamps.append(time.perf_counter())
+            time.sleep(0.001)
+
+    t = threading.Thread(target=tick)
+    t.start()
+    time.sleep(0.02)
+    t0 = time.perf_counter()
+    brdf.eval("six", KHAKI, ti, 40.0, 180.0)
+    t1 = time.perf_counter()
+    stop.set()
+    t.join()
+    inside = [s for s in stamps if t0 <= s <= t1]
+    # With the GIL held the other thread could not run at all during the call.
+    assert t1 - t0 > 0.02 and len(inside) >= 3, (t1 - t0, len(inside))
