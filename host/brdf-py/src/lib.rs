@@ -175,6 +175,42 @@ fn eval_angles<'py>(
     }
 }
 
+/// Directional-hemispherical reflectance at incidences `theta_i` (degrees) through the batch
+/// path, by `brdf_core::checks::albedo_batch` with `panels` panels (the fit report's energy
+/// check uses the default 8).
+#[pyfunction]
+fn albedo<'py>(
+    py: Python<'py>,
+    model: &str,
+    params: &str,
+    theta_i: PyReadonlyArray1<'py, f64>,
+    panels: u16,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    use brdf_core::checks::{albedo_batch, AlbedoRule};
+    let kind = parse_kind(model)?;
+    let m: AnyModel<f64> = build(kind, params)?;
+    if panels < 2 {
+        return Err(PyValueError::new_err(format!("panels {panels}: need at least 2")));
+    }
+    let ti = slice(&theta_i, "theta_i")?;
+    let out = py.detach(|| -> Result<Vec<f64>, Failure> {
+        for (i, &v) in ti.iter().enumerate() {
+            if !(v.is_finite() && (0.0..=90.0).contains(&v)) {
+                return Err(Failure::At(
+                    i,
+                    format!("theta_i: zenith {v} deg is outside [0, 90]"),
+                ));
+            }
+        }
+        let b = Batch::new(&m);
+        Ok(ti
+            .iter()
+            .map(|d| albedo_batch(&b, d.to_radians(), AlbedoRule { panels }))
+            .collect())
+    })?;
+    Ok(PyArray1::from_vec(py, out))
+}
+
 /// Evaluates cosines or vectors in precision `T` through the batch path.
 fn eval_batch<T: Float>(kind: ModelKind, params: &str, inputs: &[&[f64]]) -> Result<Vec<T>, Failure> {
     let m: AnyModel<T> = build(kind, params)?;
@@ -599,9 +635,13 @@ fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "MODELS",
         ModelKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>(),
     )?;
+    // The core's named tolerances, for the tests (one home: brdf_core::tolerance).
+    m.add("BATCH_F64_REL", brdf_core::tolerance::BATCH_F64_REL)?;
+    m.add("ALBEDO_DEFAULT_REL", brdf_core::tolerance::ALBEDO_DEFAULT_REL)?;
     m.add_class::<Settings>()?;
     m.add_function(wrap_pyfunction!(eval_angles, m)?)?;
     m.add_function(wrap_pyfunction!(eval_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(albedo, m)?)?;
     m.add_function(wrap_pyfunction!(fit_paths, m)?)?;
     m.add_function(wrap_pyfunction!(fit_arrays, m)?)?;
     m.add_function(wrap_pyfunction!(read_paths, m)?)?;

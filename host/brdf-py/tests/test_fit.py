@@ -114,3 +114,16 @@ def test_imported_files_equal_the_cli_and_warn_its_rejects(cli, root):
     rejected = [l for l in p.stderr.splitlines() if ": rejected line " in l]
     assert [str(n.message) for n in notes] == rejected
     assert strip_seconds(got.to_json()) == strip_seconds(p.stdout.rstrip("\n"))
+
+
+def test_albedo_equals_the_reports_energy_check(root):
+    r = brdf.fit(str(root / KHAKI))
+    rows = list(csv.DictReader(open(root / KHAKI)))
+    incidences = sorted({float(x["theta_i"]) for x in rows})
+    got = brdf.albedo("six", r.params, incidences)
+    assert list(got) == [a["albedo"] for a in r.energy["albedo"]]
+    with pytest.raises(ValueError, match=r"theta_i at index \[1\]: theta_i: zenith 91 deg is outside \[0, 90\]"):
+        brdf.albedo("six", r.params, [0, 91])
+    # A Lambertian surface of reflectance rho0 reflects rho0 at every incidence.
+    lambert = brdf.albedo("lambert", "rho0=0.5", [0, 45, 80])
+    np.testing.assert_allclose(lambert, 0.5, rtol=brdf._brdf.ALBEDO_DEFAULT_REL)

@@ -20,6 +20,7 @@ from . import _brdf
 __all__ = [
     "MODELS",
     "FitResult",
+    "albedo",
     "eval",
     "eval_cosines",
     "eval_vectors",
@@ -144,6 +145,21 @@ def eval_vectors(model: str, params: Union[str, Mapping[str, float]], wi, wr, *,
     except _brdf.ElementError as e:
         raise _located(names, shape, e) from None
     return _shaped(out.astype(dtype, copy=False), shape)
+
+
+def albedo(model: str, params: Union[str, Mapping[str, float]], theta_i, *, panels: int = 8):
+    """Directional-hemispherical reflectance (dimensionless) at incidence ``theta_i``
+    (degrees, any shape), by the composite Gauss-Legendre rule of
+    ``brdf_core::checks::AlbedoRule`` with ``panels`` panels (8: the rule of the fit report's
+    energy check, so ``albedo(model, r.params, t)`` equals ``r.energy["albedo"]`` at the
+    measured incidences). Above 1 means the model does not conserve energy there.
+    """
+    shape, (col,) = _columns(("theta_i",), (theta_i,))
+    try:
+        out = _brdf.albedo(model, _params_text(params), col, int(panels))
+    except _brdf.ElementError as e:
+        raise _located(("theta_i",), shape, e) from None
+    return _shaped(out, shape)
 
 
 class FitResult:

@@ -36,6 +36,8 @@ def eval_vectors(
     precision: str = "f64",
 ) -> Union[np.ndarray, np.floating]: ...
 
+def albedo(model: str, params: Params, theta_i: ArrayLike, *, panels: int = 8) -> Union[np.ndarray, np.floating]: ...
+
 class FitResult:
     report: Dict[str, Any]
     dataset: str
