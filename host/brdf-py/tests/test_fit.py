@@ -127,3 +127,25 @@ def test_albedo_equals_the_reports_energy_check(root):
     # A Lambertian surface of reflectance rho0 reflects rho0 at every incidence.
     lambert = brdf.albedo("lambert", "rho0=0.5", [0, 45, 80])
     np.testing.assert_allclose(lambert, 0.5, rtol=brdf._brdf.ALBEDO_DEFAULT_REL)
+
+
+@pytest.mark.parametrize(
+    "flags,kwargs",
+    [
+        (["--engine", "embedded", "--budget-evals", "5000"], {"engine": "embedded", "budget_evals": 5000}),
+        (["--residual", "log", "--seed", "7", "--hops", "2"], {"residual": "log", "seed": 7, "hops": 2}),
+        (["--loss", "huber", "--loss-scale", "0.05", "--chains", "3", "--agree", "2"],
+         {"loss": "huber", "loss_scale": 0.05, "chains": 3, "agree": 2}),
+    ],
+)
+def test_options_map_to_the_cli_flags(cli, root, flags, kwargs):
+    path = root / KHAKI
+    want = cli("fit", "--json", *flags, path).stdout.rstrip("\n")
+    assert strip_seconds(brdf.fit(str(path), **kwargs).to_json()) == strip_seconds(want)
+
+
+def test_the_embedded_engine_refuses_other_residuals(cli, root):
+    p = cli("fit", "--engine", "embedded", "--residual", "log", root / KHAKI, check=False)
+    with pytest.raises(ValueError) as e:
+        brdf.fit(str(root / KHAKI), engine="embedded", residual="log")
+    assert str(e.value) in p.stderr
