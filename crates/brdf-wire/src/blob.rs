@@ -36,10 +36,10 @@ pub const MAX_BLOB_LEN: usize = 4096;
 
 const HEADER_LEN: usize = 16;
 
-/// Encoded length of a blob holding one material without tables and nothing else: the
-/// smallest blob, and the overhead every blob carries besides its materials.
-pub const fn blob_overhead() -> usize {
-    HEADER_LEN + 4
+/// Encoded length of a blob holding `materials` (what [`Blob::encoded_len`] returns for
+/// them; no limit on their number is applied).
+pub fn encoded_len(materials: &[Material]) -> usize {
+    HEADER_LEN + materials.iter().map(Material::encoded_len).sum::<usize>() + 4
 }
 
 /// The CRC that identifies a blob (what INFO reports): CRC-32 of every byte before its
@@ -279,7 +279,7 @@ pub struct Blob {
 impl Blob {
     /// Encoded length.
     pub fn encoded_len(&self) -> usize {
-        HEADER_LEN + self.materials.iter().map(Material::encoded_len).sum::<usize>() + 4
+        encoded_len(&self.materials)
     }
 
     /// Writes a blob without tables into `out`; returns the length written.

@@ -123,11 +123,6 @@ pub fn choose(reprs: &[Representation], budget: f64, allow_nonphysical: bool) ->
     Choice { best, reason }
 }
 
-/// Encoded size of a blob holding `m` alone.
-fn blob_len(m: Material) -> usize {
-    brdf_wire::blob::blob_overhead() + m.encoded_len()
-}
-
 /// Every representation of every fitted model, with its error against the data over the
 /// domain and its cost; and the material (with table bytes) each would be flashed as.
 #[allow(clippy::type_complexity)]
@@ -174,7 +169,7 @@ pub fn representations(
         let exact = material.model().map_err(|e| format!("{}: {e}", r.model))?;
         let (reciprocal, bounded) = (exact.reciprocal(), exact.bounded_at_grazing());
         let (rms, max) = errors(&|c| f64::from(exact.eval_cosines(c[0], c[1], c[2])));
-        let blob_bytes = blob_len(material);
+        let blob_bytes = brdf_wire::blob::encoded_len(&[material]);
         reprs.push(Representation {
             name: format!("{} exact", r.model),
             model: r.model.name(),
@@ -205,7 +200,7 @@ pub fn representations(
             let (rms, max) = errors(&|c| f64::from(table.eval_cosines(c[0], c[1], c[2])));
             let exact64 = brdf_core::SixParam::new(p.widen()).map_err(|e| format!("{e}"))?;
             let vs_exact = table_accuracy(&table, &exact64, cos.iter().copied()).max;
-            let blob_bytes = blob_len(m);
+            let blob_bytes = brdf_wire::blob::encoded_len(&[m]);
             reprs.push(Representation {
                 name: format!("six table {nodes}"),
                 model: r.model.name(),

@@ -22,7 +22,7 @@ use brdf_core::cost::{exact_instructions, TABLE_INSTRUCTIONS};
 use brdf_core::table::{table_len, SixTable, TABLE_SIZES};
 use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
 use brdf_fit::{fit, FitOptions, Point, Problem, Residual};
-use brdf_wire::blob::{Blob, Material, MAX_BLOB_LEN, MAX_MATERIALS};
+use brdf_wire::blob::{encoded_len, Blob, Material, MAX_BLOB_LEN, MAX_MATERIALS};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -227,11 +227,6 @@ fn device_material(kind: ModelKind, p: &[f64; MAX_PARAMS]) -> Result<(Material, 
     Ok((m, model))
 }
 
-/// Encoded size of a blob holding `materials`.
-fn blob_len(materials: &[Material]) -> usize {
-    brdf_wire::blob::blob_overhead() + materials.iter().map(Material::encoded_len).sum::<usize>()
-}
-
 /// A systematic sample of material `m`'s queries, each drawn with probability proportional to
 /// its share of its aspect's σ, as fitting points (exact value; weight = times drawn).
 fn fit_sample(domain: &Domain, m: usize, exact: &Evaluator, sigma: &[Vec<f64>], n: usize) -> Vec<Point> {
@@ -421,7 +416,7 @@ pub fn select(scene: &Scene, domain: &Domain, opts: &SelectOptions) -> SceneSele
                         None => exact_instructions(d.kind),
                     },
                     bytes,
-                    fits_blob: blob_len(&[d.material]) <= MAX_BLOB_LEN,
+                    fits_blob: encoded_len(&[d.material]) <= MAX_BLOB_LEN,
                     worst_sigma_error: worst,
                     worst_at: at,
                     rms_sigma_error: if seen.is_empty() {
@@ -510,7 +505,7 @@ fn assemble(materials: &mut [MaterialChoice], sequence: u32) -> (Option<Vec<u8>>
             .iter()
             .map(|m| m.candidates[m.chosen.unwrap_or(0)].material)
             .collect();
-        if blob_len(&chosen) <= MAX_BLOB_LEN {
+        if encoded_len(&chosen) <= MAX_BLOB_LEN {
             break;
         }
         // The cheapest swap (fewest extra instructions) to a smaller candidate within budget.
@@ -533,7 +528,7 @@ fn assemble(materials: &mut [MaterialChoice], sequence: u32) -> (Option<Vec<u8>>
                     None,
                     Some(format!(
                         "the chosen representations need {} bytes, more than a slot's {MAX_BLOB_LEN}, and no smaller one meets the budget",
-                        blob_len(&chosen)
+                        encoded_len(&chosen)
                     )),
                 )
             }
