@@ -1,12 +1,13 @@
-"""Fit the six-parameter model to a measured dataset, plot it, and write the fit for the device.
+"""Fit the six-parameter model to a measured dataset, plot it, and pack the fit for the device.
 
     python examples/python/fit_and_plot.py [OUT_DIR]
 
 Reads the bundled MERL aluminium in-plane slice (data/measured/merl-aluminium-inplane, the
 `merl-inplane` import), fits it as `brdf fit --format merl-inplane` does, draws measured and
-fitted in-plane curves per incidence with matplotlib, and writes `fit.json` (the text
-`brdf fit --json` prints), which `brdf pack fit.json -o params.bin` turns into the device's
-parameter blob.
+fitted in-plane curves per incidence with matplotlib (`fit.png`), writes `fit.json` (the
+text `brdf fit --json` prints) and packs the fit into the device's parameter blob
+`params.bin` (the bytes `brdf pack fit.json -o params.bin` writes), ready for
+`brdf flash --chip STM32F407VGTx params.bin`.
 """
 import os
 import pathlib
@@ -32,6 +33,9 @@ def main():
     for name, why in r.undetermined.items():
         print(f"  {name} is not determined by the data: {why}")
     (out / "fit.json").write_text(r.to_json() + "\n")
+    # The device's parameter blob: one material, checked against the model's ranges.
+    blob = brdf.pack(r)
+    (out / "params.bin").write_bytes(blob)
 
     # Measured points come back through the same importer, as arrays in degrees.
     d = brdf.read(DATA, format="merl-inplane")[0]
@@ -50,7 +54,7 @@ def main():
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
     fig.savefig(out / "fit.png", dpi=120)
-    print(f"wrote {out / 'fit.json'} and {out / 'fit.png'}; next: brdf pack {out / 'fit.json'} -o params.bin")
+    print(f"wrote {out / 'fit.json'}, {out / 'fit.png'} and {out / 'params.bin'} ({len(blob)} bytes)")
 
 
 if __name__ == "__main__":

@@ -87,14 +87,14 @@ pub struct Note {
 /// Why packing failed. The messages are the ones `brdf pack` prints after `error:`.
 #[derive(Debug, thiserror::Error)]
 pub enum PackError {
-    /// A results file could not be read.
-    #[error("cannot read {file}")]
+    /// A results file could not be read (the OS error is part of the message, so that every
+    /// caller shows the same text).
+    #[error("cannot read {file}: {error}")]
     Read {
         /// The file as given.
         file: String,
         /// Why.
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The results are not `brdf fit --json` output, or lack a parameter.
     #[error(transparent)]
@@ -197,9 +197,9 @@ pub fn pack(
         let (file, fits) = match *source {
             FitSource::File(path) => {
                 let file = path.display().to_string();
-                let text = std::fs::read_to_string(path).map_err(|source| PackError::Read {
+                let text = std::fs::read_to_string(path).map_err(|error| PackError::Read {
                     file: file.clone(),
-                    source,
+                    error,
                 })?;
                 let fits = FittedModel::from_json(&text, &file)?;
                 (file, fits)
@@ -367,7 +367,10 @@ mod tests {
             |_| {},
         )
         .unwrap_err();
-        assert_eq!(err.to_string(), "cannot read /nonexistent/a.json");
+        assert!(
+            err.to_string().starts_with("cannot read /nonexistent/a.json: "),
+            "{err}"
+        );
     }
 
     #[test]

@@ -9,6 +9,8 @@ of CSV line.
 from __future__ import annotations
 
 import json
+import logging
+import operator
 import os
 import warnings
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
@@ -25,9 +27,12 @@ __all__ = [
     "eval_cosines",
     "eval_vectors",
     "fit",
+    "pack",
     "read",
     "to_json",
 ]
+
+_log = logging.getLogger("brdf")
 
 #: Model names accepted by every function (as ``brdf --model``).
 MODELS: List[str] = list(_brdf.MODELS)
@@ -308,3 +313,54 @@ def to_json(results) -> str:
     if len(texts) == 1:
         return texts[0]
     return "[\n" + ",\n".join(texts) + "\n]"
+
+
+def pack(results, table_nodes: Optional[int] = None, *, sequence: int = 1) -> bytes:
+    """The parameter blob ``brdf pack`` writes, as bytes (flash it with ``brdf flash``).
+
+    ``results`` is a :class:`FitResult`, a path to a ``brdf fit --json`` file (one report or
+    an array; hand-written ``{"model": ..., "params": {...}}`` too), or a list of either:
+    one material per fit, in order. ``table_nodes`` adds lookup tables of that many nodes to
+    every six-parameter material (the device's fast path; 256 nodes = 3,072 bytes per
+    material); ``sequence`` is the blob's sequence number (a device keeps the newer blob).
+
+    Messages name each fit by its file (``fits.json: fit 0``) or, for results, by
+    ``results`` (one) or ``results[k]`` (in a list). What ``brdf pack`` prints on standard
+    error comes as :mod:`warnings` (no proof of energy conservation, tables above or
+    without a promise) or as INFO records of the ``brdf`` logger (each table's measured
+    error). Raises ValueError with the CLI's message for parameters outside their ranges,
+    unreadable files, more than 8 materials or a blob larger than a slot; TypeError for
+    anything that is not a result or a path.
+    """
+
+    def source(item, origin):
+        if isinstance(item, FitResult):
+            return (origin, item.to_json())
+        if isinstance(item, (str, os.PathLike)):
+            return (os.fspath(item), None)
+        raise TypeError(
+            f"{origin}: {type(item).__name__} is not a FitResult or a path to a `brdf fit --json` file"
+        )
+
+    if isinstance(results, (list, tuple)):
+        if not results:
+            raise ValueError("results: no fits to pack")
+        sources = [source(r, f"results[{k}]") for k, r in enumerate(results)]
+    else:
+        sources = [source(results, "results")]
+    if table_nodes is not None:
+        table_nodes = operator.index(table_nodes)
+        if table_nodes < 0:
+            raise ValueError(f"{table_nodes} table nodes: not a count")
+    sequence = operator.index(sequence)
+    if not 0 <= sequence <= 0xFFFFFFFF:
+        raise ValueError(f"sequence {sequence}: outside 0..=4294967295")
+    blob, notes, error = _brdf.pack(sources, table_nodes, sequence)
+    for is_warning, text in notes:
+        if is_warning:
+            warnings.warn(text, stacklevel=2)
+        else:
+            _log.info(text)
+    if error is not None:
+        raise ValueError(error)
+    return blob

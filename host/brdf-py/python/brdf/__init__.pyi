@@ -69,3 +69,9 @@ def read(
     skip_invalid: bool = False,
 ) -> List[Dict[str, Any]]: ...
 def to_json(results: Union[FitResult, Sequence[FitResult]]) -> str: ...
+def pack(
+    results: Union[FitResult, str, os.PathLike, Sequence[Union[FitResult, str, os.PathLike]]],
+    table_nodes: Optional[int] = None,
+    *,
+    sequence: int = 1,
+) -> bytes: ...
