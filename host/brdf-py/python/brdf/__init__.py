@@ -1,9 +1,9 @@
 """The six-parameter BRDF model family from Python: numpy arrays in and out.
 
 The same core as the ``brdf`` command: :func:`eval` gives the values ``brdf eval`` prints,
-:func:`fit` the report ``brdf fit --json`` prints (``FitResult.to_json()``), and errors are
-raised as :class:`ValueError` with the command's messages, located by array index instead
-of CSV line.
+:func:`fit` the report ``brdf fit --json`` prints (``FitResult.to_json()``), :func:`pack`
+the blob ``brdf pack`` writes, and errors are raised as :class:`ValueError` with the
+command's messages, located by array index instead of CSV line.
 """
 
 from __future__ import annotations
