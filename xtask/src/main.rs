@@ -4,7 +4,12 @@
 //! installs what the tests need — the Rust targets and components listed in
 //! `rust-toolchain.toml` (through rustup) and `qemu-system-arm` (through apt-get when it runs as
 //! root or password-less sudo) — and stops at once with the exact command to run when it cannot.
-//! Then it runs `cargo test --workspace --release ARGS...`.
+//! Then it runs `cargo test --workspace --release ARGS...`, and then the Python package's
+//! tests (`cargo xtask test-python` runs those alone): a virtual environment in
+//! `target/py-venv` gets `host/brdf-py` and its test requirements (from its `pyproject.toml`)
+//! through pip, built by cargo in `target/brdf-py`, and `python -m pytest host/brdf-py/tests`
+//! runs against `target/release/brdf`. A machine without `python3`, `venv` or `pip` stops
+//! with the command that installs them.
 //!
 //! The firmware tests never pass without running: with no QEMU they fail, naming the install
 //! command, unless the user opts out with `BRDF_SKIP_QEMU=1`, which prints a `SKIPPED:` line.
@@ -12,7 +17,16 @@
 use std::path::{Path, PathBuf};
 use std::process::{exit, Command, Stdio};
 
-const USAGE: &str = "usage: cargo xtask test [ARGS passed to cargo test...]";
+const USAGE: &str = "usage: cargo xtask test [ARGS passed to cargo test...]\n       \
+                     cargo xtask test-python   (the Python package's tests alone)";
+
+/// The Python package: its own Cargo workspace, built by maturin through pip.
+const PY_PACKAGE: &str = "host/brdf-py";
+/// Where the Python package's tests run: a virtual environment, and the Rust build of the
+/// extension module (kept apart from the root workspace's `target/release`). `.ci/run` lints
+/// the package with the same target folder.
+const PY_VENV: &str = "target/py-venv";
+const PY_TARGET: &str = "target/brdf-py";
 
 /// The QEMU board the firmware tests run on (Cortex-M4 with FPU).
 const QEMU_BOARD: &str = "mps2-an386";
@@ -27,8 +41,11 @@ fn main() {
                 eprintln!("error: {e}");
                 exit(2);
             }
-            exit(run_tests(&root, &rest));
+            let rust = run_tests(&root, &rest);
+            let python = python_tests(&root);
+            exit(if rust != 0 { rust } else { python });
         }
+        Some("test-python") => exit(python_tests(&root())),
         Some("-h" | "--help") => println!("{USAGE}"),
         _ => {
             eprintln!("{USAGE}");
@@ -49,10 +66,21 @@ fn setup(root: &Path) -> Result<(), String> {
     let toolchain = std::fs::read_to_string(root.join("rust-toolchain.toml"))
         .map_err(|e| format!("rust-toolchain.toml: {e}"))?;
     rust_pieces(&toolchain)?;
-    qemu()
+    qemu()?;
+    python_present()
 }
 
-/// The quoted strings of `key = [ "a", "b" ]` in `rust-toolchain.toml` (one line).
+/// `python3` with `venv` and `pip`'s bootstrap, checked before the long Rust tests.
+fn python_present() -> Result<(), String> {
+    if quiet_ok("python3", &["-c", "import venv, ensurepip"]) {
+        Ok(())
+    } else {
+        Err(format!("python3 with venv was not found; {PYTHON_INSTALL}"))
+    }
+}
+
+/// The quoted strings of `key = [ "a", "b" ]` on one line of a TOML file (`rust-toolchain.toml`,
+/// a `pyproject.toml`).
 fn toml_list(text: &str, key: &str) -> Vec<String> {
     text.lines()
         .map(str::trim)
@@ -169,6 +197,126 @@ fn run_tests(root: &Path, rest: &[String]) -> i32 {
     }
 }
 
+/// The Python package's tests: sets up [`PY_VENV`], installs the package with its test
+/// requirements, builds `brdf` for the CLI comparisons and runs pytest. Returns the exit
+/// code; a setup failure is printed with what to do.
+fn python_tests(root: &Path) -> i32 {
+    match python_setup(root).and_then(|python| pytest(root, &python)) {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {e}");
+            1
+        }
+    }
+}
+
+/// The command that installs Python with `venv` and `pip` where they are missing.
+const PYTHON_INSTALL: &str = "the Python package's tests need python3 (3.9 or later) with venv and pip. \
+     Install them, then run the tests again:\n    sudo apt-get install -y python3 python3-venv python3-pip   \
+     (Debian, Ubuntu)\n    sudo dnf install python3 python3-pip                        (Fedora)\n    \
+     brew install python                                          (macOS)";
+
+/// Creates [`PY_VENV`] when needed and installs the package there with its test extra;
+/// returns the environment's interpreter.
+fn python_setup(root: &Path) -> Result<PathBuf, String> {
+    let venv = root.join(PY_VENV);
+    let python = venv.join("bin").join("python");
+    let has_pip = |py: &Path| quiet_ok(&py.to_string_lossy(), &["-m", "pip", "--version"]);
+    if !has_pip(&python) {
+        python_present()?;
+        eprintln!("xtask: creating the Python environment {PY_VENV}");
+        // A half-made environment (no pip: Debian without python3-venv) is made anew.
+        let _ = std::fs::remove_dir_all(&venv);
+        let made = Command::new("python3")
+            .args(["-m", "venv"])
+            .arg(&venv)
+            .status()
+            .is_ok_and(|s| s.success());
+        if !made || !has_pip(&python) {
+            return Err(format!(
+                "`python3 -m venv {PY_VENV}` gave no working pip; {PYTHON_INSTALL}"
+            ));
+        }
+    }
+    let pyproject = std::fs::read_to_string(root.join(PY_PACKAGE).join("pyproject.toml"))
+        .map_err(|e| format!("{PY_PACKAGE}/pyproject.toml: {e}"))?;
+    // The build backend (maturin) as the package requires it, installed once: the package is
+    // then built without pip's isolated build environment, so later runs need no index.
+    let backend = toml_list(&pyproject, "requires");
+    if backend.is_empty() {
+        return Err(format!("{PY_PACKAGE}/pyproject.toml: no build-system `requires`"));
+    }
+    let py = python.to_string_lossy().into_owned();
+    let mut args = vec!["-m", "pip", "install", "--quiet", "--disable-pip-version-check"];
+    args.extend(backend.iter().map(String::as_str));
+    run_in(root, &py, &args, &[])?;
+    eprintln!("xtask: building and installing {PY_PACKAGE} into {PY_VENV} (cargo target {PY_TARGET})");
+    let target = root.join(PY_TARGET);
+    let spec = format!("./{PY_PACKAGE}[test]");
+    // As an activated environment: maturin's build hook runs the `maturin` of PATH.
+    let mut path = std::ffi::OsString::from(venv.join("bin"));
+    if let Some(p) = std::env::var_os("PATH") {
+        path.push(":");
+        path.push(p);
+    }
+    run_in(
+        root,
+        &py,
+        &[
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+            "--no-build-isolation",
+            &spec,
+        ],
+        &[
+            ("CARGO_TARGET_DIR", target.as_os_str()),
+            ("PATH", &path),
+            ("VIRTUAL_ENV", venv.as_os_str()),
+        ],
+    )?;
+    Ok(python)
+}
+
+/// `brdf` for the CLI comparisons, then pytest over the package's tests (no tests collected
+/// is a failure).
+fn pytest(root: &Path, python: &Path) -> Result<(), String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    run_in(root, &cargo, &["build", "--release", "-p", "brdf-cli"], &[])?;
+    let cli = root.join("target").join("release").join("brdf");
+    let tests = format!("{PY_PACKAGE}/tests");
+    eprintln!("xtask: python -m pytest {tests}");
+    let status = Command::new(python)
+        .args(["-m", "pytest", &tests])
+        .env("BRDF_CLI", &cli)
+        .current_dir(root)
+        .status()
+        .map_err(|e| format!("cannot run {}: {e}", python.display()))?;
+    match status.code() {
+        Some(0) => Ok(()),
+        Some(5) => Err(format!("pytest collected no tests in {tests}")),
+        _ => Err(format!("the Python package's tests failed (pytest {status})")),
+    }
+}
+
+/// Runs `cmd args` in `dir` with extra environment variables; an error names the command.
+fn run_in(dir: &Path, cmd: &str, args: &[&str], env: &[(&str, &std::ffi::OsStr)]) -> Result<(), String> {
+    let line = format!("{cmd} {}", args.join(" "));
+    let status = Command::new(cmd)
+        .args(args)
+        .envs(env.iter().copied())
+        .current_dir(dir)
+        .status()
+        .map_err(|e| format!("cannot run `{line}`: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("`{line}` failed ({status})"))
+    }
+}
+
 /// Standard output of a command that ran and succeeded.
 fn output(cmd: &str, args: &[&str]) -> Option<String> {
     let out = Command::new(cmd).args(args).stderr(Stdio::null()).output().ok()?;
@@ -207,5 +355,7 @@ mod tests {
         assert_eq!(toml_list(text, "components"), ["rustfmt", "clippy"]);
         assert_eq!(toml_list(text, "targets"), ["thumbv7em-none-eabihf"]);
         assert!(toml_list(text, "profile").is_empty());
+        let pyproject = "[build-system]\nrequires = [\"maturin>=1.9,<2\"]\nbuild-backend = \"maturin\"\n";
+        assert_eq!(toml_list(pyproject, "requires"), ["maturin>=1.9,<2"]);
     }
 }

@@ -256,35 +256,16 @@ pub fn parse_list(text: &str) -> Result<Vec<f64>> {
         })
 }
 
-/// Encodes `materials` (with `tables[i]` the node bytes of those that have tables) and writes
-/// the blob to `output`, saying what was written.
-pub fn write_blob(
-    materials: heapless::Vec<brdf_wire::blob::Material, { brdf_wire::blob::MAX_MATERIALS }>,
-    tables: &[Option<Vec<u8>>],
-    sequence: u32,
-    output: &std::path::Path,
-) -> Result<()> {
-    use brdf_wire::blob::{Blob, MAX_BLOB_LEN};
-    let blob = Blob { sequence, materials };
-    if blob.encoded_len() > MAX_BLOB_LEN {
-        bail!(
-            "the blob would be {} bytes, more than a slot's {MAX_BLOB_LEN}: use fewer materials or fewer table nodes",
-            blob.encoded_len()
-        );
-    }
-    let refs: Vec<Option<&[u8]>> = tables.iter().map(|t| t.as_deref()).collect();
-    let mut buf = [0u8; MAX_BLOB_LEN];
-    let n = blob
-        .encode_with_tables(&refs, &mut buf)
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    std::fs::write(output, &buf[..n]).with_context(|| format!("cannot write {}", output.display()))?;
+/// Writes an encoded blob (`brdf_fit::pack`) to `output`, saying what was written.
+pub fn write_blob(packed: &brdf_fit::pack::Packed, output: &std::path::Path) -> Result<()> {
+    std::fs::write(output, &packed.bytes).with_context(|| format!("cannot write {}", output.display()))?;
     eprintln!(
         "wrote {} ({} bytes, {} materials, sequence {}, CRC {:#010x})",
         output.display(),
-        n,
-        blob.materials.len(),
-        sequence,
-        brdf_wire::blob::blob_crc(&buf[..n])
+        packed.bytes.len(),
+        packed.materials,
+        packed.blob.sequence,
+        packed.crc
     );
     Ok(())
 }

@@ -134,9 +134,7 @@ impl SelectCmd {
         let Choice { best, reason } = choose(&reprs, self.budget, self.allow_nonphysical);
         if let (Some(path), Some(i)) = (&self.output, best) {
             let (m, table) = materials[i].clone();
-            let mut v = heapless::Vec::new();
-            v.push(m).map_err(|_| anyhow!("one material"))?;
-            write_blob(v, &[table], self.sequence, path)?;
+            write_blob(&brdf_fit::pack::encode(&[m], &[table], self.sequence)?, path)?;
         } else if self.output.is_some() {
             bail!("no representation meets the budget; nothing written");
         }

@@ -22,6 +22,7 @@ pub mod grid;
 pub mod import;
 pub mod kernel;
 pub mod lm;
+pub mod pack;
 pub mod params;
 pub mod problem;
 pub mod report;

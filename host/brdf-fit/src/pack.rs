@@ -1,0 +1,390 @@
+//! Fit results packed into a device's parameter blob: what `brdf pack` writes and
+//! `brdf.pack` returns.
+//!
+//! Each fit becomes a [`Material`] (parameters checked against `brdf_core::ranges`), is
+//! checked for an energy bound, optionally gets lookup tables measured against their promise
+//! ([`promise_accuracy`]), and the whole is encoded as a [`Blob`]. What the caller should
+//! show besides the blob (energy warnings, the tables' measured errors) arrives as [`Note`]s,
+//! in order, as they are found.
+//!
+//! ```
+//! use brdf_fit::pack::{pack, FitSource, PackOptions};
+//!
+//! let json = r#"{"model": "lambert", "params": {"rho0": 0.5}}"#;
+//! let sources = [FitSource::Text { origin: "results", json }];
+//! let mut notes = Vec::new();
+//! let packed = pack(&sources, &PackOptions::default(), |n| notes.push(n)).unwrap();
+//! assert_eq!(packed.materials, 1);
+//! assert_eq!(packed.bytes.len(), brdf_wire::blob::encoded_len(&[packed.blob.materials[0]]));
+//! assert!(notes.is_empty()); // a Lambertian of albedo 0.5 conserves energy
+//! ```
+
+use std::path::Path;
+
+use brdf_core::table::{promise_accuracy, table_len, SixTable, TableError, MAX_TABLE_NODES, MIN_TABLE_NODES};
+use brdf_core::tolerance::{table_max_rel, TABLE_MAX_REL, TABLE_MAX_ZENITH_DEG};
+use brdf_wire::blob::{blob_crc, Blob, BlobError, Material, MAX_BLOB_LEN, MAX_MATERIALS};
+
+use crate::report::{FittedModel, ReadError};
+
+/// Where fit results come from: a `brdf fit --json` file, or such JSON text already in
+/// memory.
+#[derive(Clone, Copy, Debug)]
+pub enum FitSource<'a> {
+    /// A file of `brdf fit --json` output (one report or an array), named in messages as
+    /// written.
+    File(&'a Path),
+    /// JSON text of one report or an array; `origin` names it in messages.
+    Text {
+        /// What messages call the text (`results`, say): `results: fit 2: refused: ...`.
+        origin: &'a str,
+        /// The JSON.
+        json: &'a str,
+    },
+}
+
+/// How to pack.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PackOptions {
+    /// Sequence number: a device keeps the valid blob with the newer one, in serial-number
+    /// order (N + 1 is always newer than N; 0 follows 4294967295).
+    pub sequence: u32,
+    /// Lookup tables of this many nodes for every six-parameter material (the device's fast
+    /// path), or none.
+    pub table_nodes: Option<usize>,
+}
+
+impl Default for PackOptions {
+    /// Sequence 1, no tables (the defaults of `brdf pack`).
+    fn default() -> Self {
+        PackOptions {
+            sequence: 1,
+            table_nodes: None,
+        }
+    }
+}
+
+/// How much a [`Note`] matters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Level {
+    /// A measurement worth reporting (a table's error, a table size's promise).
+    Info,
+    /// Something the user should act on or know before flashing: no proof of energy
+    /// conservation, a table above its promise, a table size without a promise.
+    Warning,
+}
+
+/// A message about the packing, besides the blob.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Note {
+    /// How much it matters.
+    pub level: Level,
+    /// The text as `brdf pack` prints it on standard error (one or more lines, without the
+    /// final newline; warnings start with `warning:` or `note:`).
+    pub text: String,
+}
+
+/// Why packing failed. The messages are the ones `brdf pack` prints after `error:`.
+#[derive(Debug, thiserror::Error)]
+pub enum PackError {
+    /// A results file could not be read (the OS error is part of the message, so that every
+    /// caller shows the same text).
+    #[error("cannot read {file}: {error}")]
+    Read {
+        /// The file as given.
+        file: String,
+        /// Why.
+        error: std::io::Error,
+    },
+    /// The results are not `brdf fit --json` output, or lack a parameter.
+    #[error(transparent)]
+    Json(#[from] ReadError),
+    /// A parameter is outside its model's range (or the model is refused).
+    #[error("{origin}: refused: {error}")]
+    Refused {
+        /// File and fit index (`fits.json: fit 2`).
+        origin: String,
+        /// What the core refused.
+        error: brdf_core::ParamError,
+    },
+    /// More fits than a blob holds.
+    #[error("more than {MAX_MATERIALS} materials: a blob holds at most {MAX_MATERIALS}")]
+    TooManyMaterials,
+    /// A table size outside what the tables support.
+    #[error("{0} table nodes: outside {MIN_TABLE_NODES}..={MAX_TABLE_NODES}")]
+    TableNodes(usize),
+    /// A material's tables could not be built or measured.
+    #[error("{origin}: material {material}: {nodes}-node tables: {error}")]
+    Table {
+        /// File and fit index.
+        origin: String,
+        /// The material's index in the blob.
+        material: usize,
+        /// The table size asked for.
+        nodes: usize,
+        /// What the core refused.
+        error: TableError,
+    },
+    /// The encoded blob would not fit in a slot.
+    #[error(
+        "the blob would be {0} bytes, more than a slot's {MAX_BLOB_LEN}: use fewer materials or fewer table nodes"
+    )]
+    TooLarge(usize),
+    /// The blob could not be encoded.
+    #[error("{0}")]
+    Encode(BlobError),
+}
+
+/// An encoded blob.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Packed {
+    /// The bytes a device's slot holds (what `brdf pack` writes).
+    pub bytes: Vec<u8>,
+    /// The blob the bytes encode.
+    pub blob: Blob,
+    /// How many materials it holds.
+    pub materials: usize,
+    /// Its CRC, as a device's INFO reports it.
+    pub crc: u32,
+}
+
+/// Encodes `materials` (with `tables[i]` the table bytes of material `i`, if any; missing
+/// entries mean none) under `sequence`, refusing a blob larger than a slot.
+pub fn encode(
+    materials: &[Material],
+    tables: &[Option<Vec<u8>>],
+    sequence: u32,
+) -> Result<Packed, PackError> {
+    let materials = heapless::Vec::from_slice(materials).map_err(|_| PackError::TooManyMaterials)?;
+    let blob = Blob { sequence, materials };
+    if blob.encoded_len() > MAX_BLOB_LEN {
+        return Err(PackError::TooLarge(blob.encoded_len()));
+    }
+    let refs: Vec<Option<&[u8]>> = tables.iter().map(|t| t.as_deref()).collect();
+    let mut buf = vec![0u8; MAX_BLOB_LEN];
+    let n = blob
+        .encode_with_tables(&refs, &mut buf)
+        .map_err(PackError::Encode)?;
+    buf.truncate(n);
+    Ok(Packed {
+        crc: blob_crc(&buf),
+        materials: blob.materials.len(),
+        bytes: buf,
+        blob,
+    })
+}
+
+/// Packs every fit of `sources`, in order (an array adds each of its fits), into one blob.
+/// Parameters outside a model's ranges are refused; a material without a proof of energy
+/// conservation (`kb + kd > 1`, or no bound) is packed with a [`Level::Warning`] note. With
+/// `table_nodes`, every six-parameter material gets tables, each measured against the
+/// promise of its size (a note per material, then one on the size).
+pub fn pack(
+    sources: &[FitSource<'_>],
+    options: &PackOptions,
+    mut note: impl FnMut(Note),
+) -> Result<Packed, PackError> {
+    let mut say = |level, text| note(Note { level, text });
+    if let Some(nodes) = options.table_nodes {
+        if !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&nodes) {
+            return Err(PackError::TableNodes(nodes));
+        }
+    }
+    let mut materials: Vec<Material> = Vec::new();
+    // Where each material came from, for messages.
+    let mut origin_of: Vec<String> = Vec::new();
+    for source in sources {
+        let (file, fits) = match *source {
+            FitSource::File(path) => {
+                let file = path.display().to_string();
+                let text = std::fs::read_to_string(path).map_err(|error| PackError::Read {
+                    file: file.clone(),
+                    error,
+                })?;
+                let fits = FittedModel::from_json(&text, &file)?;
+                (file, fits)
+            }
+            FitSource::Text { origin, json } => (origin.to_owned(), FittedModel::from_json(json, origin)?),
+        };
+        for (i, r) in fits.iter().enumerate() {
+            let origin = format!("{file}: fit {i}");
+            let refused = |error| PackError::Refused {
+                origin: origin.clone(),
+                error,
+            };
+            // `from_json` has checked that every parameter is named.
+            let params = r.params_array().unwrap_or([f64::NAN; brdf_core::MAX_PARAMS]);
+            // The range is checked on the value as written and again (in the model) on its
+            // f32 rounding; both are exact at the bounds (brdf_core::ranges).
+            let m = Material::from_params(r.model, &params).map_err(refused)?;
+            let name = r.model.name();
+            match m.model().map_err(refused)?.energy_bound() {
+                Some(b) if b <= 1.0 => {}
+                Some(b) => say(
+                    Level::Warning,
+                    format!("warning: {origin} ({name}): energy bound {b} > 1, conservation not guaranteed"),
+                ),
+                None => say(
+                    Level::Warning,
+                    format!("warning: {origin} ({name}): the model has no energy bound"),
+                ),
+            }
+            if materials.len() == MAX_MATERIALS {
+                return Err(PackError::TooManyMaterials);
+            }
+            materials.push(m);
+            origin_of.push(origin);
+        }
+    }
+    let mut tables: Vec<Option<Vec<u8>>> = vec![None; materials.len()];
+    if let Some(nodes) = options.table_nodes {
+        for (i, (m, t)) in materials.iter_mut().zip(&mut tables).enumerate() {
+            if m.six_params().is_none() {
+                continue;
+            }
+            let mut bytes = vec![0u8; table_len(nodes)];
+            let mut build = || -> Result<_, TableError> {
+                m.tabulate(nodes, &mut bytes)?;
+                let p = m.six_params().ok_or(TableError::Model(m.kind))?;
+                promise_accuracy(&SixTable::new(p, &bytes)?)
+            };
+            let acc = build().map_err(|error| PackError::Table {
+                origin: origin_of[i].clone(),
+                material: i,
+                nodes,
+                error,
+            })?;
+            let (worst, n) = (acc.max, acc.n);
+            let measured = format!(
+                "material {i}: {nodes}-node tables, measured max relative error {worst:.2e} over {n} \
+                 directions up to {TABLE_MAX_ZENITH_DEG} degrees zenith"
+            );
+            match table_max_rel(nodes) {
+                Some(b) if worst > b => say(
+                    Level::Warning,
+                    format!(
+                        "{measured}\nwarning: that exceeds the {b:e} promised for parameters in the \
+                         paper's range: `brdf check` will fail; use more nodes"
+                    ),
+                ),
+                _ => say(Level::Info, measured),
+            }
+            *t = Some(bytes);
+        }
+        match table_max_rel(nodes) {
+            Some(e) => say(
+                Level::Info,
+                format!(
+                    "tables of {nodes} nodes: promised max relative error {e:e} up to {TABLE_MAX_ZENITH_DEG} \
+                     degrees zenith (parameters in the paper's range)"
+                ),
+            ),
+            None => say(
+                Level::Warning,
+                format!(
+                    "note: {nodes} nodes has no promised bound (sizes with one: {:?}); `brdf check` \
+                     reports such materials without judging them",
+                    TABLE_MAX_REL.map(|t| t.0)
+                ),
+            ),
+        }
+    }
+    encode(&materials, &tables, options.sequence)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const KHAKI: &str = r#"{"model": "six", "params": {"kb": 0.2545, "kr": 21.8031, "b": -27.5721,
+        "a": 0.6705, "kd": 0.3676, "c": 1.2}}"#;
+
+    fn pack_text(json: &str, table_nodes: Option<usize>) -> (Result<Packed, PackError>, Vec<Note>) {
+        let mut notes = Vec::new();
+        let sources = [FitSource::Text {
+            origin: "results",
+            json,
+        }];
+        let options = PackOptions {
+            sequence: 7,
+            table_nodes,
+        };
+        (pack(&sources, &options, |n| notes.push(n)), notes)
+    }
+
+    #[test]
+    fn the_bytes_decode_to_the_fits_in_order() {
+        let json = format!("[{KHAKI}, {{\"model\": \"lambert\", \"params\": {{\"rho0\": 0.5}}}}]");
+        let (packed, notes) = pack_text(&json, None);
+        let p = packed.unwrap();
+        let back = Blob::decode(&p.bytes).unwrap();
+        assert_eq!(back, p.blob);
+        assert_eq!((back.sequence, back.materials.len(), p.materials), (7, 2, 2));
+        assert_eq!(back.materials[0].params[0], 0.2545f32);
+        assert_eq!(p.crc, blob_crc(&p.bytes));
+        assert!(notes.is_empty(), "{notes:?}");
+    }
+
+    #[test]
+    fn tables_are_measured_and_noted() {
+        let (packed, notes) = pack_text(KHAKI, Some(256));
+        let p = packed.unwrap();
+        assert!(p.blob.materials[0].table.is_some());
+        assert_eq!(notes.len(), 2, "{notes:?}");
+        assert!(notes[0]
+            .text
+            .starts_with("material 0: 256-node tables, measured max relative error"));
+        assert!(notes.iter().all(|n| n.level == Level::Info), "{notes:?}");
+        // A size without a promise is a warning.
+        let (_, notes) = pack_text(KHAKI, Some(100));
+        assert_eq!(notes.last().map(|n| n.level), Some(Level::Warning));
+        assert!(notes
+            .last()
+            .unwrap()
+            .text
+            .starts_with("note: 100 nodes has no promised bound"));
+    }
+
+    #[test]
+    fn bad_input_is_refused_naming_the_fit() {
+        let bad = r#"{"model": "six", "params": {"kb": 0.25, "kr": 21.8, "b": -27.5, "a": 0.67, "kd": -1, "c": 1.2}}"#;
+        let err = pack_text(bad, None).0.unwrap_err().to_string();
+        assert!(err.starts_with("results: fit 0: refused: "), "{err}");
+        let too_many = MAX_TABLE_NODES + 1;
+        let err = pack_text(KHAKI, Some(too_many)).0.unwrap_err().to_string();
+        assert_eq!(
+            err,
+            format!("{too_many} table nodes: outside {MIN_TABLE_NODES}..={MAX_TABLE_NODES}")
+        );
+        let nine = format!("[{}]", [KHAKI; MAX_MATERIALS + 1].join(","));
+        assert!(matches!(
+            pack_text(&nine, None).0,
+            Err(PackError::TooManyMaterials)
+        ));
+        let err = pack(
+            &[FitSource::File(Path::new("/nonexistent/a.json"))],
+            &PackOptions::default(),
+            |_| {},
+        )
+        .unwrap_err();
+        assert!(
+            err.to_string().starts_with("cannot read /nonexistent/a.json: "),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn energy_warnings_name_the_fit() {
+        let hot = r#"{"model": "six", "params": {"kb": 0.8, "kr": 21.8, "b": -27.5, "a": 0.67, "kd": 0.5, "c": 1.2}}"#;
+        let (packed, notes) = pack_text(hot, None);
+        packed.unwrap();
+        assert_eq!(notes.len(), 1);
+        assert_eq!(notes[0].level, Level::Warning);
+        assert!(
+            notes[0]
+                .text
+                .starts_with("warning: results: fit 0 (six): energy bound"),
+            "{notes:?}"
+        );
+    }
+}

@@ -1,0 +1,366 @@
+"""The six-parameter BRDF model family from Python: numpy arrays in and out.
+
+The same core as the ``brdf`` command: :func:`eval` gives the values ``brdf eval`` prints,
+:func:`fit` the report ``brdf fit --json`` prints (``FitResult.to_json()``), :func:`pack`
+the blob ``brdf pack`` writes, and errors are raised as :class:`ValueError` with the
+command's messages, located by array index instead of CSV line.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import operator
+import os
+import warnings
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _brdf
+
+__all__ = [
+    "MODELS",
+    "FitResult",
+    "albedo",
+    "eval",
+    "eval_cosines",
+    "eval_vectors",
+    "fit",
+    "pack",
+    "read",
+    "to_json",
+]
+
+_log = logging.getLogger("brdf")
+
+#: Model names accepted by every function (as ``brdf --model``).
+MODELS: List[str] = list(_brdf.MODELS)
+
+
+def _params_text(params: Union[str, Mapping[str, float]]) -> str:
+    """``kb=...,kr=...`` from a dict (values exactly as Python holds them) or a string."""
+    if isinstance(params, str):
+        return params
+    if isinstance(params, Mapping):
+        parts = []
+        for name, value in params.items():
+            try:
+                v = float(value)
+            except (TypeError, ValueError):
+                raise ValueError(f"params: {name}: {value!r} is not a number") from None
+            parts.append(f"{name}={v!r}")
+        return ",".join(parts)
+    raise TypeError(f"params must be a dict or a 'name=value,...' string, not {type(params).__name__}")
+
+
+def _real(name: str, a: Any) -> np.ndarray:
+    """``a`` as a float64 array (no copy when it already is one); clear errors otherwise."""
+    arr = np.asarray(a)
+    if arr.dtype == np.float64:
+        return arr
+    if arr.dtype.kind in "iuf":
+        return arr.astype(np.float64)
+    raise TypeError(f"{name}: dtype {arr.dtype} is not a real number type (need float or integer)")
+
+
+def _precision(precision: str) -> np.dtype:
+    if precision == "f64":
+        return np.dtype(np.float64)
+    if precision == "f32":
+        return np.dtype(np.float32)
+    raise ValueError(f"unknown precision `{precision}` (expected f64 or f32)")
+
+
+def _located(names: Sequence[str], shape: tuple, err: Exception) -> ValueError:
+    """An element error with its index in the caller's (broadcast) shape."""
+    flat, message = err.args[0], err.args[1]
+    index = np.unravel_index(flat, shape) if shape else ()
+    where = "[" + ", ".join(str(int(i)) for i in index) + "]"
+    return ValueError(f"{'/'.join(names)} at index {where}: {message}")
+
+
+def _columns(names: Sequence[str], arrays: Sequence[Any]):
+    """Broadcasts the inputs; returns the shape and flat contiguous float64 columns."""
+    arrs = [_real(n, a) for n, a in zip(names, arrays)]
+    try:
+        shape = np.broadcast_shapes(*(a.shape for a in arrs))
+    except ValueError:
+        shapes = ", ".join(f"{n} {a.shape}" for n, a in zip(names, arrs))
+        raise ValueError(f"shapes do not broadcast: {shapes}") from None
+    cols = [np.ascontiguousarray(np.broadcast_to(a, shape)).reshape(-1) for a in arrs]
+    return shape, cols
+
+
+def _shaped(out: np.ndarray, shape: tuple):
+    out = out.reshape(shape)
+    return out[()] if shape == () else out
+
+
+def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, phi, *, precision: str = "f64"):
+    """The BRDF (1/sr) of ``model`` at zenith angles ``theta_i``, ``theta_r`` and relative
+    azimuth ``phi`` in degrees (canonical convention: ``phi = 180`` is the mirror side),
+    broadcast like numpy.
+
+    ``params`` is a dict (``{"kb": 0.25, ...}``) or the CLI's ``"kb=0.25,kr=21.8,..."``.
+    ``precision="f64"`` is the reference (the core's batch path, as ``brdf eval``);
+    ``"f32"`` is the device's arithmetic (radians computed in f64, rounded once to f32).
+    Returns float64 or float32 of the broadcast shape (a scalar for 0-d inputs).
+    Raises ValueError, with the index of the first bad element, for angles that are not
+    finite, zeniths outside [0, 90] and values that are not finite.
+    """
+    _precision(precision)
+    names = ("theta_i", "theta_r", "phi")
+    shape, cols = _columns(names, (theta_i, theta_r, phi))
+    try:
+        out = _brdf.eval_angles(model, _params_text(params), *cols, precision)
+    except _brdf.ElementError as e:
+        raise _located(names, shape, e) from None
+    return _shaped(out, shape)
+
+
+def eval_cosines(model: str, params: Union[str, Mapping[str, float]], cos_theta_i, cos_theta_r, cos_phi, *, precision: str = "f64"):
+    """The BRDF at cosines of the zenith angles and of the relative azimuth (each in
+    [-1, 1], zenith cosines in [0, 1]), broadcast like numpy; see :func:`eval`."""
+    dtype = _precision(precision)
+    names = ("cos_theta_i", "cos_theta_r", "cos_phi")
+    shape, cols = _columns(names, (cos_theta_i, cos_theta_r, cos_phi))
+    try:
+        out = _brdf.eval_columns(model, _params_text(params), cols, precision)
+    except _brdf.ElementError as e:
+        raise _located(names, shape, e) from None
+    return _shaped(out.astype(dtype, copy=False), shape)
+
+
+def eval_vectors(model: str, params: Union[str, Mapping[str, float]], wi, wr, *, precision: str = "f64"):
+    """The BRDF at unit direction vectors ``wi`` (towards the source) and ``wr`` (towards
+    the viewer), arrays of shape ``(..., 3)`` in the surface frame (z the normal),
+    broadcast like numpy over the leading axes; see :func:`eval`."""
+    dtype = _precision(precision)
+    wi = _real("wi", wi)
+    wr = _real("wr", wr)
+    for n, a in (("wi", wi), ("wr", wr)):
+        if a.ndim == 0 or a.shape[-1] != 3:
+            raise ValueError(f"{n}: shape {a.shape}: the last axis must hold x, y, z (length 3)")
+    names = ("wi", "wr")
+    parts = [wi[..., k] for k in range(3)] + [wr[..., k] for k in range(3)]
+    shape, cols = _columns(["wi"] * 3 + ["wr"] * 3, parts)
+    try:
+        out = _brdf.eval_columns(model, _params_text(params), cols, precision)
+    except _brdf.ElementError as e:
+        raise _located(names, shape, e) from None
+    return _shaped(out.astype(dtype, copy=False), shape)
+
+
+def albedo(model: str, params: Union[str, Mapping[str, float]], theta_i, *, panels: int = 8):
+    """Directional-hemispherical reflectance (dimensionless) at incidence ``theta_i``
+    (degrees, any shape), by the composite Gauss-Legendre rule of
+    ``brdf_core::checks::AlbedoRule`` with ``panels`` panels (8: the rule of the fit report's
+    energy check, so ``albedo(model, r.params, t)`` equals ``r.energy["albedo"]`` at the
+    measured incidences). Above 1 means the model does not conserve energy there.
+    """
+    shape, (col,) = _columns(("theta_i",), (theta_i,))
+    try:
+        out = _brdf.albedo(model, _params_text(params), col, int(panels))
+    except _brdf.ElementError as e:
+        raise _located(("theta_i",), shape, e) from None
+    return _shaped(out, shape)
+
+
+class FitResult:
+    """One fit, as ``brdf fit --json`` reports it.
+
+    Attributes: ``dataset``, ``model``, ``params`` (name -> value, the paper's order),
+    ``std_errors`` (name -> standard error or None), ``correlation`` (the report's
+    correlation matrix), ``undetermined`` (name -> reason, for parameters the data do not
+    determine), ``metrics``, ``energy``, ``converged`` and ``report`` (the whole report as
+    a dict). ``to_json()`` is the text ``brdf fit --json`` prints for the same input.
+    """
+
+    def __init__(self, text: str):
+        self._text = text
+        self.report: Dict[str, Any] = json.loads(text)
+        r = self.report
+        self.dataset: str = r["dataset"]
+        self.model: str = r["model"]
+        self.params: Dict[str, float] = dict(_pairs(r["params"]))
+        unc = r.get("uncertainty", {})
+        self.std_errors: Dict[str, Optional[float]] = {
+            name: u.get("se") for name, u in _pairs(unc.get("params", {}))
+        }
+        self.undetermined: Dict[str, str] = {
+            name: (u.get("note") or "")
+            for name, u in _pairs(unc.get("params", {}))
+            if not u.get("determined", True)
+        }
+        self.correlation = unc.get("correlation")
+        self.metrics: Dict[str, float] = r["metrics"]
+        self.energy: Dict[str, Any] = r["energy"]
+        self.converged: bool = r["converged"]
+
+    def to_json(self) -> str:
+        """The report exactly as ``brdf fit --json`` prints one (without its final newline)."""
+        return self._text
+
+    def __repr__(self) -> str:
+        ps = ", ".join(f"{k}={v:.6g}" for k, v in self.params.items())
+        return f"FitResult({self.dataset!r}, {self.model}: {ps}; rms_rel {self.metrics['rms_rel']:.3g})"
+
+
+def _pairs(v):
+    """Name/value pairs from the report's ordered maps (a list of pairs or an object)."""
+    if isinstance(v, dict):
+        return list(v.items())
+    return [tuple(p) for p in v]
+
+
+def _settings(model, seed, residual, engine, options) -> "_brdf.Settings":
+    known = {
+        "chains", "agree", "hops", "anneal_evals", "loss", "loss_scale", "brightening",
+        "budget_evals", "skip_invalid", "format", "channel",
+    }
+    unknown = set(options) - known
+    if unknown:
+        raise TypeError(f"unknown option(s): {', '.join(sorted(unknown))} (known: {', '.join(sorted(known))})")
+    o = dict(options)
+    return _brdf.Settings(
+        model, int(seed), residual, engine,
+        o.get("chains"), o.get("agree"), o.get("hops"), o.get("anneal_evals"),
+        o.get("loss", "linear"), float(o.get("loss_scale", 0.1)), bool(o.get("brightening", False)),
+        o.get("budget_evals"), bool(o.get("skip_invalid", False)), o.get("format"), o.get("channel", "r"),
+    )
+
+
+def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", engine: str = "full", **options):
+    """Fits ``model`` to measured data, as ``brdf fit``.
+
+    ``data`` is a path (or a list of paths) to any file ``brdf fit`` reads (``format=`` as
+    ``--format``: ``cornell``, ``nist``, ``merl-inplane``), or a dict / object with arrays
+    ``theta_i``, ``theta_r``, ``phi`` (degrees), ``brdf`` (1/sr) and optionally ``sigma``
+    or ``weight``. Options as the CLI's flags: ``chains``, ``agree``, ``hops``,
+    ``anneal_evals``, ``loss``, ``loss_scale``, ``brightening``, ``budget_evals``,
+    ``skip_invalid``, ``channel``; ``name`` names an array dataset.
+
+    Returns a :class:`FitResult` for one dataset, a list of them for several (a file with
+    ``sample``/``wavelength`` columns, or several files).
+    """
+    name = options.pop("name", "arrays")
+    s = _settings(model, seed, residual, engine, options)
+    if isinstance(data, (str, os.PathLike)) or (
+        isinstance(data, (list, tuple)) and data and all(isinstance(p, (str, os.PathLike)) for p in data)
+    ):
+        paths = [os.fspath(data)] if isinstance(data, (str, os.PathLike)) else [os.fspath(p) for p in data]
+        texts, notes = _brdf.fit_paths(s, paths)
+        for note in notes:
+            # What `brdf fit` lists on standard error (rows skipped or rejected).
+            warnings.warn(note, stacklevel=2)
+        results = [FitResult(t) for t in texts]
+        return results[0] if len(results) == 1 else results
+    get = (lambda k: data.get(k)) if isinstance(data, Mapping) else (lambda k: getattr(data, k, None))
+    cols = {}
+    for k in ("theta_i", "theta_r", "phi", "brdf"):
+        v = get(k)
+        if v is None:
+            raise ValueError(f"data: missing `{k}` (need theta_i, theta_r, phi, brdf; optional sigma or weight)")
+        cols[k] = _real(k, v)
+    for k in ("sigma", "weight"):
+        v = get(k)
+        if v is not None:
+            cols[k] = _real(k, v)
+    names = list(cols)
+    shape, flat = _columns(names, list(cols.values()))
+    flat = dict(zip(names, flat))
+    try:
+        text = _brdf.fit_arrays(
+            s, name, flat["theta_i"], flat["theta_r"], flat["phi"], flat["brdf"],
+            flat.get("sigma"), flat.get("weight"),
+        )
+    except _brdf.ElementError as e:
+        raise _located(["data"], shape, e) from None
+    return FitResult(text)
+
+
+def read(path, format: Optional[str] = None, channel: Optional[str] = None, *, skip_invalid: bool = False):
+    """The datasets of a file as ``brdf fit`` reads it (``format`` as ``--format``:
+    ``cornell``, ``nist``, ``merl-inplane``; ``channel`` r, g or b for Cornell files).
+
+    Returns a list of dicts, one per dataset: ``name`` and float64 arrays ``theta_i``,
+    ``theta_r``, ``phi`` (degrees, canonical convention) and ``brdf`` (1/sr), plus ``sigma``
+    or ``weight`` where the file gives them. Rows the CLI would skip or reject are reported
+    as warnings.
+    """
+    opts = {"format": format, "channel": channel or "r", "skip_invalid": skip_invalid}
+    s = _settings("six", 1, "relative", "full", opts)
+    sets, notes = _brdf.read_paths(s, [os.fspath(path)])
+    for note in notes:
+        warnings.warn(note, stacklevel=2)
+    out = []
+    for name, ti, tr, phi, f, sigma, weight in sets:
+        d = {"name": name, "theta_i": np.array(ti), "theta_r": np.array(tr), "phi": np.array(phi), "brdf": np.array(f)}
+        for key, col in (("sigma", sigma), ("weight", weight)):
+            if col and all(v is not None for v in col):
+                d[key] = np.array(col, dtype=np.float64)
+        out.append(d)
+    return out
+
+
+def to_json(results) -> str:
+    """The text ``brdf fit --json`` prints for one result or a list of them (an array for
+    several), without the final newline."""
+    if isinstance(results, FitResult):
+        return results.to_json()
+    texts = [r.to_json() for r in results]
+    if len(texts) == 1:
+        return texts[0]
+    return "[\n" + ",\n".join(texts) + "\n]"
+
+
+def pack(results, table_nodes: Optional[int] = None, *, sequence: int = 1) -> bytes:
+    """The parameter blob ``brdf pack`` writes, as bytes (flash it with ``brdf flash``).
+
+    ``results`` is a :class:`FitResult`, a path to a ``brdf fit --json`` file (one report or
+    an array; hand-written ``{"model": ..., "params": {...}}`` too), or a list of either:
+    one material per fit, in order. ``table_nodes`` adds lookup tables of that many nodes to
+    every six-parameter material (the device's fast path; 256 nodes = 3,072 bytes per
+    material); ``sequence`` is the blob's sequence number (a device keeps the newer blob).
+
+    Messages name each fit by its file (``fits.json: fit 0``) or, for results, by
+    ``results`` (one) or ``results[k]`` (in a list). What ``brdf pack`` prints on standard
+    error comes as :mod:`warnings` (no proof of energy conservation, tables above or
+    without a promise) or as INFO records of the ``brdf`` logger (each table's measured
+    error). Raises ValueError with the CLI's message for parameters outside their ranges,
+    unreadable files, more than 8 materials or a blob larger than a slot; TypeError for
+    anything that is not a result or a path.
+    """
+
+    def source(item, origin):
+        if isinstance(item, FitResult):
+            return (origin, item.to_json())
+        if isinstance(item, (str, os.PathLike)):
+            return (os.fspath(item), None)
+        raise TypeError(
+            f"{origin}: {type(item).__name__} is not a FitResult or a path to a `brdf fit --json` file"
+        )
+
+    if isinstance(results, (list, tuple)):
+        if not results:
+            raise ValueError("results: no fits to pack")
+        sources = [source(r, f"results[{k}]") for k, r in enumerate(results)]
+    else:
+        sources = [source(results, "results")]
+    if table_nodes is not None:
+        table_nodes = operator.index(table_nodes)
+        if table_nodes < 0:
+            raise ValueError(f"{table_nodes} table nodes: not a count")
+    sequence = operator.index(sequence)
+    if not 0 <= sequence <= 0xFFFFFFFF:
+        raise ValueError(f"sequence {sequence}: outside 0..=4294967295")
+    blob, notes, error = _brdf.pack(sources, table_nodes, sequence)
+    for is_warning, text in notes:
+        if is_warning:
+            warnings.warn(text, stacklevel=2)
+        else:
+            _log.info(text)
+    if error is not None:
+        raise ValueError(error)
+    return blob

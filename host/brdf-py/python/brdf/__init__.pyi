@@ -1,0 +1,77 @@
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Union, overload
+import os
+
+import numpy as np
+import numpy.typing as npt
+
+Params = Union[str, Mapping[str, float]]
+ArrayLike = npt.ArrayLike
+
+MODELS: List[str]
+
+def eval(
+    model: str,
+    params: Params,
+    theta_i: ArrayLike,
+    theta_r: ArrayLike,
+    phi: ArrayLike,
+    *,
+    precision: str = "f64",
+) -> Union[np.ndarray, np.floating]: ...
+def eval_cosines(
+    model: str,
+    params: Params,
+    cos_theta_i: ArrayLike,
+    cos_theta_r: ArrayLike,
+    cos_phi: ArrayLike,
+    *,
+    precision: str = "f64",
+) -> Union[np.ndarray, np.floating]: ...
+def eval_vectors(
+    model: str,
+    params: Params,
+    wi: ArrayLike,
+    wr: ArrayLike,
+    *,
+    precision: str = "f64",
+) -> Union[np.ndarray, np.floating]: ...
+
+def albedo(model: str, params: Params, theta_i: ArrayLike, *, panels: int = 8) -> Union[np.ndarray, np.floating]: ...
+
+class FitResult:
+    report: Dict[str, Any]
+    dataset: str
+    model: str
+    params: Dict[str, float]
+    std_errors: Dict[str, Optional[float]]
+    undetermined: Dict[str, str]
+    correlation: Any
+    metrics: Dict[str, float]
+    energy: Dict[str, Any]
+    converged: bool
+    def __init__(self, text: str) -> None: ...
+    def to_json(self) -> str: ...
+
+def fit(
+    data: Union[str, os.PathLike, Sequence[Union[str, os.PathLike]], Mapping[str, ArrayLike], Any],
+    model: str = "six",
+    *,
+    seed: int = 1,
+    residual: str = "relative",
+    engine: str = "full",
+    **options: Any,
+) -> Union[FitResult, List[FitResult]]: ...
+def read(
+    path: Union[str, os.PathLike],
+    format: Optional[str] = None,
+    channel: Optional[str] = None,
+    *,
+    skip_invalid: bool = False,
+) -> List[Dict[str, Any]]: ...
+def to_json(results: Union[FitResult, Sequence[FitResult]]) -> str: ...
+def pack(
+    results: Union[FitResult, str, os.PathLike, Sequence[Union[FitResult, str, os.PathLike]]],
+    table_nodes: Optional[int] = None,
+    *,
+    sequence: int = 1,
+) -> bytes: ...

@@ -1,0 +1,690 @@
+//! `brdf._brdf`: the compiled half of the Python package `brdf`.
+//!
+//! The Python half (`python/brdf/__init__.py`) broadcasts, converts dtypes and formats
+//! locations; this half takes flat, contiguous `float64` arrays, releases the GIL and calls
+//! the same library functions as the `brdf` command, so values and messages are the CLI's.
+//! Errors about one element are raised as [`ElementError`] with `(flat index, message)`;
+//! the Python half turns the flat index into the caller's array index.
+
+#![warn(missing_docs)]
+
+use brdf_core::anneal::check_directions;
+use brdf_core::batch::{Batch, BatchError};
+use brdf_core::{AnyModel, Brdf, Float, Geometry, ModelKind, MAX_PARAMS};
+use brdf_fit::import::{import, Channel, Format};
+use brdf_fit::{
+    load_csv, Dataset, Engine, FitOptions, FitSettings, LoadOptions, Loss, LossKind, Point, Residual,
+};
+use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyBytes;
+
+create_exception!(
+    _brdf,
+    ElementError,
+    PyValueError,
+    "A bad input element: args are (flat index, message)."
+);
+
+/// A failure located at one element (flat index) or at no element.
+enum Failure {
+    /// Element `0` is bad: `1` says why.
+    At(usize, String),
+    /// Not about one element.
+    General(String),
+}
+
+impl From<Failure> for PyErr {
+    fn from(f: Failure) -> PyErr {
+        match f {
+            Failure::At(i, m) => ElementError::new_err((i, m)),
+            Failure::General(m) => PyValueError::new_err(m),
+        }
+    }
+}
+
+/// Parses a model name as `brdf --model` does.
+fn parse_kind(name: &str) -> Result<ModelKind, Failure> {
+    ModelKind::from_name(name).ok_or_else(|| {
+        let names: Vec<&str> = ModelKind::ALL.iter().map(|k| k.name()).collect();
+        Failure::General(format!(
+            "unknown model `{name}` (expected one of: {})",
+            names.join(", ")
+        ))
+    })
+}
+
+/// The model `kind` with `params` (`kb=...,kr=...`) in precision `T`, each parameter
+/// rounded once to `T`, as `brdf eval` builds it.
+fn build<T: Float>(kind: ModelKind, params: &str) -> Result<AnyModel<T>, Failure> {
+    let p = brdf_fit::params::parse_params(kind, params).map_err(|e| Failure::General(e.to_string()))?;
+    let mut v = [T::ZERO; MAX_PARAMS];
+    for (dst, src) in v.iter_mut().zip(&p) {
+        *dst = T::from_f64(*src);
+    }
+    AnyModel::new(kind, &v[..kind.param_count()])
+        .map_err(|e| Failure::General(format!("invalid parameters for model {}: {e}", kind.name())))
+}
+
+/// A contiguous view of a 1-d float64 array (the Python half makes them contiguous).
+fn slice<'a>(a: &'a PyReadonlyArray1<'_, f64>, name: &str) -> PyResult<&'a [f64]> {
+    a.as_slice()
+        .map_err(|_| PyValueError::new_err(format!("{name}: internal: array is not contiguous")))
+}
+
+/// The first non-finite value as the CLI reports it.
+fn finite<T: Float>(values: &[T], kind: ModelKind) -> Result<(), Failure> {
+    match values.iter().position(|f| !f.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(Failure::At(
+            i,
+            format!(
+                "the model is not finite here ({}); {} diverges at this geometry \
+                 (five-parameter and Minnaert models grow without bound at grazing)",
+                values[i],
+                kind.name()
+            ),
+        )),
+    }
+}
+
+fn batch_failure(e: BatchError) -> Failure {
+    match e {
+        BatchError::Domain { index, error } => Failure::At(index, error.to_string()),
+        other => Failure::General(other.to_string()),
+    }
+}
+
+/// Validates angles in degrees as `brdf eval` validates its CSV rows: finite, zeniths in
+/// [0, 90].
+fn check_degrees(cols: [&[f64]; 3]) -> Result<(), Failure> {
+    const NAMES: [&str; 3] = ["theta_i", "theta_r", "phi"];
+    for i in 0..cols[0].len() {
+        for k in 0..3 {
+            let v = cols[k][i];
+            if !v.is_finite() {
+                return Err(Failure::At(
+                    i,
+                    format!("column {}: `{v}` is not finite", NAMES[k]),
+                ));
+            }
+            if k < 2 && !(0.0..=90.0).contains(&v) {
+                return Err(Failure::At(
+                    i,
+                    format!("column {}: zenith {v} deg is outside [0, 90]", NAMES[k]),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Angles in degrees to radians in f64, rounded once to `T` (as `brdf eval`).
+fn radians<T: Float>(deg: &[f64]) -> Vec<T> {
+    deg.iter().map(|d| T::from_f64(d.to_radians())).collect()
+}
+
+/// `brdf eval` on arrays: f64 through the batch path, f32 through the scalar path (the
+/// firmware's arithmetic).
+#[pyfunction]
+fn eval_angles<'py>(
+    py: Python<'py>,
+    model: &str,
+    params: &str,
+    theta_i: PyReadonlyArray1<'py, f64>,
+    theta_r: PyReadonlyArray1<'py, f64>,
+    phi: PyReadonlyArray1<'py, f64>,
+    precision: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let kind = parse_kind(model)?;
+    let cols = [
+        slice(&theta_i, "theta_i")?,
+        slice(&theta_r, "theta_r")?,
+        slice(&phi, "phi")?,
+    ];
+    match precision {
+        "f64" => {
+            let m: AnyModel<f64> = build(kind, params)?;
+            let out = py.detach(|| -> Result<Vec<f64>, Failure> {
+                check_degrees(cols)?;
+                let [a, b, c] = cols.map(radians::<f64>);
+                let mut out = vec![0.0; a.len()];
+                Batch::new(&m)
+                    .angles(&a, &b, &c, &mut out)
+                    .map_err(batch_failure)?;
+                finite(&out, kind)?;
+                Ok(out)
+            })?;
+            Ok(PyArray1::from_vec(py, out).into_any())
+        }
+        "f32" => {
+            let m: AnyModel<f32> = build(kind, params)?;
+            let out = py.detach(|| -> Result<Vec<f32>, Failure> {
+                check_degrees(cols)?;
+                let [a, b, c] = cols.map(radians::<f32>);
+                let out: Vec<f32> = (0..a.len()).map(|i| m.eval_angles(a[i], b[i], c[i])).collect();
+                finite(&out, kind)?;
+                Ok(out)
+            })?;
+            Ok(PyArray1::from_vec(py, out).into_any())
+        }
+        other => Err(PyValueError::new_err(format!(
+            "unknown precision `{other}` (expected f64 or f32)"
+        ))),
+    }
+}
+
+/// Directional-hemispherical reflectance at incidences `theta_i` (degrees) through the batch
+/// path, by `brdf_core::checks::albedo_batch` with `panels` panels (the fit report's energy
+/// check uses the default 8).
+#[pyfunction]
+fn albedo<'py>(
+    py: Python<'py>,
+    model: &str,
+    params: &str,
+    theta_i: PyReadonlyArray1<'py, f64>,
+    panels: u16,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    use brdf_core::checks::{albedo_batch, AlbedoRule};
+    let kind = parse_kind(model)?;
+    let m: AnyModel<f64> = build(kind, params)?;
+    if panels < 2 {
+        return Err(PyValueError::new_err(format!("panels {panels}: need at least 2")));
+    }
+    let ti = slice(&theta_i, "theta_i")?;
+    let out = py.detach(|| -> Result<Vec<f64>, Failure> {
+        for (i, &v) in ti.iter().enumerate() {
+            if !(v.is_finite() && (0.0..=90.0).contains(&v)) {
+                return Err(Failure::At(
+                    i,
+                    format!("theta_i: zenith {v} deg is outside [0, 90]"),
+                ));
+            }
+        }
+        let b = Batch::new(&m);
+        Ok(ti
+            .iter()
+            .map(|d| albedo_batch(&b, d.to_radians(), AlbedoRule { panels }))
+            .collect())
+    })?;
+    Ok(PyArray1::from_vec(py, out))
+}
+
+/// Evaluates cosines or vectors in precision `T` through the batch path.
+fn eval_batch<T: Float>(kind: ModelKind, params: &str, inputs: &[&[f64]]) -> Result<Vec<T>, Failure> {
+    let m: AnyModel<T> = build(kind, params)?;
+    let cols: Vec<Vec<T>> = inputs
+        .iter()
+        .map(|c| c.iter().map(|&v| T::from_f64(v)).collect())
+        .collect();
+    let mut out = vec![T::ZERO; inputs[0].len()];
+    let b = Batch::new(&m);
+    let r = if cols.len() == 3 {
+        b.cosines(&cols[0], &cols[1], &cols[2], &mut out)
+    } else {
+        b.vectors(
+            [&cols[0], &cols[1], &cols[2]],
+            [&cols[3], &cols[4], &cols[5]],
+            &mut out,
+        )
+    };
+    r.map_err(batch_failure)?;
+    finite(&out, kind)?;
+    Ok(out)
+}
+
+/// `Batch::cosines` (3 arrays) or `Batch::vectors` (6 arrays: wi x, y, z, wr x, y, z).
+#[pyfunction]
+fn eval_columns<'py>(
+    py: Python<'py>,
+    model: &str,
+    params: &str,
+    columns: Vec<PyReadonlyArray1<'py, f64>>,
+    precision: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let kind = parse_kind(model)?;
+    if columns.len() != 3 && columns.len() != 6 {
+        return Err(PyValueError::new_err("internal: need 3 or 6 columns"));
+    }
+    let cols: Vec<&[f64]> = columns
+        .iter()
+        .map(|c| slice(c, "input"))
+        .collect::<PyResult<_>>()?;
+    match precision {
+        "f64" => {
+            let out = py.detach(|| eval_batch::<f64>(kind, params, &cols))?;
+            Ok(PyArray1::from_vec(py, out).into_any())
+        }
+        "f32" => {
+            let out = py.detach(|| eval_batch::<f32>(kind, params, &cols))?;
+            Ok(PyArray1::from_vec(py, out).into_any())
+        }
+        other => Err(PyValueError::new_err(format!(
+            "unknown precision `{other}` (expected f64 or f32)"
+        ))),
+    }
+}
+
+/// Validates one array row as `brdf fit` validates a CSV row (degrees, `brdf > 0` unless
+/// absolute residuals); `line` is the 1-based row number.
+#[allow(clippy::too_many_arguments)]
+fn point(
+    i: usize,
+    deg: [f64; 3],
+    brdf: f64,
+    sigma: Option<f64>,
+    weight: Option<f64>,
+    allow_zero: bool,
+) -> Result<Point, Failure> {
+    let bad = |m: String| Failure::At(i, m);
+    for (v, name) in [
+        (deg[0], "theta_i"),
+        (deg[1], "theta_r"),
+        (deg[2], "phi"),
+        (brdf, "brdf"),
+    ] {
+        if !v.is_finite() {
+            return Err(bad(format!("column {name}: `{v}` is not finite")));
+        }
+    }
+    for (v, name) in [(deg[0], "theta_i"), (deg[1], "theta_r")] {
+        if !(0.0..90.0).contains(&v) {
+            return Err(bad(format!(
+                "column {name}: {} is outside [0, 90) degrees",
+                brdf_core::Compact(v)
+            )));
+        }
+    }
+    let ok = if allow_zero { brdf >= 0.0 } else { brdf > 0.0 };
+    if !ok {
+        let range = if allow_zero {
+            ">= 0"
+        } else {
+            "> 0 (relative and log residuals divide by it)"
+        };
+        return Err(bad(format!(
+            "column brdf: {} is outside {range}",
+            brdf_core::Compact(brdf)
+        )));
+    }
+    for (v, name) in [(sigma, "sigma"), (weight, "weight")] {
+        if let Some(v) = v {
+            if !v.is_finite() {
+                return Err(bad(format!("column {name}: `{v}` is not finite")));
+            }
+            if v <= 0.0 {
+                return Err(bad(format!(
+                    "column {name}: {} is outside > 0",
+                    brdf_core::Compact(v)
+                )));
+            }
+        }
+    }
+    Ok(Point {
+        theta_i: deg[0].to_radians(),
+        theta_r: deg[1].to_radians(),
+        phi: deg[2].to_radians(),
+        brdf,
+        sigma,
+        weight,
+        line: i as u64 + 1,
+    })
+}
+
+/// Fit settings as `brdf fit` builds them from its options.
+#[pyclass(module = "brdf._brdf", frozen)]
+#[derive(Clone, Debug)]
+struct Settings {
+    settings: FitSettings,
+    skip_invalid: bool,
+    format: Option<Format>,
+    channel: Channel,
+}
+
+#[pymethods]
+impl Settings {
+    #[new]
+    #[pyo3(signature = (model, seed, residual, engine, chains, agree, hops, anneal_evals,
+                        loss, loss_scale, brightening, budget_evals, skip_invalid, format, channel))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        model: &str,
+        seed: u64,
+        residual: &str,
+        engine: &str,
+        chains: Option<usize>,
+        agree: Option<usize>,
+        hops: Option<usize>,
+        anneal_evals: Option<usize>,
+        loss: &str,
+        loss_scale: f64,
+        brightening: bool,
+        budget_evals: Option<u32>,
+        skip_invalid: bool,
+        format: Option<&str>,
+        channel: &str,
+    ) -> PyResult<Self> {
+        let kind = parse_kind(model)?;
+        let residual = match residual {
+            "relative" => Residual::Relative,
+            "absolute" => Residual::Absolute,
+            "log" => Residual::Log,
+            o => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown residual `{o}` (expected relative, absolute, log)"
+                )))
+            }
+        };
+        let loss_kind = match loss {
+            "linear" => LossKind::Linear,
+            "huber" => LossKind::Huber,
+            "soft-l1" | "soft_l1" => LossKind::SoftL1,
+            "cauchy" => LossKind::Cauchy,
+            o => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown loss `{o}` (expected linear, huber, soft-l1, cauchy)"
+                )))
+            }
+        };
+        if !(loss_scale.is_finite() && loss_scale > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "loss_scale {loss_scale} is not a finite number greater than 0"
+            )));
+        }
+        let range = |name: &str, v: Option<usize>, lo: usize, hi: usize, default: usize| -> PyResult<usize> {
+            let v = v.unwrap_or(default);
+            if !(lo..=hi).contains(&v) {
+                return Err(PyValueError::new_err(format!("{name} {v} is not in {lo}..={hi}")));
+            }
+            Ok(v)
+        };
+        let d = FitOptions::default();
+        let agree = range("agree", agree, 1, 64, d.agree)?;
+        let options = FitOptions {
+            seed,
+            chains: range("chains", chains, 1, 64, d.chains)?,
+            agree,
+            min_chains: agree,
+            hops: range("hops", hops, 0, 64, d.hops)?,
+            anneal: brdf_fit::anneal::AnnealOptions {
+                evals: range(
+                    "anneal_evals",
+                    anneal_evals,
+                    1,
+                    100_000_000,
+                    brdf_fit::anneal::AnnealOptions::default().evals,
+                )?,
+                ..brdf_fit::anneal::AnnealOptions::default()
+            },
+            ..d
+        };
+        let mut settings = FitSettings {
+            residual,
+            loss: Loss {
+                kind: loss_kind,
+                scale: loss_scale,
+            },
+            brightening,
+            options,
+            ..FitSettings::new(kind)
+        };
+        match engine {
+            "full" => {}
+            "embedded" => {
+                if residual != Residual::Relative {
+                    return Err(PyValueError::new_err(
+                        "the embedded engine fits relative residuals only",
+                    ));
+                }
+                let budget = budget_evals.unwrap_or(brdf_fit::embedded::DEFAULT_BUDGET);
+                if !(65..=10_000_000).contains(&budget) {
+                    return Err(PyValueError::new_err(format!(
+                        "budget_evals {budget} is not in 65..=10000000"
+                    )));
+                }
+                settings.engine = Engine::Embedded { budget };
+            }
+            o => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown engine `{o}` (expected full or embedded)"
+                )))
+            }
+        }
+        let format = match format {
+            None => None,
+            Some("cornell") => Some(Format::Cornell),
+            Some("nist") => Some(Format::Nist),
+            Some("merl-inplane") | Some("merl_inplane") => Some(Format::MerlInPlane),
+            Some(o) => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown format `{o}` (expected cornell, nist, merl-inplane)"
+                )))
+            }
+        };
+        let channel = match channel.to_ascii_lowercase().as_str() {
+            "r" => Channel::R,
+            "g" => Channel::G,
+            "b" => Channel::B,
+            o => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown channel `{o}` (expected r, g, b)"
+                )))
+            }
+        };
+        Ok(Settings {
+            settings,
+            skip_invalid,
+            format,
+            channel,
+        })
+    }
+}
+
+/// Fits every dataset; returns each report as `brdf fit --json` prints one.
+fn fit_datasets(py: Python<'_>, s: &Settings, datasets: Vec<Dataset>) -> PyResult<Vec<String>> {
+    let kind = s.settings.kind;
+    for d in &datasets {
+        let geometries = d
+            .points
+            .iter()
+            .map(|p| Geometry::<f64>::from_angles(p.theta_i, p.theta_r, p.phi));
+        check_directions(kind, geometries).map_err(|e| PyValueError::new_err(format!("{}: {e}", d.name)))?;
+    }
+    let settings = s.settings;
+    py.detach(move || {
+        brdf_fit::fit_streamed(&settings, &datasets, |_, _| {})
+            .into_iter()
+            .map(|r| match r {
+                Ok(r) => serde_json::to_string_pretty(&r).map_err(|e| e.to_string()),
+                Err(e) => Err(e.to_string()),
+            })
+            .collect::<Result<Vec<String>, String>>()
+    })
+    .map_err(PyValueError::new_err)
+}
+
+/// Reads data files as `brdf fit [--format F] [--skip-invalid] FILES` does; returns the
+/// datasets and the messages the CLI prints on standard error.
+fn load(s: &Settings, paths: &[String]) -> PyResult<(Vec<Dataset>, Vec<String>)> {
+    let mut out = Vec::new();
+    let mut notes = Vec::new();
+    for f in paths {
+        let path = std::path::Path::new(f);
+        if let Some(format) = s.format {
+            let imp = import(path, format, s.channel)
+                .map_err(|e| PyValueError::new_err(format!("cannot import {f}: {e}")))?;
+            for r in &imp.rejects {
+                notes.push(format!("{f}: rejected line {}: {}", r.line, r.reason));
+            }
+            out.extend(imp.datasets);
+            continue;
+        }
+        let opts = LoadOptions {
+            skip_invalid: s.skip_invalid,
+            allow_zero_brdf: s.settings.residual == Residual::Absolute,
+        };
+        let loaded =
+            load_csv(path, opts).map_err(|e| PyValueError::new_err(format!("cannot use {f}: {e}")))?;
+        for sk in &loaded.skipped {
+            notes.push(format!("{f}: skipped line {}: {}", sk.line, sk.reason));
+        }
+        out.extend(loaded.datasets);
+    }
+    Ok((out, notes))
+}
+
+/// `brdf fit` on files: (reports as JSON text, rejected/skipped-row notes).
+#[pyfunction]
+fn fit_paths(
+    py: Python<'_>,
+    settings: &Settings,
+    paths: Vec<String>,
+) -> PyResult<(Vec<String>, Vec<String>)> {
+    let (datasets, notes) = load(settings, &paths)?;
+    Ok((fit_datasets(py, settings, datasets)?, notes))
+}
+
+/// Datasets of files, as `(name, theta_i, theta_r, phi, brdf, sigma, weight)` in degrees.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+fn read_paths(
+    settings: &Settings,
+    paths: Vec<String>,
+) -> PyResult<(
+    Vec<(
+        String,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<Option<f64>>,
+        Vec<Option<f64>>,
+    )>,
+    Vec<String>,
+)> {
+    let (datasets, notes) = load(settings, &paths)?;
+    let sets = datasets
+        .into_iter()
+        .map(|d| {
+            let p = &d.points;
+            (
+                d.name.clone(),
+                p.iter().map(|q| q.theta_i.to_degrees()).collect(),
+                p.iter().map(|q| q.theta_r.to_degrees()).collect(),
+                p.iter().map(|q| q.phi.to_degrees()).collect(),
+                p.iter().map(|q| q.brdf).collect(),
+                p.iter().map(|q| q.sigma).collect(),
+                p.iter().map(|q| q.weight).collect(),
+            )
+        })
+        .collect();
+    Ok((sets, notes))
+}
+
+/// `brdf fit` on one dataset given as arrays (degrees; `sigma`/`weight` optional).
+#[pyfunction]
+#[pyo3(signature = (settings, name, theta_i, theta_r, phi, brdf, sigma=None, weight=None))]
+#[allow(clippy::too_many_arguments)]
+fn fit_arrays<'py>(
+    py: Python<'py>,
+    settings: &Settings,
+    name: String,
+    theta_i: PyReadonlyArray1<'py, f64>,
+    theta_r: PyReadonlyArray1<'py, f64>,
+    phi: PyReadonlyArray1<'py, f64>,
+    brdf: PyReadonlyArray1<'py, f64>,
+    sigma: Option<PyReadonlyArray1<'py, f64>>,
+    weight: Option<PyReadonlyArray1<'py, f64>>,
+) -> PyResult<String> {
+    if sigma.is_some() && weight.is_some() {
+        return Err(PyValueError::new_err("sigma and weight cannot be used together"));
+    }
+    let n = theta_i.len();
+    if n == 0 {
+        return Err(PyValueError::new_err("no data points"));
+    }
+    let ti = slice(&theta_i, "theta_i")?;
+    let tr = slice(&theta_r, "theta_r")?;
+    let ph = slice(&phi, "phi")?;
+    let f = slice(&brdf, "brdf")?;
+    let sg = sigma.as_ref().map(|a| slice(a, "sigma")).transpose()?;
+    let wt = weight.as_ref().map(|a| slice(a, "weight")).transpose()?;
+    let allow_zero = settings.settings.residual == Residual::Absolute;
+    let points = (0..n)
+        .map(|i| {
+            point(
+                i,
+                [ti[i], tr[i], ph[i]],
+                f[i],
+                sg.map(|s| s[i]),
+                wt.map(|w| w[i]),
+                allow_zero,
+            )
+        })
+        .collect::<Result<Vec<Point>, Failure>>()?;
+    let mut reports = fit_datasets(py, settings, vec![Dataset { name, points }])?;
+    Ok(reports.remove(0))
+}
+
+/// `brdf pack` through the same library function (`brdf_fit::pack::pack`). `sources` are
+/// `(path, None)` for a `brdf fit --json` file or `(origin, Some(json))` for report text named
+/// `origin` in messages. Returns `(blob or None, notes as (is_warning, text), error or
+/// None)`: the notes found before a failure are returned with it, as the CLI prints them
+/// before its error.
+#[pyfunction]
+#[pyo3(signature = (sources, table_nodes, sequence))]
+#[allow(clippy::type_complexity)]
+fn pack<'py>(
+    py: Python<'py>,
+    sources: Vec<(String, Option<String>)>,
+    table_nodes: Option<usize>,
+    sequence: u32,
+) -> (Option<Bound<'py, PyBytes>>, Vec<(bool, String)>, Option<String>) {
+    use brdf_fit::pack::{FitSource, Level, PackOptions};
+    let options = PackOptions {
+        sequence,
+        table_nodes,
+    };
+    let (result, notes) = py.detach(|| {
+        let sources: Vec<FitSource> = sources
+            .iter()
+            .map(|(name, json)| match json {
+                None => FitSource::File(std::path::Path::new(name)),
+                Some(json) => FitSource::Text { origin: name, json },
+            })
+            .collect();
+        let mut notes = Vec::new();
+        let result = brdf_fit::pack::pack(&sources, &options, |n| {
+            notes.push((n.level == Level::Warning, n.text))
+        });
+        (result, notes)
+    });
+    match result {
+        Ok(p) => (Some(PyBytes::new(py, &p.bytes)), notes, None),
+        Err(e) => (None, notes, Some(e.to_string())),
+    }
+}
+
+/// The compiled module.
+#[pymodule]
+fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("ElementError", m.py().get_type::<ElementError>())?;
+    m.add(
+        "MODELS",
+        ModelKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>(),
+    )?;
+    // The core's named tolerances, for the tests (one home: brdf_core::tolerance).
+    m.add("BATCH_F64_REL", brdf_core::tolerance::BATCH_F64_REL)?;
+    m.add("ALBEDO_DEFAULT_REL", brdf_core::tolerance::ALBEDO_DEFAULT_REL)?;
+    m.add_class::<Settings>()?;
+    m.add_function(wrap_pyfunction!(eval_angles, m)?)?;
+    m.add_function(wrap_pyfunction!(eval_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(albedo, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_paths, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_arrays, m)?)?;
+    m.add_function(wrap_pyfunction!(read_paths, m)?)?;
+    m.add_function(wrap_pyfunction!(pack, m)?)?;
+    Ok(())
+}

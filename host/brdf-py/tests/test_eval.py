@@ -1,0 +1,162 @@
+"""`brdf.eval` and friends: the CLI's values bit for bit, broadcasting, dtypes, errors."""
+
+import csv
+import io
+
+import numpy as np
+import pytest
+
+import brdf
+
+KHAKI = "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2"
+KHAKI_DICT = {"kb": 0.2545, "kr": 21.8031, "b": -27.5721, "a": 0.6705, "kd": 0.3676, "c": 1.2}
+
+
+def grid(root):
+    rows = list(csv.DictReader(open(root / "data" / "angles-grid.csv")))
+    return [np.array([float(r[k]) for r in rows]) for k in ("theta_i", "theta_r", "phi")]
+
+
+def cli_values(cli, root, precision):
+    out = cli("eval", "--model", "six", "--params", KHAKI, "--precision", precision,
+              root / "data" / "angles-grid.csv").stdout
+    return [r["brdf"] for r in csv.DictReader(io.StringIO(out))]
+
+
+@pytest.mark.parametrize("precision,dtype", [("f64", np.float64), ("f32", np.float32)])
+def test_values_equal_the_cli_bit_for_bit(cli, root, precision, dtype):
+    ti, tr, phi = grid(root)
+    got = brdf.eval("six", KHAKI, ti, tr, phi, precision=precision)
+    assert got.dtype == dtype
+    want = np.array([float(t) for t in cli_values(cli, root, precision)], dtype=dtype)
+    # 17 (f64) and 9 (f32) significant digits name the value exactly.
+    assert got.tobytes() == want.tobytes()
+
+
+def test_dict_params_equal_string_params(root):
+    ti, tr, phi = grid(root)
+    a = brdf.eval("six", KHAKI, ti, tr, phi)
+    b = brdf.eval("six", KHAKI_DICT, ti, tr, phi)
+    assert a.tobytes() == b.tobytes()
+
+
+def test_broadcasting_follows_numpy():
+    ti = np.array([0.0, 30.0, 60.0])[:, None]
+    tr = np.linspace(0, 80, 5)[None, :]
+    out = brdf.eval("six", KHAKI, ti, tr, 180.0)
+    assert out.shape == (3, 5)
+    for i in range(3):
+        for j in range(5):
+            assert out[i, j] == brdf.eval("six", KHAKI, ti[i, 0], tr[0, j], 180.0)
+
+
+def test_zero_d_inputs_give_a_scalar():
+    v = brdf.eval("six", KHAKI, 10, 20, 180)
+    assert np.ndim(v) == 0 and np.isfinite(v)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64, np.int32, np.int64, np.uint8])
+def test_every_real_dtype_is_read_as_float64(dtype):
+    ti = np.array([0, 10, 45], dtype=dtype)
+    want = brdf.eval("six", KHAKI, ti.astype(np.float64), 30.0, 180.0)
+    assert brdf.eval("six", KHAKI, ti, 30.0, 180.0).tobytes() == want.tobytes()
+
+
+def test_non_contiguous_and_reversed_views():
+    base = np.linspace(0, 89, 40)
+    view = base[::3]
+    rev = base[::-1][::2]
+    assert not view.flags.c_contiguous
+    got = brdf.eval("six", KHAKI, view, view[::-1], 170.0)
+    want = brdf.eval("six", KHAKI, view.copy(), view[::-1].copy(), 170.0)
+    assert got.tobytes() == want.tobytes()
+    f = np.asfortranarray(np.stack([rev[:10], rev[10:]]))
+    assert brdf.eval("six", KHAKI, f, 0, 0).tobytes() == brdf.eval("six", KHAKI, f.copy(order="C"), 0, 0).tobytes()
+
+
+@pytest.mark.parametrize("bad", [np.array([1 + 2j]), np.array(["10"]), np.array([None], dtype=object)])
+def test_non_real_dtypes_raise_clearly(bad):
+    with pytest.raises(TypeError, match="theta_i: dtype .* is not a real number type"):
+        brdf.eval("six", KHAKI, bad, 0, 0)
+
+
+def test_a_bad_angle_is_located_by_index():
+    ti = np.zeros((2, 3))
+    ti[1, 2] = 95
+    with pytest.raises(ValueError, match=r"index \[1, 2\]: column theta_i: zenith 95 deg is outside \[0, 90\]"):
+        brdf.eval("six", KHAKI, ti, 0, 0)
+    with pytest.raises(ValueError, match=r"index \[1\]: column phi: `NaN` is not finite"):
+        brdf.eval("six", KHAKI, 0, 0, [0, np.nan])
+
+
+def test_the_cli_rejects_the_same_zenith(cli, tmp_path):
+    f = tmp_path / "a.csv"
+    f.write_text("theta_i,theta_r,phi\n0,0,0\n95,0,0\n")
+    p = cli("eval", "--model", "six", "--params", KHAKI, f, check=False)
+    assert p.returncode != 0
+    assert "line 3: column theta_i: zenith 95 deg is outside [0, 90]" in p.stderr
+
+
+def test_model_and_parameter_errors_carry_the_cli_message(cli, tmp_path):
+    with pytest.raises(ValueError, match="unknown model `sx`"):
+        brdf.eval("sx", KHAKI, 0, 0, 0)
+    f = tmp_path / "a.csv"
+    f.write_text("theta_i,theta_r,phi\n0,0,0\n")
+    p = cli("eval", "--model", "six", "--params", "kb=0.2", f, check=False)
+    msg = p.stderr.strip().splitlines()[-1].split(": ", 1)[1]
+    with pytest.raises(ValueError) as e:
+        brdf.eval("six", "kb=0.2", 0, 0, 0)
+    assert str(e.value) == msg
+
+
+def test_shapes_that_do_not_broadcast_raise():
+    with pytest.raises(ValueError, match="shapes do not broadcast"):
+        brdf.eval("six", KHAKI, np.zeros(3), np.zeros(4), 0)
+
+
+def test_cosines_and_vectors_agree_with_angles():
+    ti, tr, phi = np.array([10.0, 40.0]), np.array([20.0, 70.0]), np.array([180.0, 30.0])
+    a = brdf.eval("six", KHAKI, ti, tr, phi)
+    r = np.radians
+    c = brdf.eval_cosines("six", KHAKI, np.cos(r(ti)), np.cos(r(tr)), np.cos(r(phi)))
+    wi = np.stack([np.sin(r(ti)), np.zeros(2), np.cos(r(ti))], axis=-1)
+    wr = np.stack([np.sin(r(tr)) * np.cos(r(phi)), np.sin(r(tr)) * np.sin(r(phi)), np.cos(r(tr))], axis=-1)
+    v = brdf.eval_vectors("six", KHAKI, wi, wr)
+    assert c.shape == v.shape == (2,)
+    # Three input forms of the batch path (brdf_core::tolerance::BATCH_F64_REL).
+    np.testing.assert_allclose(c, a, rtol=brdf._brdf.BATCH_F64_REL)
+    np.testing.assert_allclose(v, a, rtol=brdf._brdf.BATCH_F64_REL)
+
+
+def test_vectors_need_three_components_and_unit_length():
+    with pytest.raises(ValueError, match="last axis must hold x, y, z"):
+        brdf.eval_vectors("six", KHAKI, [0, 1], [0, 0, 1])
+    with pytest.raises(ValueError, match=r"index \[1\]"):
+        brdf.eval_vectors("six", KHAKI, [[0, 0, 1], [0, 0, 2]], [0, 0, 1])
+
+
+def test_the_gil_is_released_while_the_core_runs():
+    import threading
+    import time
+
+    n = 3_000_000
+    ti = np.full(n, 30.0)
+    stamps = []
+    stop = threading.Event()
+
+    def tick():
+        while not stop.is_set():
+            stamps.append(time.perf_counter())
+            time.sleep(0.001)
+
+    t = threading.Thread(target=tick)
+    t.start()
+    time.sleep(0.02)
+    t0 = time.perf_counter()
+    brdf.eval("six", KHAKI, ti, 40.0, 180.0)
+    t1 = time.perf_counter()
+    stop.set()
+    t.join()
+    inside = [s for s in stamps if t0 <= s <= t1]
+    # With the GIL held the other thread could not run at all during the call.
+    assert t1 - t0 > 0.02 and len(inside) >= 3, (t1 - t0, len(inside))

@@ -1,0 +1,151 @@
+"""`brdf.fit`: the report `brdf fit --json` prints, from files and from arrays."""
+
+import csv
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+import brdf
+
+KHAKI = "data/khaki-synthetic-inplane.csv"
+
+
+def without_time(text):
+    """A report without its wall time, the one field that differs between runs."""
+    r = json.loads(text)
+    r.pop("seconds")
+    return r
+
+
+def test_to_json_equals_the_cli(cli, root):
+    path = root / KHAKI
+    want = cli("fit", "--json", "--seed", "1", path).stdout.rstrip("\n")
+    got = brdf.fit(str(path), seed=1).to_json()
+    assert without_time(got) == without_time(want)
+    # Byte for byte once the time is equal.
+    seconds = json.loads(want)["seconds"]
+    lines = [l for l in got.splitlines() if not l.lstrip().startswith('"seconds"')]
+    wlines = [l for l in want.splitlines() if not l.lstrip().startswith('"seconds"')]
+    assert lines == wlines and seconds > 0
+
+
+def test_result_fields(root):
+    r = brdf.fit(str(root / KHAKI))
+    assert list(r.params) == ["kb", "kr", "b", "a", "kd", "c"]
+    assert set(r.std_errors) == set(r.params)
+    assert isinstance(r.undetermined, dict)
+    assert r.metrics["rms_rel"] < 0.01
+    assert "albedo" in r.energy
+
+
+def test_arrays_fit_like_the_file(root):
+    rows = list(csv.DictReader(open(root / KHAKI)))
+    ts = np.array([float(x["theta_s"]) for x in rows])
+    data = {
+        "theta_i": np.array([float(x["theta_i"]) for x in rows]),
+        "theta_r": np.abs(ts),
+        "phi": np.where(ts > 0, 180.0, 0.0),
+        "brdf": np.array([float(x["brdf"]) for x in rows]),
+    }
+    a = brdf.fit(data)
+    f = brdf.fit(str(root / KHAKI))
+    assert a.params == f.params
+    assert a.metrics == f.metrics
+
+
+def test_bad_rows_are_located():
+    data = {"theta_i": [10, 20, 30], "theta_r": [10, 20, 30], "phi": [0, 0, 0], "brdf": [0.1, -1, 0.2]}
+    with pytest.raises(ValueError, match=r"data at index \[1\]: column brdf: -1 is outside > 0"):
+        brdf.fit(data)
+    with pytest.raises(ValueError, match="missing `brdf`"):
+        brdf.fit({"theta_i": [1], "theta_r": [1], "phi": [1]})
+
+
+def test_file_errors_carry_the_cli_message(cli, tmp_path):
+    f = tmp_path / "bad.csv"
+    f.write_text("theta_i,theta_r,phi,brdf\n10,20,0,0.1\n10,95,0,0.1\n")
+    p = cli("fit", f, check=False)
+    assert p.returncode != 0
+    with pytest.raises(ValueError) as e:
+        brdf.fit(str(f))
+    assert str(e.value) in p.stderr
+    assert "line 3: column theta_r" in str(e.value)
+
+
+def test_unknown_options_raise():
+    with pytest.raises(TypeError, match="unknown option"):
+        brdf.fit({}, chainz=3)
+
+
+def test_read_gives_the_datasets_fit_uses(root):
+    path = root / "data" / "measured" / "merl-aluminium-inplane" / "aluminum_brdf.csv"
+    (d,) = brdf.read(path, format="merl-inplane")
+    assert d["theta_i"].dtype == np.float64 and len(d["brdf"]) == len(d["phi"]) > 100
+    assert np.all(d["brdf"] > 0) and np.all((d["theta_r"] >= 0) & (d["theta_r"] < 90))
+    a = brdf.fit({k: d[k] for k in ("theta_i", "theta_r", "phi", "brdf")})
+    f = brdf.fit(str(path), format="merl-inplane")
+    assert a.params == f.params
+    # The figure README.md quotes for this dataset.
+    assert round(100 * f.metrics["rms_rel"], 1) == 58.3
+
+
+def strip_seconds(text):
+    return "\n".join(l for l in text.splitlines() if not l.lstrip().startswith('"seconds"'))
+
+
+def test_several_datasets_equal_the_cli_array(cli, root, tmp_path):
+    a = root / KHAKI
+    b = tmp_path / "copy.csv"
+    b.write_text(a.read_text())
+    want = cli("fit", "--json", a, b).stdout.rstrip("\n")
+    got = brdf.fit([str(a), str(b)])
+    assert isinstance(got, list) and len(got) == 2
+    assert strip_seconds(brdf.to_json(got)) == strip_seconds(want)
+
+
+def test_imported_files_equal_the_cli_and_warn_its_rejects(cli, root):
+    path = root / "data" / "measured" / "ptfe-germer-nist" / "PTFE.data.random.csv"
+    p = cli("fit", "--json", "--format", "nist", path)
+    with warnings.catch_warnings(record=True) as notes:
+        warnings.simplefilter("always")
+        got = brdf.fit(str(path), format="nist")
+    rejected = [l for l in p.stderr.splitlines() if ": rejected line " in l]
+    assert [str(n.message) for n in notes] == rejected
+    assert strip_seconds(got.to_json()) == strip_seconds(p.stdout.rstrip("\n"))
+
+
+def test_albedo_equals_the_reports_energy_check(root):
+    r = brdf.fit(str(root / KHAKI))
+    rows = list(csv.DictReader(open(root / KHAKI)))
+    incidences = sorted({float(x["theta_i"]) for x in rows})
+    got = brdf.albedo("six", r.params, incidences)
+    assert list(got) == [a["albedo"] for a in r.energy["albedo"]]
+    with pytest.raises(ValueError, match=r"theta_i at index \[1\]: theta_i: zenith 91 deg is outside \[0, 90\]"):
+        brdf.albedo("six", r.params, [0, 91])
+    # A Lambertian surface of reflectance rho0 reflects rho0 at every incidence.
+    lambert = brdf.albedo("lambert", "rho0=0.5", [0, 45, 80])
+    np.testing.assert_allclose(lambert, 0.5, rtol=brdf._brdf.ALBEDO_DEFAULT_REL)
+
+
+@pytest.mark.parametrize(
+    "flags,kwargs",
+    [
+        (["--engine", "embedded", "--budget-evals", "5000"], {"engine": "embedded", "budget_evals": 5000}),
+        (["--residual", "log", "--seed", "7", "--hops", "2"], {"residual": "log", "seed": 7, "hops": 2}),
+        (["--loss", "huber", "--loss-scale", "0.05", "--chains", "3", "--agree", "2"],
+         {"loss": "huber", "loss_scale": 0.05, "chains": 3, "agree": 2}),
+    ],
+)
+def test_options_map_to_the_cli_flags(cli, root, flags, kwargs):
+    path = root / KHAKI
+    want = cli("fit", "--json", *flags, path).stdout.rstrip("\n")
+    assert strip_seconds(brdf.fit(str(path), **kwargs).to_json()) == strip_seconds(want)
+
+
+def test_the_embedded_engine_refuses_other_residuals(cli, root):
+    p = cli("fit", "--engine", "embedded", "--residual", "log", root / KHAKI, check=False)
+    with pytest.raises(ValueError) as e:
+        brdf.fit(str(root / KHAKI), engine="embedded", residual="log")
+    assert str(e.value) in p.stderr
