@@ -244,11 +244,7 @@ impl<T: Float> Batch<T> {
                     |i| {
                         check_zenith(theta_i[i], "theta_i")?;
                         check_zenith(theta_r[i], "theta_r")?;
-                        if phi[i].is_finite() {
-                            Ok(())
-                        } else {
-                            Err(DomainError::NotFinite { what: "phi" })
-                        }
+                        check_azimuth(phi[i])
                     },
                     |i| {
                         let ok = |t: T| t >= T::ZERO && t <= T::PI;
@@ -301,19 +297,7 @@ impl<T: Float> Batch<T> {
         let (ti, tr) = (theta_i.to_f64(), theta_r.to_f64());
         self.run(
             out,
-            |range| {
-                first_invalid(
-                    range,
-                    |i| {
-                        if phi[i].is_finite() {
-                            Ok(())
-                        } else {
-                            Err(DomainError::NotFinite { what: "phi" })
-                        }
-                    },
-                    |i| phi[i].is_finite(),
-                )
-            },
+            |range| first_invalid(range, |i| check_azimuth(phi[i]), |i| phi[i].is_finite()),
             |start, n, dst| {
                 let mut x = [0.0; CHUNK];
                 widen(&phi[start..start + n], &mut x);
@@ -467,6 +451,15 @@ pub fn exp_in_place(x: &mut [f64], level: Level) {
         Level::Portable
     };
     dispatch::exp_slice(level, x)
+}
+
+/// An azimuth is any finite angle (the scalar `try_eval_angles` rule).
+fn check_azimuth<T: Float>(phi: T) -> Result<(), DomainError> {
+    if phi.is_finite() {
+        Ok(())
+    } else {
+        Err(DomainError::NotFinite { what: "phi" })
+    }
 }
 
 /// Checks that every slice has `expected` elements and `out` too.
