@@ -293,9 +293,10 @@ fn sin_cos_f32(x: f32) -> (f32, f32) {
     let t = x * FRAC_2_PI + SHIFT;
     let n = t - SHIFT;
     let q = t.to_bits() & 3;
-    let r2 = (x - n * P1) - n * P2; // exact (see above)
-    let mp3 = -(n * P3); // exact
-                         // TwoSum: r + e = r2 - n P3 exactly, whichever of the two is larger.
+    // Exact (see above).
+    let r2 = (x - n * P1) - n * P2;
+    // n P3 is exact; TwoSum: r + e = r2 - n P3 exactly, whichever of the two is larger.
+    let mp3 = -(n * P3);
     let r = r2 + mp3;
     let bb = r - r2;
     let e = (r2 - (r - bb)) + (mp3 - bb);
