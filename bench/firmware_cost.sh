@@ -1,32 +1,60 @@
 #!/usr/bin/env bash
-# Instructions per evaluation on the Cortex-M4F for each model and path, and for one FIT at
-# N = 256, counted exactly under QEMU (firmware/brdf-fw/src/bin/cost.rs and fitcost.rs):
-# with -icount shift=0 one instruction is one virtual nanosecond and SysTick ticks every 40.
-# `--trace` also counts the evaluation paths from QEMU's per-instruction log between two
-# marker functions, an independent check of the SysTick figures.
+# Instructions per evaluation for each model and path, and for one FIT at N = 256, counted
+# exactly under QEMU (firmware/core-cost: src/bin/cost.rs and fitcost.rs) on three cores:
+# the Cortex-M4F the firmware ships for (mps2-an386), a Cortex-M33 (mps2-an505) and a
+# Cortex-M0+ without FPU (QEMU's microbit, a Cortex-M0: the same ARMv6-M instruction set;
+# RAM enlarged to 64 KiB). The boards are the ones brdf_link::firmware::Core names.
+# With -icount shift=0 one instruction is one virtual nanosecond and SysTick counts them
+# (core-cost/src/ticks.rs).
+#   bash bench/firmware_cost.sh            # evaluation paths on all three, FIT on M4F and M33
+#   bash bench/firmware_cost.sh --m0-fit   # also the FIT on the M0+ (about 10 minutes)
+#   bash bench/firmware_cost.sh --trace    # also count the paths from QEMU's instruction log
+#                                          # between two marker functions (independent check)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 command -v qemu-system-arm >/dev/null || { echo "SKIPPED: qemu-system-arm not installed"; exit 0; }
-rustup target add thumbv7em-none-eabihf >/dev/null 2>&1
-(cd firmware && cargo build --quiet --release -p brdf-fw --bin cost --bin fitcost)
-dir=firmware/target/thumbv7em-none-eabihf/release
+m0_fit=false trace=false
+for a in "$@"; do
+  case "$a" in
+    --m0-fit) m0_fit=true ;;
+    --trace) trace=true ;;
+    *) echo "usage: bash bench/firmware_cost.sh [--m0-fit] [--trace]" >&2; exit 2 ;;
+  esac
+done
+cores=(
+  "Cortex-M4F|thumbv7em-none-eabihf|-machine mps2-an386 -cpu cortex-m4"
+  "Cortex-M33|thumbv8m.main-none-eabihf|-machine mps2-an505 -cpu cortex-m33"
+  "Cortex-M0+|thumbv6m-none-eabi|-machine microbit -global nrf51-soc.sram-size=65536"
+)
 run() {
-  qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none \
+  local machine="$1"; shift
+  # shellcheck disable=SC2086
+  qemu-system-arm $machine -nographic -monitor none \
     -semihosting-config enable=on,target=native "$@"
 }
-echo "instructions per evaluation (Cortex-M4F, release + LTO; khaki parameters; 100 evaluations each):"
-run -icount shift=0 -kernel "$dir/cost" | sed 's/^/  /'
-echo "on-sensor fit (the firmware's FIT command):"
-run -icount shift=0 -kernel "$dir/fitcost" | sed 's/^/  /'
-if [[ "${1:-}" == "--trace" ]]; then
+if $trace; then
   rustup component add llvm-tools >/dev/null 2>&1
   nm="$(rustc --print sysroot)/lib/rustlib/$(rustc -vV | sed -n 's/^host: //p')/bin/llvm-nm"
-  start=$("$nm" "$dir/cost" | awk '$3 == "cost_marker_start" {print $1}')
-  end=$("$nm" "$dir/cost" | awk '$3 == "cost_marker_end" {print $1}')
   log=$(mktemp)
   trap 'rm -f "$log"' EXIT
-  run -singlestep -d exec,nochain -D "$log" -kernel "$dir/cost" >/dev/null
-  python3 - "$log" "$start" "$end" <<'PY'
+fi
+for core in "${cores[@]}"; do
+  IFS='|' read -r name target machine <<<"$core"
+  rustup target add "$target" >/dev/null 2>&1
+  (cd firmware && cargo build --quiet --release -p core-cost --target "$target")
+  dir=firmware/target/$target/release
+  echo "== $name ($target; QEMU $machine)"
+  echo "instructions per evaluation (release + LTO, opt-level s; khaki parameters; 100 evaluations each):"
+  run "$machine" -icount shift=0 -kernel "$dir/cost" | sed 's/^/  /'
+  if [[ "$name" != "Cortex-M0+" ]] || $m0_fit; then
+    echo "on-sensor fit (the firmware's FIT command):"
+    run "$machine" -icount shift=0 -kernel "$dir/fitcost" | sed 's/^/  /'
+  fi
+  if $trace; then
+    start=$("$nm" "$dir/cost" | awk '$3 == "cost_marker_start" {print $1}')
+    end=$("$nm" "$dir/cost" | awk '$3 == "cost_marker_end" {print $1}')
+    run "$machine" -singlestep -d exec,nochain -D "$log" -kernel "$dir/cost" >/dev/null
+    python3 - "$log" "$start" "$end" <<'PY'
 import re, sys
 log, start, end = sys.argv[1], int(sys.argv[2], 16), int(sys.argv[3], 16)
 pcs = []
@@ -45,4 +73,5 @@ while True:
     print(f"  path {path}: {(e - s) / 100:.1f} instructions")
     i, path = e + 1, path + 1
 PY
-fi
+  fi
+done

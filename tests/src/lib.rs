@@ -296,19 +296,21 @@ pub fn measured(path: &str) -> std::path::PathBuf {
 
 /// The firmware under QEMU, for the tests that run it.
 pub mod qemu {
+    use brdf_link::firmware::Core;
     use std::path::PathBuf;
     use std::process::Command;
 
-    fn build(package: &str, bin: &str) -> Option<PathBuf> {
+    fn build(package: &str, bin: &str, core: Core) -> Option<PathBuf> {
         let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware");
         let status = Command::new(env!("CARGO"))
             .args(["build", "--release", "-p", package, "--bin", bin])
+            .args(["--target", core.target()])
             .current_dir(&dir)
             .status()
             .ok()?;
         status
             .success()
-            .then(|| brdf_link::firmware::in_repo(brdf_link::firmware::qemu_elf(bin)))
+            .then(|| brdf_link::firmware::in_repo(core.elf(bin)))
     }
 
     /// Builds the firmware and returns its ELF. Without `qemu-system-arm` or the cross target
@@ -322,6 +324,11 @@ pub mod qemu {
     /// Builds binary `bin` of the firmware workspace's package `package` for QEMU, with the
     /// same rules as [`firmware`].
     pub fn program(package: &str, bin: &str) -> Option<PathBuf> {
+        program_for(package, bin, Core::M4F)
+    }
+
+    /// [`program`] built for `core`'s target (to run on its board).
+    pub fn program_for(package: &str, bin: &str, core: Core) -> Option<PathBuf> {
         let skip = std::env::var("BRDF_SKIP_QEMU").as_deref() == Ok("1");
         let qemu = Command::new("qemu-system-arm").arg("--version").output().is_ok();
         if !qemu {
@@ -333,13 +340,14 @@ pub mod qemu {
             eprintln!("SKIPPED: firmware QEMU test (BRDF_SKIP_QEMU=1)");
             return None;
         }
-        let elf = build(package, bin);
+        let elf = build(package, bin, core);
         if elf.is_none() {
+            let target = core.target();
             assert!(
                 skip,
-                "the firmware did not build for thumbv7em-none-eabihf: run `cargo xtask test`, \
-                 which adds the target, or `rustup target add thumbv7em-none-eabihf`; or skip the \
-                 firmware tests with BRDF_SKIP_QEMU=1"
+                "the firmware did not build for {target}: run `cargo xtask test`, which adds the \
+                 target, or `rustup target add {target}`; or skip the firmware tests with \
+                 BRDF_SKIP_QEMU=1"
             );
             eprintln!("SKIPPED: firmware QEMU test (BRDF_SKIP_QEMU=1)");
         }

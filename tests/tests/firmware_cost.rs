@@ -1,12 +1,12 @@
 //! The device cost figures `brdf select` ranks by (`brdf_core::cost`) against a fresh count
-//! under QEMU (`firmware/brdf-fw/src/bin/cost.rs`, `-icount shift=0`: exact and repeatable).
+//! under QEMU (`firmware/core-cost/src/bin/cost.rs`, `-icount shift=0`: exact and repeatable).
 
 use brdf_core::cost::{exact_instructions, COST_DRIFT, FAST_SIX_INSTRUCTIONS, TABLE_INSTRUCTIONS};
 use brdf_core::ModelKind;
 
 #[test]
 fn device_cost_constants_match_a_fresh_count() {
-    let Some(cost) = brdf_tests::qemu::program("brdf-fw", "cost") else {
+    let Some(cost) = brdf_tests::qemu::program("core-cost", "cost") else {
         return;
     };
     let counts = brdf_link::instruction_counts(&cost).unwrap();
@@ -46,5 +46,42 @@ fn device_cost_constants_match_a_fresh_count() {
             drift <= COST_DRIFT,
             "{name}: measured {m}, brdf_core::cost says {constant}"
         );
+    }
+}
+
+/// The same cost program on the Cortex-M33 and the Cortex-M0+ (`bench/firmware_cost.sh`
+/// prints these figures for the docs). The M33's FPU runs the same single-precision
+/// instructions as the M4F's, so every path costs within [`COST_DRIFT`] of the M4F figure; the
+/// M0+ has no FPU, so every path that does floating-point work costs many times more.
+#[test]
+fn other_cores_count_every_path() {
+    use brdf_link::firmware::Core;
+    let count = |core: Core| {
+        let elf = brdf_tests::qemu::program_for("core-cost", "cost", core)?;
+        let counts = brdf_link::instruction_counts_on(core, &elf).unwrap();
+        assert!(counts.len() >= 16, "{core:?}: {counts:?}");
+        Some(counts)
+    };
+    let Some(m4f) = count(Core::M4F) else {
+        return;
+    };
+    let (Some(m33), Some(m0)) = (count(Core::M33), count(Core::M0Plus)) else {
+        return;
+    };
+    for (name, n4) in &m4f {
+        let find = |counts: &[(String, f64)]| {
+            counts
+                .iter()
+                .find(|c| &c.0 == name)
+                .map(|c| c.1)
+                .unwrap_or_else(|| panic!("no `{name}` in {counts:?}"))
+        };
+        let (n33, n0) = (find(&m33), find(&m0));
+        println!("{name}: M0+ {n0}, M4F {n4}, M33 {n33}");
+        assert!(
+            (n33 - n4).abs() <= COST_DRIFT * n4,
+            "{name}: M33 {n33} against M4F {n4}"
+        );
+        assert!(n0 >= 10.0 * n4, "{name}: M0+ {n0} against M4F {n4}");
     }
 }

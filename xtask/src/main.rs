@@ -28,8 +28,10 @@ const PY_PACKAGE: &str = "host/brdf-py";
 const PY_VENV: &str = "target/py-venv";
 const PY_TARGET: &str = "target/brdf-py";
 
-/// The QEMU board the firmware tests run on (Cortex-M4 with FPU).
-const QEMU_BOARD: &str = "mps2-an386";
+/// The QEMU boards the firmware tests run on: the firmware's (Cortex-M4 with FPU), then the
+/// stand-ins for a Cortex-M33 and a Cortex-M0+ that `firmware/core-cost` counts on
+/// (`brdf_link::firmware::Core`).
+const QEMU_BOARDS: [&str; 3] = ["mps2-an386", "mps2-an505", "microbit"];
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -132,7 +134,7 @@ fn qemu() -> Result<(), String> {
     if std::env::var("BRDF_SKIP_QEMU").as_deref() == Ok("1") {
         println!(
             "SKIPPED: the firmware tests under QEMU (BRDF_SKIP_QEMU=1; qemu-system-arm with the \
-             {QEMU_BOARD} board is not installed)"
+             boards {QEMU_BOARDS:?} is not installed)"
         );
         return Ok(());
     }
@@ -162,13 +164,14 @@ fn qemu() -> Result<(), String> {
                 return Ok(());
             }
             return Err(format!(
-                "qemu-system-arm was installed but has no {QEMU_BOARD} board (`qemu-system-arm \
-                 -machine help`); install a newer QEMU (Debian 12's 7.2 has it)"
+                "qemu-system-arm was installed but lacks one of the boards {QEMU_BOARDS:?} \
+                 (`qemu-system-arm -machine help`); install a newer QEMU (Debian 12's 7.2 has \
+                 them)"
             ));
         }
     }
     Err(format!(
-        "the firmware tests need qemu-system-arm with the {QEMU_BOARD} board, which is not \
+        "the firmware tests need qemu-system-arm with the boards {QEMU_BOARDS:?}, which is not \
          installed and could not be installed here. Install it, then run the tests again:\n    \
          sudo {install}        (Debian, Ubuntu)\n    sudo dnf install qemu-system-arm  \
          (Fedora)\n    brew install qemu                 (macOS)\nor skip the firmware tests \
@@ -177,8 +180,11 @@ fn qemu() -> Result<(), String> {
 }
 
 fn qemu_has_board() -> bool {
-    output("qemu-system-arm", &["-machine", "help"])
-        .is_some_and(|o| o.lines().any(|l| l.split_whitespace().next() == Some(QEMU_BOARD)))
+    output("qemu-system-arm", &["-machine", "help"]).is_some_and(|o| {
+        QEMU_BOARDS
+            .iter()
+            .all(|b| o.lines().any(|l| l.split_whitespace().next() == Some(*b)))
+    })
 }
 
 fn run_tests(root: &Path, rest: &[String]) -> i32 {

@@ -10,7 +10,6 @@ pub mod flash;
 pub mod port;
 #[cfg(feature = "hardware")]
 pub mod stm32f4;
-pub mod ticks;
 #[cfg(feature = "qemu")]
 pub mod uart;
 

@@ -115,7 +115,15 @@ fn time_ns(n: usize, reps: usize, run: &mut dyn FnMut()) -> f64 {
 fn device_counts() -> Result<Vec<(String, f64)>> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../firmware");
     let built = Command::new("cargo")
-        .args(["build", "--quiet", "--release", "-p", "brdf-fw", "--bin", "cost"])
+        .args([
+            "build",
+            "--quiet",
+            "--release",
+            "-p",
+            "core-cost",
+            "--bin",
+            "cost",
+        ])
         .current_dir(&dir)
         .status()
         .context("cannot run cargo to build the cost firmware")?;

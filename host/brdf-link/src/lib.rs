@@ -365,28 +365,31 @@ fn command_line(cmd: &Command) -> String {
 
 /// `qemu-system-arm` for the MPS2-AN386 (Cortex-M4F) with semihosting, no display or monitor.
 pub fn qemu_command() -> Command {
+    qemu_command_for(firmware::Core::M4F)
+}
+
+/// `qemu-system-arm` for `core`'s stand-in board with semihosting, no display or monitor.
+pub fn qemu_command_for(core: firmware::Core) -> Command {
     let mut c = Command::new("qemu-system-arm");
-    c.args([
-        "-machine",
-        "mps2-an386",
-        "-cpu",
-        "cortex-m4",
-        "-nographic",
-        "-monitor",
-        "none",
-    ])
-    .args(["-semihosting-config", "enable=on,target=native"]);
+    c.args(core.qemu_machine())
+        .args(["-nographic", "-monitor", "none"])
+        .args(["-semihosting-config", "enable=on,target=native"]);
     c
 }
 
-/// Runs a firmware measurement program (`brdf-fw`'s `cost`: lines
-/// `path N: NAME : COUNT instructions`) under QEMU with `-icount shift=0`, where counts are
-/// exact, and returns each (NAME, COUNT).
+/// Runs a firmware measurement program (`core-cost`'s `cost`: lines
+/// `path N: NAME : COUNT instructions`) on the Cortex-M4F under QEMU with `-icount shift=0`,
+/// where counts are exact, and returns each (NAME, COUNT).
 pub fn instruction_counts(elf: &Path) -> Result<Vec<(String, f64)>, LinkError> {
+    instruction_counts_on(firmware::Core::M4F, elf)
+}
+
+/// [`instruction_counts`] on `core`'s board (`elf` built for its target).
+pub fn instruction_counts_on(core: firmware::Core, elf: &Path) -> Result<Vec<(String, f64)>, LinkError> {
     if !elf.is_file() {
         return Err(LinkError::ElfMissing(elf.to_owned()));
     }
-    let out = qemu_command()
+    let out = qemu_command_for(core)
         .args(["-icount", "shift=0", "-kernel"])
         .arg(elf)
         .output()

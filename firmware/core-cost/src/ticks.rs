@@ -1,17 +1,24 @@
 //! Instruction counting under QEMU: with `-icount shift=0` one instruction takes one
-//! nanosecond of virtual time and SysTick, on the core clock (25 MHz on the MPS2 boards),
-//! ticks once every 40 instructions. Wraps of the 24-bit counter are counted by the SysTick
-//! exception, so runs of any length can be measured. On hardware the same code counts core
-//! clock cycles / 40 instead.
+//! nanosecond of virtual time, and SysTick, on the core clock, ticks once every
+//! `10^9 / SYSTICK_HZ` instructions (40 on the MPS2-AN386's 25 MHz). Wraps of the 24-bit
+//! counter are counted by the SysTick exception, so runs of any length can be measured.
+//! `bench/firmware_cost.sh --trace` checks these counts against QEMU's instruction log.
 
 use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::exception;
 
-/// Instructions per SysTick tick under `-icount shift=0` on the MPS2 (1 GHz virtual
-/// instruction clock over a 25 MHz SysTick clock).
-pub const INSTRUCTIONS_PER_TICK: u64 = 40;
+/// The core clock SysTick counts on the QEMU board of this target (QEMU 7.2 sources:
+/// `hw/arm/mps2.c`, `hw/arm/mps2-tz.c`, `hw/arm/nrf51_soc.c`).
+#[cfg(board = "an386")]
+pub const SYSTICK_HZ: u64 = 25_000_000;
+/// The core clock SysTick counts on the QEMU board of this target.
+#[cfg(board = "an505")]
+pub const SYSTICK_HZ: u64 = 20_000_000;
+/// The core clock SysTick counts on the QEMU board of this target.
+#[cfg(board = "microbit")]
+pub const SYSTICK_HZ: u64 = 16_000_000;
 
 const RELOAD: u32 = 0x00FF_FFFF;
 
@@ -19,7 +26,8 @@ static WRAPS: AtomicU32 = AtomicU32::new(0);
 
 #[exception]
 fn SysTick() {
-    WRAPS.fetch_add(1, Ordering::Relaxed);
+    // Only this handler writes WRAPS (ARMv6-M has no atomic read-modify-write).
+    WRAPS.store(WRAPS.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
 }
 
 /// A running SysTick, owned.
@@ -61,8 +69,8 @@ impl Ticks {
         }
     }
 
-    /// Instructions in `ticks` under `-icount shift=0`.
+    /// Instructions in `ticks` under `-icount shift=0`, to the nearest.
     pub fn instructions(ticks: u64) -> u64 {
-        ticks * INSTRUCTIONS_PER_TICK
+        (ticks * 1_000_000_000 + SYSTICK_HZ / 2) / SYSTICK_HZ
     }
 }

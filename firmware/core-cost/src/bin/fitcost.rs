@@ -1,5 +1,6 @@
-//! Instruction cost of one on-sensor FIT at N = 256 samples and the default budget, measured
-//! under QEMU with `-icount shift=0` by `bench/firmware_cost.sh` (see `brdf_fw::ticks`).
+//! Instruction cost of one on-sensor FIT at N = 256 samples and the default budget on the
+//! target's core, measured under QEMU with `-icount shift=0` by `bench/firmware_cost.sh` (see
+//! `core_cost::ticks`).
 //!
 //! The samples are the khaki plate of Table 1 on an in-plane grid (incidences 0, 10 and 30
 //! degrees, viewing zeniths on both sides, 256 in all) with a deterministic +-0.5 % ripple;
@@ -9,8 +10,8 @@
 
 use brdf_core::anneal::{anneal, AnnealConfig, Samples, SearchBox, DEVICE_SEED};
 use brdf_core::{Brdf, Model, ModelKind, SixParam};
-use brdf_fw::exit;
-use brdf_fw::ticks::Ticks;
+use core_cost::exit;
+use core_cost::ticks::Ticks;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use rand_core::SeedableRng;
