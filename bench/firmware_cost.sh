@@ -7,7 +7,7 @@
 # With -icount shift=0 one instruction is one virtual nanosecond and SysTick counts them
 # (core-cost/src/ticks.rs).
 #   bash bench/firmware_cost.sh            # evaluation paths on all three, FIT on M4F and M33
-#   bash bench/firmware_cost.sh --m0-fit   # also the FIT on the M0+ (about 10 minutes)
+#   bash bench/firmware_cost.sh --m0-fit   # also the FIT on the M0+ (about 4 minutes)
 #   bash bench/firmware_cost.sh --trace    # also count the paths from QEMU's instruction log
 #                                          # between two marker functions (independent check)
 set -euo pipefail
@@ -36,7 +36,7 @@ if $trace; then
   rustup component add llvm-tools >/dev/null 2>&1
   nm="$(rustc --print sysroot)/lib/rustlib/$(rustc -vV | sed -n 's/^host: //p')/bin/llvm-nm"
   log=$(mktemp)
-  trap 'rm -f "$log"' EXIT
+  trap 'rm -f "$log" "$log.syms"' EXIT
 fi
 for core in "${cores[@]}"; do
   IFS='|' read -r name target machine <<<"$core"
@@ -51,18 +51,25 @@ for core in "${cores[@]}"; do
     run "$machine" -icount shift=0 -kernel "$dir/fitcost" | sed 's/^/  /'
   fi
   if $trace; then
-    start=$("$nm" "$dir/cost" | awk '$3 == "cost_marker_start" {print $1}')
-    end=$("$nm" "$dir/cost" | awk '$3 == "cost_marker_end" {print $1}')
+    "$nm" -n --defined-only "$dir/cost" >"$log.syms"
     run "$machine" -singlestep -d exec,nochain -D "$log" -kernel "$dir/cost" >/dev/null
-    python3 - "$log" "$start" "$end" <<'PY'
-import re, sys
-log, start, end = sys.argv[1], int(sys.argv[2], 16), int(sys.argv[3], 16)
+    python3 - "$log" "$log.syms" <<'PY'
+import bisect, re, sys
+log, syms = sys.argv[1], sys.argv[2]
+table = sorted((int(f[0], 16), f[2]) for f in (l.split() for l in open(syms)) if len(f) == 3)
+addrs = [a for a, _ in table]
+start = next(a for a, n in table if n == "cost_marker_start")
+end = next(a for a, n in table if n == "cost_marker_end")
 pcs = []
 for line in open(log):
     m = re.search(r"\[[0-9a-f]+/([0-9a-f]+)/", line)
     if m:
         pcs.append(int(m.group(1), 16))
-print("the same paths counted from the instruction log:")
+def soft_float(pc):
+    # compiler-builtins' software floating point (and the integer helpers it calls).
+    name = table[bisect.bisect_right(addrs, pc & ~1) - 1][1]
+    return "compiler_builtins" in name or name.startswith(("__aeabi_", "__clz"))
+print("the same paths counted from the instruction log (share in software floating point):")
 i, path = 0, 1
 while True:
     try:
@@ -70,7 +77,8 @@ while True:
         e = pcs.index(end, s)
     except ValueError:
         break
-    print(f"  path {path}: {(e - s) / 100:.1f} instructions")
+    soft = sum(soft_float(pc) for pc in pcs[s:e])
+    print(f"  path {path}: {(e - s) / 100:.1f} instructions ({100 * soft / (e - s):.0f}%)")
     i, path = e + 1, path + 1
 PY
   fi
