@@ -5,12 +5,8 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
-use brdf_core::ModelKind;
-use brdf_fit::report::FitReport;
-use brdf_fit::Dataset;
-use brdf_scene::represent::{choose, representations, Choice, Representation};
+use brdf_scene::represent::{select_data, DataDomain};
 use clap::Args;
-use serde::Serialize;
 
 use crate::common::{parse_fraction, write_blob, EngineArgs};
 
@@ -59,22 +55,6 @@ pub struct SelectCmd {
     scene: Option<PathBuf>,
 }
 
-#[derive(Serialize)]
-struct Selection<'a> {
-    dataset: &'a str,
-    budget: f64,
-    max_theta_i: f64,
-    max_theta_r: f64,
-    n: usize,
-    allow_nonphysical: bool,
-    /// The representation chosen, if any meets the budget.
-    chosen: Option<String>,
-    /// Why it was chosen, or why nothing was.
-    reason: String,
-    candidates: &'a [FitReport],
-    representations: &'a [Representation],
-}
-
 impl SelectCmd {
     pub fn run(self) -> Result<()> {
         let Some(data) = self.data.clone() else {
@@ -92,67 +72,31 @@ impl SelectCmd {
             self.max_theta_i.unwrap_or(self.max_theta),
             self.max_theta_r.unwrap_or(self.max_theta),
         );
-        let tol = brdf_core::tolerance::ANGLE_FILTER_DEG;
-        let (limit_i, limit_r) = ((max_i + tol).to_radians(), (max_r + tol).to_radians());
         let d = &datasets[0];
-        let domain = Dataset {
-            name: d.name.clone(),
-            points: d
-                .points
-                .iter()
-                .filter(|p| p.theta_i <= limit_i && p.theta_r <= limit_r)
-                .copied()
-                .collect(),
-        };
-        let beyond_i = d.points.iter().filter(|p| p.theta_i > limit_i).count();
-        let beyond_r = d
-            .points
-            .iter()
-            .filter(|p| p.theta_i <= limit_i && p.theta_r > limit_r)
-            .count();
-        if beyond_i + beyond_r > 0 {
-            eprintln!(
-                "{}: left out {} of {} points: {beyond_i} with theta_i > {max_i} deg, {beyond_r} more with \
-                 theta_r > {max_r} deg (limits kept within {tol} deg)",
-                d.name,
-                beyond_i + beyond_r,
-                d.points.len()
-            );
+        let kept = DataDomain::new(d, max_i, max_r);
+        if let Some(note) = kept.left_out_note(max_i, max_r, d.points.len()) {
+            eprintln!("{note}");
         }
-        if domain.points.len() < 7 {
-            bail!(
-                "{}: only {} points with theta_i <= {max_i} and theta_r <= {max_r} deg; too few to compare models",
-                d.name,
-                domain.points.len(),
-            );
+        let domain = &kept.domain;
+        let s = select_data(
+            domain,
+            &|k| self.engine.settings(k),
+            self.budget,
+            (max_i, max_r),
+            self.allow_nonphysical,
+        )
+        .map_err(|e| anyhow!(e))?;
+        match (&self.output, &s.material) {
+            (Some(path), Some((m, table))) => {
+                write_blob(&brdf_fit::pack::encode(&[*m], &[table.clone()], self.sequence)?, path)?
+            }
+            (Some(_), None) => bail!("no representation meets the budget; nothing written"),
+            _ => {}
         }
-        let reports: Vec<FitReport> = ModelKind::LADDER
-            .iter()
-            .flat_map(|&k| brdf_fit::fit_all(&self.engine.settings(k), std::slice::from_ref(&domain)))
-            .collect();
-        let (reprs, materials) = representations(&reports, &domain).map_err(|e| anyhow!(e))?;
-        let Choice { best, reason } = choose(&reprs, self.budget, self.allow_nonphysical);
-        if let (Some(path), Some(i)) = (&self.output, best) {
-            let (m, table) = materials[i].clone();
-            write_blob(&brdf_fit::pack::encode(&[m], &[table], self.sequence)?, path)?;
-        } else if self.output.is_some() {
-            bail!("no representation meets the budget; nothing written");
-        }
+        let (reports, reprs, reason) = (&s.candidates, &s.representations, &s.reason);
         let stdout = std::io::stdout();
         let mut out = stdout.lock();
         if self.json {
-            let s = Selection {
-                dataset: &domain.name,
-                budget: self.budget,
-                max_theta_i: max_i,
-                max_theta_r: max_r,
-                n: domain.points.len(),
-                allow_nonphysical: self.allow_nonphysical,
-                chosen: best.map(|i| reprs[i].name.clone()),
-                reason: reason.clone(),
-                candidates: &reports,
-                representations: &reprs,
-            };
             writeln!(out, "{}", serde_json::to_string_pretty(&s)?)?;
             return Ok(());
         }
@@ -168,7 +112,7 @@ impl SelectCmd {
             "{:<9} {:>2} {:>10} {:>10} {:>11} {:>9} {:>11} {:>11}  undetermined",
             "model", "k", "rms rel %", "max rel %", "rmse 1/sr", "log rmse", "AIC", "BIC"
         )?;
-        for r in &reports {
+        for r in reports {
             let und = r.undetermined();
             writeln!(
                 out,
@@ -194,7 +138,7 @@ impl SelectCmd {
             "{:<16} {:>10} {:>10} {:>13} {:>12} {:>8} {:>7}  caveat",
             "representation", "rms rel %", "max rel %", "table vs exact", "M4F instr", "host ns", "bytes"
         )?;
-        for r in &reprs {
+        for r in reprs {
             writeln!(
                 out,
                 "{:<16} {:>10.3} {:>10.3} {:>13} {:>12} {:>8.1} {:>7}  {}{}",
@@ -209,11 +153,10 @@ impl SelectCmd {
                 if r.fits_blob { "" } else { " (over a slot)" }
             )?;
         }
-        match best {
-            Some(i) => writeln!(
+        match &s.chosen {
+            Some(name) => writeln!(
                 out,
-                "chosen: {}: {reason}{}",
-                reprs[i].name,
+                "chosen: {name}: {reason}{}",
                 self.output
                     .as_ref()
                     .map_or(String::new(), |p| format!("; written to {}", p.display()))

@@ -220,3 +220,119 @@ pub fn representations(
     }
     Ok((reprs, materials))
 }
+
+/// The points of a dataset within an angular domain (`theta_i <= max_theta_i`, `theta_r <=
+/// max_theta_r`, in degrees, each kept within [`brdf_core::tolerance::ANGLE_FILTER_DEG`]), and
+/// how many were left out.
+#[derive(Clone, Debug)]
+pub struct DataDomain {
+    /// The points kept, under the dataset's name.
+    pub domain: Dataset,
+    /// Points left out for `theta_i` beyond the limit.
+    pub beyond_i: usize,
+    /// Points left out for `theta_r` beyond its limit (among those within the `theta_i` one).
+    pub beyond_r: usize,
+}
+
+impl DataDomain {
+    /// Keeps the points of `d` within the limits (degrees).
+    pub fn new(d: &Dataset, max_theta_i: f64, max_theta_r: f64) -> DataDomain {
+        let tol = brdf_core::tolerance::ANGLE_FILTER_DEG;
+        let (li, lr) = ((max_theta_i + tol).to_radians(), (max_theta_r + tol).to_radians());
+        let beyond_i = d.points.iter().filter(|p| p.theta_i > li).count();
+        let beyond_r = d.points.iter().filter(|p| p.theta_i <= li && p.theta_r > lr).count();
+        let domain = Dataset {
+            name: d.name.clone(),
+            points: d
+                .points
+                .iter()
+                .filter(|p| p.theta_i <= li && p.theta_r <= lr)
+                .copied()
+                .collect(),
+        };
+        DataDomain {
+            domain,
+            beyond_i,
+            beyond_r,
+        }
+    }
+
+    /// What was left out, for the user (`None` when every point is kept).
+    pub fn left_out_note(&self, max_theta_i: f64, max_theta_r: f64, total: usize) -> Option<String> {
+        let (bi, br) = (self.beyond_i, self.beyond_r);
+        (bi + br > 0).then(|| {
+            format!(
+                "{}: left out {} of {total} points: {bi} with theta_i > {max_theta_i} deg, {br} more with \
+                 theta_r > {max_theta_r} deg (limits kept within {} deg)",
+                self.domain.name,
+                bi + br,
+                brdf_core::tolerance::ANGLE_FILTER_DEG
+            )
+        })
+    }
+}
+
+/// `brdf select DATA` (and `brdf.select` in Python): every model of the ladder fitted over the
+/// domain, every device representation of each, and the one chosen. Serialised, it is the
+/// JSON `brdf select --json` prints.
+#[derive(Clone, Debug, Serialize)]
+pub struct DataSelection {
+    pub dataset: String,
+    /// Largest acceptable RMS relative error over the domain.
+    pub budget: f64,
+    /// The domain's limits (degrees).
+    pub max_theta_i: f64,
+    pub max_theta_r: f64,
+    /// Points in the domain.
+    pub n: usize,
+    pub allow_nonphysical: bool,
+    /// The representation chosen, if any meets the budget.
+    pub chosen: Option<String>,
+    /// Why it was chosen, or why nothing was.
+    pub reason: String,
+    /// The ladder's fits, simplest first.
+    pub candidates: Vec<FitReport>,
+    pub representations: Vec<Representation>,
+    /// The chosen representation as a device material, with its table bytes if tabulated.
+    #[serde(skip)]
+    pub material: Option<(Material, Option<Vec<u8>>)>,
+}
+
+/// Fits every model of [`ModelKind::LADDER`] to `domain` with `settings(kind)`, measures every
+/// representation and chooses among them ([`choose`]). Fails with a message naming the
+/// dataset when the domain has fewer than 7 points (too few to compare models) or a fitted
+/// model cannot become a device material.
+pub fn select_data(
+    domain: &Dataset,
+    settings: &dyn Fn(ModelKind) -> brdf_fit::FitSettings,
+    budget: f64,
+    (max_theta_i, max_theta_r): (f64, f64),
+    allow_nonphysical: bool,
+) -> Result<DataSelection, String> {
+    if domain.points.len() < 7 {
+        return Err(format!(
+            "{}: only {} points with theta_i <= {max_theta_i} and theta_r <= {max_theta_r} deg; too few to compare models",
+            domain.name,
+            domain.points.len(),
+        ));
+    }
+    let candidates: Vec<FitReport> = ModelKind::LADDER
+        .iter()
+        .flat_map(|&k| brdf_fit::fit_all(&settings(k), std::slice::from_ref(domain)))
+        .collect();
+    let (reprs, mut materials) = representations(&candidates, domain)?;
+    let Choice { best, reason } = choose(&reprs, budget, allow_nonphysical);
+    Ok(DataSelection {
+        dataset: domain.name.clone(),
+        budget,
+        max_theta_i,
+        max_theta_r,
+        n: domain.points.len(),
+        allow_nonphysical,
+        chosen: best.map(|i| reprs[i].name.clone()),
+        reason,
+        candidates,
+        representations: reprs,
+        material: best.map(|i| materials.swap_remove(i)),
+    })
+}
