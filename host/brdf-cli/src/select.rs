@@ -87,9 +87,10 @@ impl SelectCmd {
         )
         .map_err(|e| anyhow!(e))?;
         match (&self.output, &s.material) {
-            (Some(path), Some((m, table))) => {
-                write_blob(&brdf_fit::pack::encode(&[*m], &[table.clone()], self.sequence)?, path)?
-            }
+            (Some(path), Some((m, table))) => write_blob(
+                &brdf_fit::pack::encode(&[*m], std::slice::from_ref(table), self.sequence)?,
+                path,
+            )?,
             (Some(_), None) => bail!("no representation meets the budget; nothing written"),
             _ => {}
         }

@@ -240,7 +240,11 @@ impl DataDomain {
         let tol = brdf_core::tolerance::ANGLE_FILTER_DEG;
         let (li, lr) = ((max_theta_i + tol).to_radians(), (max_theta_r + tol).to_radians());
         let beyond_i = d.points.iter().filter(|p| p.theta_i > li).count();
-        let beyond_r = d.points.iter().filter(|p| p.theta_i <= li && p.theta_r > lr).count();
+        let beyond_r = d
+            .points
+            .iter()
+            .filter(|p| p.theta_i <= li && p.theta_r > lr)
+            .count();
         let domain = Dataset {
             name: d.name.clone(),
             points: d
