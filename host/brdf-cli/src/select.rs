@@ -5,7 +5,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
-use brdf_scene::represent::{select_data, DataDomain};
+use brdf_scene::represent::{one_dataset, select_data, DataDomain};
 use clap::Args;
 
 use crate::common::{parse_fraction, write_blob, EngineArgs};
@@ -61,18 +61,11 @@ impl SelectCmd {
             return self.run_scene();
         };
         let datasets = self.engine.load(std::slice::from_ref(&data))?;
-        if datasets.len() != 1 {
-            bail!(
-                "{}: holds {} datasets (sample/wavelength groups); select works on one",
-                data.display(),
-                datasets.len()
-            );
-        }
+        let d = &one_dataset(&data.display().to_string(), datasets).map_err(|e| anyhow!(e))?;
         let (max_i, max_r) = (
             self.max_theta_i.unwrap_or(self.max_theta),
             self.max_theta_r.unwrap_or(self.max_theta),
         );
-        let d = &datasets[0];
         let kept = DataDomain::new(d, max_i, max_r);
         if let Some(note) = kept.left_out_note(max_i, max_r, d.points.len()) {
             eprintln!("{note}");

@@ -598,6 +598,35 @@ fn fit_arrays<'py>(
     sigma: Option<PyReadonlyArray1<'py, f64>>,
     weight: Option<PyReadonlyArray1<'py, f64>>,
 ) -> PyResult<String> {
+    let allow_zero = settings.settings.residual == Residual::Absolute;
+    let columns = (
+        &theta_i,
+        &theta_r,
+        &phi,
+        &brdf,
+        sigma.as_ref(),
+        weight.as_ref(),
+        allow_zero,
+    );
+    let mut reports = fit_datasets(py, settings, vec![dataset(name, columns)?])?;
+    Ok(reports.remove(0))
+}
+
+/// The six columns of an array dataset (degrees; `sigma`/`weight` optional).
+type Columns<'a, 'py> = (
+    &'a PyReadonlyArray1<'py, f64>,
+    &'a PyReadonlyArray1<'py, f64>,
+    &'a PyReadonlyArray1<'py, f64>,
+    &'a PyReadonlyArray1<'py, f64>,
+    Option<&'a PyReadonlyArray1<'py, f64>>,
+    Option<&'a PyReadonlyArray1<'py, f64>>,
+    bool,
+);
+
+/// A dataset from arrays, each row checked as `brdf fit` checks a CSV row (`allow_zero`: a
+/// BRDF of 0 is allowed, for absolute residuals).
+fn dataset(name: String, columns: Columns<'_, '_>) -> PyResult<Dataset> {
+    let (theta_i, theta_r, phi, brdf, sigma, weight, allow_zero) = columns;
     if sigma.is_some() && weight.is_some() {
         return Err(PyValueError::new_err("sigma and weight cannot be used together"));
     }
@@ -605,13 +634,12 @@ fn fit_arrays<'py>(
     if n == 0 {
         return Err(PyValueError::new_err("no data points"));
     }
-    let ti = slice(&theta_i, "theta_i")?;
-    let tr = slice(&theta_r, "theta_r")?;
-    let ph = slice(&phi, "phi")?;
-    let f = slice(&brdf, "brdf")?;
-    let sg = sigma.as_ref().map(|a| slice(a, "sigma")).transpose()?;
-    let wt = weight.as_ref().map(|a| slice(a, "weight")).transpose()?;
-    let allow_zero = settings.settings.residual == Residual::Absolute;
+    let ti = slice(theta_i, "theta_i")?;
+    let tr = slice(theta_r, "theta_r")?;
+    let ph = slice(phi, "phi")?;
+    let f = slice(brdf, "brdf")?;
+    let sg = sigma.map(|a| slice(a, "sigma")).transpose()?;
+    let wt = weight.map(|a| slice(a, "weight")).transpose()?;
     let points = (0..n)
         .map(|i| {
             point(
@@ -624,8 +652,161 @@ fn fit_arrays<'py>(
             )
         })
         .collect::<Result<Vec<Point>, Failure>>()?;
-    let mut reports = fit_datasets(py, settings, vec![Dataset { name, points }])?;
-    Ok(reports.remove(0))
+    Ok(Dataset { name, points })
+}
+
+/// What `select_path` and `select_arrays` return, as `pack` does: `((selection JSON,
+/// candidate reports as JSON, blob or None) or None, notes, error or None)`; the notes found
+/// before a failure are returned with it, as the CLI prints them before its error.
+type Selected<'py> = (
+    Option<(String, Vec<String>, Option<Bound<'py, PyBytes>>)>,
+    Vec<String>,
+    Option<String>,
+);
+
+/// `brdf select DATA` on one dataset: the ladder fitted over the domain with `settings` (its
+/// model is ignored), through the same library call (`brdf_scene::represent::select_data`).
+/// Returns the JSON `brdf select --json` prints, each candidate's report as `brdf fit --json`
+/// prints it and the chosen representation's blob (as `brdf select -o` writes it) or None;
+/// pushes onto `notes` what the CLI prints on standard error first (the points left out).
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn select_dataset<'py>(
+    py: Python<'py>,
+    settings: &Settings,
+    d: Dataset,
+    budget: f64,
+    limits: (f64, f64),
+    allow_nonphysical: bool,
+    sequence: u32,
+    notes: &mut Vec<String>,
+) -> Result<(String, Vec<String>, Option<Bound<'py, PyBytes>>), String> {
+    use brdf_scene::represent::{select_data, DataDomain};
+    if !(budget.is_finite() && budget > 0.0) {
+        return Err(format!("budget {budget} is not a finite fraction greater than 0"));
+    }
+    for (name, v) in [("max_theta_i", limits.0), ("max_theta_r", limits.1)] {
+        if !(0.0..=90.0).contains(&v) {
+            return Err(format!("{name} {v} is outside 0..=90 degrees"));
+        }
+    }
+    let kept = DataDomain::new(&d, limits.0, limits.1);
+    notes.extend(kept.left_out_note(limits.0, limits.1, d.points.len()));
+    let base = settings.settings;
+    let (text, candidates, blob) = py.detach(move || -> Result<_, String> {
+        let s = select_data(
+            &kept.domain,
+            &|kind| FitSettings { kind, ..base },
+            budget,
+            limits,
+            allow_nonphysical,
+        )?;
+        let blob = match &s.material {
+            Some((m, table)) => Some(
+                brdf_fit::pack::encode(&[*m], std::slice::from_ref(table), sequence)
+                    .map_err(|e| e.to_string())?,
+            ),
+            None => None,
+        };
+        let text = serde_json::to_string_pretty(&s).map_err(|e| e.to_string())?;
+        let candidates = s
+            .candidates
+            .iter()
+            .map(serde_json::to_string_pretty)
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| e.to_string())?;
+        Ok((text, candidates, blob))
+    })?;
+    Ok((text, candidates, blob.map(|b| PyBytes::new(py, &b.bytes))))
+}
+
+/// `brdf select` on a file: see [`select_dataset`] and [`Selected`]; the notes are the
+/// skipped or rejected rows, then the points left out.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn select_path<'py>(
+    py: Python<'py>,
+    settings: &Settings,
+    path: String,
+    budget: f64,
+    max_theta_i: f64,
+    max_theta_r: f64,
+    allow_nonphysical: bool,
+    sequence: u32,
+) -> PyResult<Selected<'py>> {
+    let (datasets, mut notes) = load(settings, std::slice::from_ref(&path))?;
+    let d = match brdf_scene::represent::one_dataset(&path, datasets) {
+        Ok(d) => d,
+        Err(e) => return Ok((None, notes, Some(e))),
+    };
+    let limits = (max_theta_i, max_theta_r);
+    Ok(
+        match select_dataset(
+            py,
+            settings,
+            d,
+            budget,
+            limits,
+            allow_nonphysical,
+            sequence,
+            &mut notes,
+        ) {
+            Ok(v) => (Some(v), notes, None),
+            Err(e) => (None, notes, Some(e)),
+        },
+    )
+}
+
+/// `brdf select` on one dataset given as arrays: see [`select_dataset`] and [`Selected`].
+#[pyfunction]
+#[pyo3(signature = (settings, name, theta_i, theta_r, phi, brdf, sigma, weight, budget,
+                    max_theta_i, max_theta_r, allow_nonphysical, sequence))]
+#[allow(clippy::too_many_arguments)]
+fn select_arrays<'py>(
+    py: Python<'py>,
+    settings: &Settings,
+    name: String,
+    theta_i: PyReadonlyArray1<'py, f64>,
+    theta_r: PyReadonlyArray1<'py, f64>,
+    phi: PyReadonlyArray1<'py, f64>,
+    brdf: PyReadonlyArray1<'py, f64>,
+    sigma: Option<PyReadonlyArray1<'py, f64>>,
+    weight: Option<PyReadonlyArray1<'py, f64>>,
+    budget: f64,
+    max_theta_i: f64,
+    max_theta_r: f64,
+    allow_nonphysical: bool,
+    sequence: u32,
+) -> PyResult<Selected<'py>> {
+    let allow_zero = settings.settings.residual == Residual::Absolute;
+    let d = dataset(
+        name,
+        (
+            &theta_i,
+            &theta_r,
+            &phi,
+            &brdf,
+            sigma.as_ref(),
+            weight.as_ref(),
+            allow_zero,
+        ),
+    )?;
+    let mut notes = Vec::new();
+    let limits = (max_theta_i, max_theta_r);
+    Ok(
+        match select_dataset(
+            py,
+            settings,
+            d,
+            budget,
+            limits,
+            allow_nonphysical,
+            sequence,
+            &mut notes,
+        ) {
+            Ok(v) => (Some(v), notes, None),
+            Err(e) => (None, notes, Some(e)),
+        },
+    )
 }
 
 /// `brdf pack` through the same library function (`brdf_fit::pack::pack`). `sources` are
@@ -686,5 +867,7 @@ fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit_arrays, m)?)?;
     m.add_function(wrap_pyfunction!(read_paths, m)?)?;
     m.add_function(wrap_pyfunction!(pack, m)?)?;
+    m.add_function(wrap_pyfunction!(select_path, m)?)?;
+    m.add_function(wrap_pyfunction!(select_arrays, m)?)?;
     Ok(())
 }

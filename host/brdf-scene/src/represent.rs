@@ -221,6 +221,18 @@ pub fn representations(
     Ok((reprs, materials))
 }
 
+/// The one dataset of `origin` that `brdf select DATA` works on; an error naming `origin` when
+/// it holds several (sample or wavelength groups) or none.
+pub fn one_dataset(origin: &str, mut datasets: Vec<Dataset>) -> Result<Dataset, String> {
+    if datasets.len() != 1 {
+        return Err(format!(
+            "{origin}: holds {} datasets (sample/wavelength groups); select works on one",
+            datasets.len()
+        ));
+    }
+    Ok(datasets.remove(0))
+}
+
 /// The points of a dataset within an angular domain (`theta_i <= max_theta_i`, `theta_r <=
 /// max_theta_r`, in degrees, each kept within [`brdf_core::tolerance::ANGLE_FILTER_DEG`]), and
 /// how many were left out.

@@ -2,7 +2,7 @@
 
 The same core as the ``brdf`` command: :func:`eval` gives the values ``brdf eval`` prints,
 :func:`fit` the report ``brdf fit --json`` prints (``FitResult.to_json()``), :func:`pack`
-the blob ``brdf pack`` writes, and errors are raised as :class:`ValueError` with the
+the blob ``brdf pack`` writes, :func:`select` the choice ``brdf select --json`` prints, and errors are raised as :class:`ValueError` with the
 command's messages, located by array index instead of CSV line.
 """
 
@@ -22,6 +22,7 @@ from . import _brdf
 __all__ = [
     "MODELS",
     "FitResult",
+    "Selection",
     "albedo",
     "eval",
     "eval_cosines",
@@ -29,6 +30,7 @@ __all__ = [
     "fit",
     "pack",
     "read",
+    "select",
     "to_json",
 ]
 
@@ -231,6 +233,30 @@ def _settings(model, seed, residual, engine, options) -> "_brdf.Settings":
     )
 
 
+def _array_columns(data):
+    """The columns of an array dataset (a dict or an object with attributes), flattened."""
+    get = (lambda k: data.get(k)) if isinstance(data, Mapping) else (lambda k: getattr(data, k, None))
+    cols = {}
+    for k in ("theta_i", "theta_r", "phi", "brdf"):
+        v = get(k)
+        if v is None:
+            raise ValueError(f"data: missing `{k}` (need theta_i, theta_r, phi, brdf; optional sigma or weight)")
+        cols[k] = _real(k, v)
+    for k in ("sigma", "weight"):
+        v = get(k)
+        if v is not None:
+            cols[k] = _real(k, v)
+    names = list(cols)
+    shape, flat = _columns(names, list(cols.values()))
+    return shape, dict(zip(names, flat))
+
+
+def _is_paths(data) -> bool:
+    return isinstance(data, (str, os.PathLike)) or (
+        isinstance(data, (list, tuple)) and bool(data) and all(isinstance(p, (str, os.PathLike)) for p in data)
+    )
+
+
 def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", engine: str = "full", **options):
     """Fits ``model`` to measured data, as ``brdf fit``.
 
@@ -246,9 +272,7 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
     """
     name = options.pop("name", "arrays")
     s = _settings(model, seed, residual, engine, options)
-    if isinstance(data, (str, os.PathLike)) or (
-        isinstance(data, (list, tuple)) and data and all(isinstance(p, (str, os.PathLike)) for p in data)
-    ):
+    if _is_paths(data):
         paths = [os.fspath(data)] if isinstance(data, (str, os.PathLike)) else [os.fspath(p) for p in data]
         texts, notes = _brdf.fit_paths(s, paths)
         for note in notes:
@@ -256,20 +280,7 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
             warnings.warn(note, stacklevel=2)
         results = [FitResult(t) for t in texts]
         return results[0] if len(results) == 1 else results
-    get = (lambda k: data.get(k)) if isinstance(data, Mapping) else (lambda k: getattr(data, k, None))
-    cols = {}
-    for k in ("theta_i", "theta_r", "phi", "brdf"):
-        v = get(k)
-        if v is None:
-            raise ValueError(f"data: missing `{k}` (need theta_i, theta_r, phi, brdf; optional sigma or weight)")
-        cols[k] = _real(k, v)
-    for k in ("sigma", "weight"):
-        v = get(k)
-        if v is not None:
-            cols[k] = _real(k, v)
-    names = list(cols)
-    shape, flat = _columns(names, list(cols.values()))
-    flat = dict(zip(names, flat))
+    shape, flat = _array_columns(data)
     try:
         text = _brdf.fit_arrays(
             s, name, flat["theta_i"], flat["theta_r"], flat["phi"], flat["brdf"],
@@ -278,6 +289,96 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
     except _brdf.ElementError as e:
         raise _located(["data"], shape, e) from None
     return FitResult(text)
+
+
+class Selection:
+    """What ``brdf select DATA --json`` reports: every model of the ladder fitted over the
+    angular domain, every device representation of each (exact in f32, six-parameter tables
+    of 64, 256 and 1024 nodes) with its error against the data, its Cortex-M4F instructions
+    per lookup, this host's ns (measured in the call) and its blob size, and the one chosen.
+
+    Attributes: ``chosen`` (the representation's name, or None when none meets the budget),
+    ``reason`` (why), ``candidates`` (a :class:`FitResult` per model of the ladder),
+    ``representations`` (a dict per representation), ``blob`` (the chosen representation as
+    the parameter blob ``brdf select -o`` writes, or None), ``report`` (the whole JSON as a
+    dict). ``to_json()`` is the text ``brdf select --json`` prints for the same input and
+    seed (its ``host_ns`` and ``seconds`` fields are timings of this run).
+    """
+
+    def __init__(self, text: str, candidates: Sequence[str], blob: Optional[bytes]):
+        self._text = text
+        self.report: Dict[str, Any] = json.loads(text)
+        r = self.report
+        self.dataset: str = r["dataset"]
+        self.budget: float = r["budget"]
+        self.n: int = r["n"]
+        self.chosen: Optional[str] = r["chosen"]
+        self.reason: str = r["reason"]
+        self.candidates: List[FitResult] = [FitResult(c) for c in candidates]
+        self.representations: List[Dict[str, Any]] = r["representations"]
+        self.blob: Optional[bytes] = blob
+
+    def to_json(self) -> str:
+        """The selection exactly as ``brdf select --json`` prints it (without its final newline)."""
+        return self._text
+
+    def __repr__(self) -> str:
+        return f"Selection({self.dataset!r}, {self.n} points, chosen: {self.chosen}: {self.reason})"
+
+
+def select(
+    data,
+    *,
+    budget: float = 0.02,
+    max_theta: float = 90.0,
+    max_theta_i: Optional[float] = None,
+    max_theta_r: Optional[float] = None,
+    allow_nonphysical: bool = False,
+    sequence: int = 1,
+    seed: int = 1,
+    residual: str = "relative",
+    **options,
+) -> Selection:
+    """The simplest model, and the cheapest device representation, that meet an error budget
+    over the angular domain a scene uses, as ``brdf select DATA``.
+
+    ``data`` is one dataset: a path to any file ``brdf fit`` reads (``format=`` and
+    ``channel=`` as for :func:`fit`) or a dict / object with arrays ``theta_i``, ``theta_r``,
+    ``phi`` (degrees), ``brdf`` (1/sr) and optionally ``sigma`` or ``weight``. ``budget`` is
+    the largest acceptable RMS relative error (a fraction: 0.02 is 2%); the domain keeps the
+    points with ``theta_i <= max_theta_i`` and ``theta_r <= max_theta_r`` (both default to
+    ``max_theta``, degrees); ``allow_nonphysical`` lets the choice fall on a model that is not
+    reciprocal or is unbounded at grazing; ``sequence`` is the sequence number of the
+    returned blob. The fit options are :func:`fit`'s (``chains``, ``loss``, ...; the full
+    engine). Points left out of the domain and rows skipped are reported as warnings.
+    """
+    name = options.pop("name", "arrays")
+    s = _settings("six", seed, residual, "full", options)
+    mi = float(max_theta if max_theta_i is None else max_theta_i)
+    mr = float(max_theta if max_theta_r is None else max_theta_r)
+    sequence = operator.index(sequence)
+    if not 0 <= sequence <= 0xFFFFFFFF:
+        raise ValueError(f"sequence {sequence}: outside 0..=4294967295")
+    args = (float(budget), mi, mr, bool(allow_nonphysical), sequence)
+    if isinstance(data, (str, os.PathLike)):
+        done, notes, error = _brdf.select_path(s, os.fspath(data), *args)
+    elif _is_paths(data):
+        raise TypeError("select works on one dataset: give one path")
+    else:
+        shape, flat = _array_columns(data)
+        try:
+            done, notes, error = _brdf.select_arrays(
+                s, name, flat["theta_i"], flat["theta_r"], flat["phi"], flat["brdf"],
+                flat.get("sigma"), flat.get("weight"), *args,
+            )
+        except _brdf.ElementError as e:
+            raise _located(["data"], shape, e) from None
+    for note in notes:
+        warnings.warn(note, stacklevel=2)
+    if error is not None:
+        raise ValueError(error)
+    text, candidates, blob = done
+    return Selection(text, candidates, blob)
 
 
 def read(path, format: Optional[str] = None, channel: Optional[str] = None, *, skip_invalid: bool = False):

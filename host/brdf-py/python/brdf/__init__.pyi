@@ -68,6 +68,32 @@ def read(
     *,
     skip_invalid: bool = False,
 ) -> List[Dict[str, Any]]: ...
+class Selection:
+    report: Dict[str, Any]
+    dataset: str
+    budget: float
+    n: int
+    chosen: Optional[str]
+    reason: str
+    candidates: List[FitResult]
+    representations: List[Dict[str, Any]]
+    blob: Optional[bytes]
+    def __init__(self, text: str, candidates: Sequence[str], blob: Optional[bytes]) -> None: ...
+    def to_json(self) -> str: ...
+
+def select(
+    data: Union[str, os.PathLike, Mapping[str, ArrayLike], Any],
+    *,
+    budget: float = 0.02,
+    max_theta: float = 90.0,
+    max_theta_i: Optional[float] = None,
+    max_theta_r: Optional[float] = None,
+    allow_nonphysical: bool = False,
+    sequence: int = 1,
+    seed: int = 1,
+    residual: str = "relative",
+    **options: Any,
+) -> Selection: ...
 def to_json(results: Union[FitResult, Sequence[FitResult]]) -> str: ...
 def pack(
     results: Union[FitResult, str, os.PathLike, Sequence[Union[FitResult, str, os.PathLike]]],
