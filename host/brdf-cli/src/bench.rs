@@ -18,7 +18,7 @@ use brdf_plot::{pareto_front, tradeoff, TradePoint};
 use clap::{Args, Subcommand};
 use rayon::prelude::*;
 
-use crate::batch::Inputs;
+use brdf_core::batch::par::Inputs;
 
 /// Benchmarks that chart cost against accuracy.
 #[derive(Debug, Args)]
@@ -233,7 +233,7 @@ fn paths<T: Float + Send + Sync>(
         for parallel in [false, true] {
             let mut result = Ok(());
             let ns = time_ns(n, reps, &mut || {
-                result = crate::batch::eval(&b, inputs, &mut out, parallel);
+                result = brdf_core::batch::par::eval(&b, inputs, &mut out, parallel);
                 black_box(&out);
             });
             result.map_err(|e| anyhow!("{precision} batch {input}: {e}"))?;

@@ -1,7 +1,6 @@
 //! `brdf`: evaluate the six-parameter BRDF model family from the command line.
 
 mod angles;
-mod batch;
 mod bench;
 mod bench_fit;
 mod check;

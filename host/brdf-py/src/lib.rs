@@ -9,6 +9,7 @@
 #![warn(missing_docs)]
 
 use brdf_core::anneal::check_directions;
+use brdf_core::batch::par::{self, Inputs};
 use brdf_core::batch::{Batch, BatchError};
 use brdf_core::{AnyModel, Brdf, Float, Geometry, ModelKind, MAX_PARAMS};
 use brdf_fit::import::{import, Channel, Format};
@@ -127,8 +128,9 @@ fn radians<T: Float>(deg: &[f64]) -> Vec<T> {
 }
 
 /// `brdf eval` on arrays: f64 through the batch path, f32 through the scalar path (the
-/// firmware's arithmetic).
+/// firmware's arithmetic); on all cores when `parallel` (each value the same bit for bit).
 #[pyfunction]
+#[allow(clippy::too_many_arguments)]
 fn eval_angles<'py>(
     py: Python<'py>,
     model: &str,
@@ -137,7 +139,9 @@ fn eval_angles<'py>(
     theta_r: PyReadonlyArray1<'py, f64>,
     phi: PyReadonlyArray1<'py, f64>,
     precision: &str,
+    parallel: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
+    use rayon::prelude::*;
     let kind = parse_kind(model)?;
     let cols = [
         slice(&theta_i, "theta_i")?,
@@ -151,8 +155,7 @@ fn eval_angles<'py>(
                 check_degrees(cols)?;
                 let [a, b, c] = cols.map(radians::<f64>);
                 let mut out = vec![0.0; a.len()];
-                Batch::new(&m)
-                    .angles(&a, &b, &c, &mut out)
+                par::eval(&Batch::new(&m), Inputs::Angles([&a, &b, &c]), &mut out, parallel)
                     .map_err(batch_failure)?;
                 finite(&out, kind)?;
                 Ok(out)
@@ -164,7 +167,16 @@ fn eval_angles<'py>(
             let out = py.detach(|| -> Result<Vec<f32>, Failure> {
                 check_degrees(cols)?;
                 let [a, b, c] = cols.map(radians::<f32>);
-                let out: Vec<f32> = (0..a.len()).map(|i| m.eval_angles(a[i], b[i], c[i])).collect();
+                let one = |i: usize| m.eval_angles(a[i], b[i], c[i]);
+                let out: Vec<f32> = if parallel {
+                    (0..a.len())
+                        .into_par_iter()
+                        .with_min_len(par::PAR_CHUNK)
+                        .map(one)
+                        .collect()
+                } else {
+                    (0..a.len()).map(one).collect()
+                };
                 finite(&out, kind)?;
                 Ok(out)
             })?;
@@ -212,25 +224,26 @@ fn albedo<'py>(
     Ok(PyArray1::from_vec(py, out))
 }
 
-/// Evaluates cosines or vectors in precision `T` through the batch path.
-fn eval_batch<T: Float>(kind: ModelKind, params: &str, inputs: &[&[f64]]) -> Result<Vec<T>, Failure> {
+/// Evaluates cosines or vectors in precision `T` through the batch path (on all cores when
+/// `parallel`).
+fn eval_batch<T: Float + Send + Sync>(
+    kind: ModelKind,
+    params: &str,
+    inputs: &[&[f64]],
+    parallel: bool,
+) -> Result<Vec<T>, Failure> {
     let m: AnyModel<T> = build(kind, params)?;
     let cols: Vec<Vec<T>> = inputs
         .iter()
         .map(|c| c.iter().map(|&v| T::from_f64(v)).collect())
         .collect();
     let mut out = vec![T::ZERO; inputs[0].len()];
-    let b = Batch::new(&m);
-    let r = if cols.len() == 3 {
-        b.cosines(&cols[0], &cols[1], &cols[2], &mut out)
+    let what = if cols.len() == 3 {
+        Inputs::Cosines([&cols[0], &cols[1], &cols[2]])
     } else {
-        b.vectors(
-            [&cols[0], &cols[1], &cols[2]],
-            [&cols[3], &cols[4], &cols[5]],
-            &mut out,
-        )
+        Inputs::Vectors([&cols[0], &cols[1], &cols[2]], [&cols[3], &cols[4], &cols[5]])
     };
-    r.map_err(batch_failure)?;
+    par::eval(&Batch::new(&m), what, &mut out, parallel).map_err(batch_failure)?;
     finite(&out, kind)?;
     Ok(out)
 }
@@ -243,6 +256,7 @@ fn eval_columns<'py>(
     params: &str,
     columns: Vec<PyReadonlyArray1<'py, f64>>,
     precision: &str,
+    parallel: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let kind = parse_kind(model)?;
     if columns.len() != 3 && columns.len() != 6 {
@@ -254,11 +268,11 @@ fn eval_columns<'py>(
         .collect::<PyResult<_>>()?;
     match precision {
         "f64" => {
-            let out = py.detach(|| eval_batch::<f64>(kind, params, &cols))?;
+            let out = py.detach(|| eval_batch::<f64>(kind, params, &cols, parallel))?;
             Ok(PyArray1::from_vec(py, out).into_any())
         }
         "f32" => {
-            let out = py.detach(|| eval_batch::<f32>(kind, params, &cols))?;
+            let out = py.detach(|| eval_batch::<f32>(kind, params, &cols, parallel))?;
             Ok(PyArray1::from_vec(py, out).into_any())
         }
         other => Err(PyValueError::new_err(format!(

@@ -160,3 +160,21 @@ def test_the_gil_is_released_while_the_core_runs():
     inside = [s for s in stamps if t0 <= s <= t1]
     # With the GIL held the other thread could not run at all during the call.
     assert t1 - t0 > 0.02 and len(inside) >= 3, (t1 - t0, len(inside))
+
+
+@pytest.mark.parametrize("precision", ["f64", "f32"])
+def test_all_cores_give_one_threads_values_bit_for_bit(precision):
+    # 100,003 directions: 13 parallel chunks of 8,192 and a ragged tail.
+    rng = np.random.default_rng(7)
+    n = 100_003
+    ti, tr, phi = rng.uniform(0, 89, n), rng.uniform(0, 89, n), rng.uniform(-360, 360, n)
+    one = brdf.eval("six", KHAKI, ti, tr, phi, precision=precision, parallel=False)
+    assert brdf.eval("six", KHAKI, ti, tr, phi, precision=precision).tobytes() == one.tobytes()
+    c = [np.cos(np.deg2rad(x)) for x in (ti, tr, phi)]
+    one = brdf.eval_cosines("six", KHAKI, *c, precision=precision, parallel=False)
+    assert brdf.eval_cosines("six", KHAKI, *c, precision=precision).tobytes() == one.tobytes()
+    # The first bad element is still the one named, wherever its chunk runs.
+    ti[n - 5] = 95
+    ti[50_000] = 91
+    with pytest.raises(ValueError, match=r"index \[50000\]: column theta_i: zenith 91 deg"):
+        brdf.eval("six", KHAKI, ti, tr, phi, precision=precision)

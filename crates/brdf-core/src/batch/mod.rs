@@ -46,6 +46,8 @@
 //! an ulp (each level is tested against the scalar path); AVX2 and AVX-512 agree bit for bit.
 
 pub mod lanes;
+#[cfg(feature = "rayon")]
+pub mod par;
 
 use core::fmt;
 

@@ -99,7 +99,7 @@ def _shaped(out: np.ndarray, shape: tuple):
     return out[()] if shape == () else out
 
 
-def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, phi, *, precision: str = "f64"):
+def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, phi, *, precision: str = "f64", parallel: bool = True):
     """The BRDF (1/sr) of ``model`` at zenith angles ``theta_i``, ``theta_r`` and relative
     azimuth ``phi`` in degrees (canonical convention: ``phi = 180`` is the mirror side),
     broadcast like numpy.
@@ -108,6 +108,8 @@ def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, 
     ``precision="f64"`` is the reference (the core's batch path, as ``brdf eval``);
     ``"f32"`` is the device's arithmetic (radians computed in f64, rounded once to f32).
     Returns float64 or float32 of the broadcast shape (a scalar for 0-d inputs).
+    ``parallel`` spreads the work over all cores (rayon; every value is the one a single
+    thread gives, bit for bit); ``parallel=False`` runs on one thread. The GIL is released.
     Raises ValueError, with the index of the first bad element, for angles that are not
     finite, zeniths outside [0, 90] and values that are not finite.
     """
@@ -115,26 +117,26 @@ def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, 
     names = ("theta_i", "theta_r", "phi")
     shape, cols = _columns(names, (theta_i, theta_r, phi))
     try:
-        out = _brdf.eval_angles(model, _params_text(params), *cols, precision)
+        out = _brdf.eval_angles(model, _params_text(params), *cols, precision, bool(parallel))
     except _brdf.ElementError as e:
         raise _located(names, shape, e) from None
     return _shaped(out, shape)
 
 
-def eval_cosines(model: str, params: Union[str, Mapping[str, float]], cos_theta_i, cos_theta_r, cos_phi, *, precision: str = "f64"):
+def eval_cosines(model: str, params: Union[str, Mapping[str, float]], cos_theta_i, cos_theta_r, cos_phi, *, precision: str = "f64", parallel: bool = True):
     """The BRDF at cosines of the zenith angles and of the relative azimuth (each in
     [-1, 1], zenith cosines in [0, 1]), broadcast like numpy; see :func:`eval`."""
     dtype = _precision(precision)
     names = ("cos_theta_i", "cos_theta_r", "cos_phi")
     shape, cols = _columns(names, (cos_theta_i, cos_theta_r, cos_phi))
     try:
-        out = _brdf.eval_columns(model, _params_text(params), cols, precision)
+        out = _brdf.eval_columns(model, _params_text(params), cols, precision, bool(parallel))
     except _brdf.ElementError as e:
         raise _located(names, shape, e) from None
     return _shaped(out.astype(dtype, copy=False), shape)
 
 
-def eval_vectors(model: str, params: Union[str, Mapping[str, float]], wi, wr, *, precision: str = "f64"):
+def eval_vectors(model: str, params: Union[str, Mapping[str, float]], wi, wr, *, precision: str = "f64", parallel: bool = True):
     """The BRDF at unit direction vectors ``wi`` (towards the source) and ``wr`` (towards
     the viewer), arrays of shape ``(..., 3)`` in the surface frame (z the normal),
     broadcast like numpy over the leading axes; see :func:`eval`."""
@@ -148,7 +150,7 @@ def eval_vectors(model: str, params: Union[str, Mapping[str, float]], wi, wr, *,
     parts = [wi[..., k] for k in range(3)] + [wr[..., k] for k in range(3)]
     shape, cols = _columns(["wi"] * 3 + ["wr"] * 3, parts)
     try:
-        out = _brdf.eval_columns(model, _params_text(params), cols, precision)
+        out = _brdf.eval_columns(model, _params_text(params), cols, precision, bool(parallel))
     except _brdf.ElementError as e:
         raise _located(names, shape, e) from None
     return _shaped(out.astype(dtype, copy=False), shape)

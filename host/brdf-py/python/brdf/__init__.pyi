@@ -17,6 +17,7 @@ def eval(
     phi: ArrayLike,
     *,
     precision: str = "f64",
+    parallel: bool = True,
 ) -> Union[np.ndarray, np.floating]: ...
 def eval_cosines(
     model: str,
@@ -26,6 +27,7 @@ def eval_cosines(
     cos_phi: ArrayLike,
     *,
     precision: str = "f64",
+    parallel: bool = True,
 ) -> Union[np.ndarray, np.floating]: ...
 def eval_vectors(
     model: str,
@@ -34,6 +36,7 @@ def eval_vectors(
     wr: ArrayLike,
     *,
     precision: str = "f64",
+    parallel: bool = True,
 ) -> Union[np.ndarray, np.floating]: ...
 
 def albedo(model: str, params: Params, theta_i: ArrayLike, *, panels: int = 8) -> Union[np.ndarray, np.floating]: ...

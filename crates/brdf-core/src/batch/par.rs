@@ -1,7 +1,11 @@
-//! The core's batch path spread over all cores (rayon): `brdf eval` and `brdf bench eval`.
+//! The batch path spread over all cores (rayon; feature `rayon`): `brdf eval`, `brdf bench
+//! eval` and the Python package's `brdf.eval`. Each direction's value is the one
+//! [`Batch`] gives on one thread, bit for bit.
 
-use brdf_core::batch::{Batch, BatchError};
-use brdf_core::Float;
+extern crate std;
+
+use super::{Batch, BatchError};
+use crate::Float;
 use rayon::prelude::*;
 
 /// Directions per parallel task: large enough that scheduling costs nothing measurable
