@@ -146,43 +146,18 @@ pub fn random_six(rng: &mut SplitMix) -> [f64; 6] {
     ]
 }
 
-/// Direction triples (theta_i, theta_r, phi) in radians, f32-representable, covering the
-/// hemisphere up to 89.9 degrees on a regular grid plus points within 1e-4 rad (and much
-/// closer) of the retro and mirror directions.
+/// The grid of the f32 claim (`brdf_core::accuracy::claim_grid`), collected.
 pub fn dense_grid_f32() -> Vec<[f32; 3]> {
-    let max_zenith = 89.9_f64.to_radians();
-    let n_z = 46;
-    let n_phi = 37;
-    let mut out = Vec::new();
-    for i in 0..n_z {
-        let ti = max_zenith * i as f64 / (n_z - 1) as f64;
-        for j in 0..n_z {
-            let tr = max_zenith * j as f64 / (n_z - 1) as f64;
-            for k in 0..n_phi {
-                let phi = std::f64::consts::PI * k as f64 / (n_phi - 1) as f64;
-                out.push([ti as f32, tr as f32, phi as f32]);
-            }
-        }
-        // Near retro (phi ~ 0) and mirror (phi ~ pi), theta_r ~ theta_i.
-        let offsets = [0.0, 1e-7, -1e-7, 1e-6, -1e-6, 1e-5, -1e-5, 1e-4, -1e-4];
-        for &dt in &offsets {
-            let tr = (ti + dt).clamp(0.0, max_zenith);
-            for &dp in &[0.0, 1e-7, 1e-6, 1e-5, 1e-4] {
-                out.push([ti as f32, tr as f32, dp as f32]);
-                out.push([ti as f32, tr as f32, (std::f64::consts::PI - dp) as f32]);
-            }
-        }
-    }
-    out
+    brdf_core::accuracy::claim_grid().collect()
 }
 
 /// The three f32 evaluation paths against f64 at the same f32 inputs.
 pub mod f32_paths {
     use brdf_core::accuracy::compare;
-    use brdf_core::{AnyModel, Brdf, ModelKind};
+    use brdf_core::{AnyModel, ModelKind};
 
     /// One evaluation path: the f32 and the f64 value at one direction.
-    pub type Path = fn(&AnyModel<f32>, &AnyModel<f64>, [f32; 3]) -> (f32, f64);
+    pub use brdf_core::accuracy::F32Path as Path;
 
     /// Worst relative error of `path` over `grid` where the f64 value is above the floor.
     /// Returns (worst relative error, where, number of points compared).
@@ -207,38 +182,8 @@ pub mod f32_paths {
         (a.max, a.worst_at.map_or([0.0; 3], |k| grid[k]), a.n)
     }
 
-    pub fn angles(m32: &AnyModel<f32>, m64: &AnyModel<f64>, x: [f32; 3]) -> (f32, f64) {
-        let [ti, tr, phi] = x;
-        (
-            m32.eval_angles(ti, tr, phi),
-            m64.eval_angles(ti.into(), tr.into(), phi.into()),
-        )
-    }
-
-    pub fn cosines(m32: &AnyModel<f32>, m64: &AnyModel<f64>, x: [f32; 3]) -> (f32, f64) {
-        // The device receives f32 cosines; the f64 reference evaluates at the same cosines.
-        let c = x.map(|a| f64::from(a).cos() as f32);
-        (
-            m32.eval_cosines(c[0], c[1], c[2]),
-            m64.eval_cosines(c[0].into(), c[1].into(), c[2].into()),
-        )
-    }
-
-    pub fn vectors(m32: &AnyModel<f32>, m64: &AnyModel<f64>, x: [f32; 3]) -> (f32, f64) {
-        let [ti, tr, phi] = x.map(f64::from);
-        let wi = [ti.sin() as f32, 0.0, ti.cos() as f32];
-        let wr = [
-            (tr.sin() * phi.cos()) as f32,
-            (tr.sin() * phi.sin()) as f32,
-            tr.cos() as f32,
-        ];
-        (
-            m32.eval_vectors(wi, wr),
-            m64.eval_vectors(wi.map(f64::from), wr.map(f64::from)),
-        )
-    }
-
-    pub const PATHS: [(&str, Path); 3] = [("angles", angles), ("cosines", cosines), ("vectors", vectors)];
+    /// The three paths, by name (`brdf_core::accuracy::F32_PATHS`).
+    pub use brdf_core::accuracy::F32_PATHS as PATHS;
 }
 
 /// Accuracy of the tabulated path ([`brdf_core::table`]) against the exact f64 model.

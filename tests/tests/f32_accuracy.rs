@@ -51,3 +51,24 @@ fn f32_matches_f64_for_random_parameters_of_every_model() {
         println!("{:9} random parameters: max rel error {worst:.2e}", kind.name());
     }
 }
+
+/// What `brdf pack` measures per material (`brdf_core::accuracy::f32_claim_accuracy`) is
+/// this test's figure: the same grid, paths and floor.
+#[test]
+fn the_claim_measured_per_material_is_this_tests_figure() {
+    use brdf_core::accuracy::f32_claim_accuracy;
+    let grid = dense_grid_f32();
+    assert_eq!(grid.len(), 82_432);
+    for (name, p) in TABLE1 {
+        let p32 = p.map(|v| v as f32);
+        for (path_name, path) in PATHS {
+            let acc = f32_claim_accuracy(ModelKind::Six, &p32, path).unwrap();
+            let (e, at, n) = worst_error(ModelKind::Six, &p, &grid, path);
+            assert_eq!(
+                (acc.max, acc.worst_at, acc.n),
+                (e, Some(at), n),
+                "{name} {path_name}"
+            );
+        }
+    }
+}

@@ -27,6 +27,7 @@
 //! ```
 
 use crate::tolerance::F32_FLOOR_OF_MAX;
+use crate::{AnyModel, Brdf, ModelKind, ParamError};
 
 /// How far an evaluation path (`f32` or `f64`) is from the exact model over a set of inputs.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -159,6 +160,112 @@ pub fn splitmix64(state: &mut u64) -> u64 {
 /// The next [`splitmix64`] draw as a uniform `f64` in `[0, 1)` (its top 53 bits).
 pub fn splitmix64_unit(state: &mut u64) -> f64 {
     (splitmix64(state) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// The grid the f32 claim ([`crate::tolerance::F32_MAX_REL`]) is checked on, as f32 angles
+/// `(theta_i, theta_r, phi)`: [`regular_grid`]`(89.9, 46, 37)` and, at each of its 46
+/// incidences, 90 directions near retro (`phi` = 0 to 1e-4) and mirror (`phi` = π minus
+/// those) with `theta_r` within 1e-4 rad of `theta_i`: 82,432 directions, incidence
+/// outermost.
+pub fn claim_grid() -> impl Iterator<Item = [f32; 3]> + Clone {
+    const N_ZENITH: usize = 46;
+    const N_AZIMUTH: usize = 37;
+    const DT: [f64; 9] = [0.0, 1e-7, -1e-7, 1e-6, -1e-6, 1e-5, -1e-5, 1e-4, -1e-4];
+    const DP: [f64; 5] = [0.0, 1e-7, 1e-6, 1e-5, 1e-4];
+    let zmax = 89.9_f64.to_radians();
+    (0..N_ZENITH).flat_map(move |i| {
+        let ti = zmax * i as f64 / (N_ZENITH - 1) as f64;
+        let block = (0..N_ZENITH * N_AZIMUTH).map(move |k| {
+            let (j, l) = (k / N_AZIMUTH, k % N_AZIMUTH);
+            let tr = zmax * j as f64 / (N_ZENITH - 1) as f64;
+            let phi = core::f64::consts::PI * l as f64 / (N_AZIMUTH - 1) as f64;
+            [ti as f32, tr as f32, phi as f32]
+        });
+        let near = (0..DT.len() * DP.len() * 2).map(move |k| {
+            let (t, p, mirror) = (k / (DP.len() * 2), k / 2 % DP.len(), k % 2 == 1);
+            let tr = (ti + DT[t]).clamp(0.0, zmax);
+            let phi = if mirror {
+                core::f64::consts::PI - DP[p]
+            } else {
+                DP[p]
+            };
+            [ti as f32, tr as f32, phi as f32]
+        });
+        block.chain(near)
+    })
+}
+
+/// One f32 evaluation path at a direction of [`claim_grid`] (f32 angles): its f32 value and
+/// the f64 model's at exactly the same f32 inputs.
+pub type F32Path = fn(&AnyModel<f32>, &AnyModel<f64>, [f32; 3]) -> (f32, f64);
+
+/// From angles: the f32 angles themselves.
+pub fn path_angles(m32: &AnyModel<f32>, m64: &AnyModel<f64>, x: [f32; 3]) -> (f32, f64) {
+    let [ti, tr, phi] = x;
+    (
+        m32.eval_angles(ti, tr, phi),
+        m64.eval_angles(ti.into(), tr.into(), phi.into()),
+    )
+}
+
+/// From cosines: the angles' cosines rounded to f32 (what a device receives).
+pub fn path_cosines(m32: &AnyModel<f32>, m64: &AnyModel<f64>, x: [f32; 3]) -> (f32, f64) {
+    let c = x.map(|a| libm::cos(f64::from(a)) as f32);
+    (
+        m32.eval_cosines(c[0], c[1], c[2]),
+        m64.eval_cosines(c[0].into(), c[1].into(), c[2].into()),
+    )
+}
+
+/// From vectors: the unit vectors of the angles rounded to f32 (incidence in the x-z plane).
+pub fn path_vectors(m32: &AnyModel<f32>, m64: &AnyModel<f64>, x: [f32; 3]) -> (f32, f64) {
+    let [ti, tr, phi] = x.map(f64::from);
+    let wi = [libm::sin(ti) as f32, 0.0, libm::cos(ti) as f32];
+    let wr = [
+        (libm::sin(tr) * libm::cos(phi)) as f32,
+        (libm::sin(tr) * libm::sin(phi)) as f32,
+        libm::cos(tr) as f32,
+    ];
+    (
+        m32.eval_vectors(wi, wr),
+        m64.eval_vectors(wi.map(f64::from), wr.map(f64::from)),
+    )
+}
+
+/// The three f32 paths the claim covers, by name.
+pub const F32_PATHS: [(&str, F32Path); 3] = [
+    ("angles", path_angles),
+    ("cosines", path_cosines),
+    ("vectors", path_vectors),
+];
+
+/// The exact f32 model of `kind` with `params` (as a device holds them) measured on
+/// [`claim_grid`] through `path` (one of [`F32_PATHS`]) against the f64 model of the same f32
+/// parameters: what [`crate::tolerance::F32_MAX_REL`] promises for parameters in the paper's
+/// range, measured for these. `brdf pack` warns when it exceeds the promise.
+pub fn f32_claim_accuracy(kind: ModelKind, params: &[f32], path: F32Path) -> Result<Accuracy, ParamError> {
+    let m32 = AnyModel::<f32>::new(kind, params)?;
+    let mut wide = [0.0f64; crate::MAX_PARAMS];
+    for (w, &p) in wide.iter_mut().zip(params) {
+        *w = f64::from(p);
+    }
+    let m64 = AnyModel::<f64>::new(kind, &wide[..params.len()])?;
+    let top = claim_grid().map(|x| path(&m32, &m64, x).1).fold(0.0, f64::max);
+    let values = claim_grid().map(|x| {
+        let (single, double) = path(&m32, &m64, x);
+        (x, single, double)
+    });
+    let a = compare_above(values, |v| v.1, |v| v.2, F32_FLOOR_OF_MAX * top);
+    Ok(Accuracy {
+        max: a.max,
+        rms: a.rms,
+        mean: a.mean,
+        worst_at: a.worst_at.map(|v| v.0),
+        n: a.n,
+        max_abs: a.max_abs,
+        mean_abs: a.mean_abs,
+        total: a.total,
+    })
 }
 
 #[cfg(test)]

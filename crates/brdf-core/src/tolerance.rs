@@ -27,6 +27,8 @@ pub const SEVEN_DIGIT_REFERENCE_REL: f64 = 1.5e-7;
 /// `cargo run --release -p brdf-tests --example f32_domain`). It is **not** met everywhere:
 /// with `|b| <= 60`, `a <= 2`, `c <= 2` 2 of 150 sets reach 3.5e-6, and over the fitter's
 /// whole search box (`a` to 4, `|b|` to 200, `c` to 5) 60 of 150 exceed it, up to 8e-6.
+/// `brdf pack` therefore measures each material it packs on the same grid
+/// ([`crate::accuracy::f32_claim_accuracy`]) and warns when it exceeds this figure.
 /// The textbook forms of `1 - cos(gamma)` and of `1 + (kr^2 - 1) cos(alpha)` miss it by two
 /// to three orders of magnitude (docs/model.md); the firmware cross-check holds the device to the
 /// same figure.

@@ -2,7 +2,8 @@
 //! `brdf.pack` returns.
 //!
 //! Each fit becomes a [`Material`] (parameters checked against `brdf_core::ranges`), is
-//! checked for an energy bound, optionally gets lookup tables measured against their promise
+//! checked for an energy bound and for the f32 accuracy its parameters get on the device,
+//! optionally gets lookup tables measured against their promise
 //! ([`promise_accuracy`]), and the whole is encoded as a [`Blob`]. What the caller should
 //! show besides the blob (energy warnings, the tables' measured errors) arrives as [`Note`]s,
 //! in order, as they are found.
@@ -21,8 +22,9 @@
 
 use std::path::Path;
 
+use brdf_core::accuracy::{f32_claim_accuracy, F32_PATHS};
 use brdf_core::table::{promise_accuracy, table_len, SixTable, TableError, MAX_TABLE_NODES, MIN_TABLE_NODES};
-use brdf_core::tolerance::{table_max_rel, TABLE_MAX_REL, TABLE_MAX_ZENITH_DEG};
+use brdf_core::tolerance::{table_max_rel, F32_MAX_REL, TABLE_MAX_REL, TABLE_MAX_ZENITH_DEG};
 use brdf_wire::blob::{blob_crc, Blob, BlobError, Material, MAX_BLOB_LEN, MAX_MATERIALS};
 
 use crate::report::{FittedModel, ReadError};
@@ -174,9 +176,35 @@ pub fn encode(
     })
 }
 
+/// The device's exact f32 path for `m` measured on the f32 claim's grid from angles and from
+/// cosines (the two inputs EVAL takes; `brdf_core::accuracy::f32_claim_accuracy`): a
+/// sentence saying how far it errs when that exceeds [`F32_MAX_REL`], which is promised only
+/// for parameters in the paper's range (steep lobes and large `c` over the fitter's search
+/// box reach 8e-6); `None` within it.
+fn f32_beyond_claim(m: &Material) -> Result<Option<String>, brdf_core::ParamError> {
+    let p = &m.params[..m.kind.param_count()];
+    let mut worst: Option<(f64, &str, [f32; 3])> = None;
+    for (path_name, path) in &F32_PATHS[..2] {
+        let a = f32_claim_accuracy(m.kind, p, *path)?;
+        if a.max > F32_MAX_REL && worst.is_none_or(|w| a.max > w.0) {
+            worst = Some((a.max, path_name, a.worst_at.unwrap_or_default()));
+        }
+    }
+    Ok(worst.map(|(e, path_name, at)| {
+        let deg = at.map(|x| f64::from(x).to_degrees());
+        format!(
+            "the device's f32 evaluation errs by up to {e:.2e} (from {path_name}, at theta_i \
+             {:.2}, theta_r {:.2}, phi {:.2} deg) against f64, above the {F32_MAX_REL:e} \
+             promised for parameters in the paper's range (|b| <= 40, a <= 1, c <= 1.5)",
+            deg[0], deg[1], deg[2]
+        )
+    }))
+}
+
 /// Packs every fit of `sources`, in order (an array adds each of its fits), into one blob.
 /// Parameters outside a model's ranges are refused; a material without a proof of energy
-/// conservation (`kb + kd > 1`, or no bound) is packed with a [`Level::Warning`] note. With
+/// conservation (`kb + kd > 1`, or no bound), or whose f32 evaluation errs beyond
+/// [`F32_MAX_REL`] on the claim's grid, is packed with a [`Level::Warning`] note. With
 /// `table_nodes`, every six-parameter material gets tables, each measured against the
 /// promise of its size (a note per material, then one on the size).
 pub fn pack(
@@ -231,6 +259,9 @@ pub fn pack(
             }
             if materials.len() == MAX_MATERIALS {
                 return Err(PackError::TooManyMaterials);
+            }
+            if let Some(text) = f32_beyond_claim(&m).map_err(refused)? {
+                say(Level::Warning, format!("warning: {origin} ({name}): {text}"));
             }
             materials.push(m);
             origin_of.push(origin);
@@ -371,6 +402,33 @@ mod tests {
             err.to_string().starts_with("cannot read /nonexistent/a.json: "),
             "{err}"
         );
+    }
+
+    #[test]
+    fn a_steep_material_beyond_the_f32_claim_is_packed_with_a_warning() {
+        // Inside the fitter's search box, outside the paper's range: a steep lobe (a = 3,
+        // |b| = 150) and c = 4; it conserves energy (kb + kd = 1), so the one warning is f32's.
+        let steep =
+            r#"{"model": "six", "params": {"kb": 0.5, "kr": 20, "b": -150, "a": 3, "kd": 0.5, "c": 4}}"#;
+        let (packed, notes) = pack_text(steep, None);
+        packed.unwrap();
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert_eq!(notes[0].level, Level::Warning);
+        let text = &notes[0].text;
+        assert!(
+            text.starts_with("warning: results: fit 0 (six): the device's f32 evaluation errs by up to"),
+            "{text}"
+        );
+        let e: f64 = text
+            ["warning: results: fit 0 (six): the device's f32 evaluation errs by up to ".len()..]
+            .split_whitespace()
+            .next()
+            .and_then(|w| w.parse().ok())
+            .unwrap();
+        assert!(e > F32_MAX_REL && e < 10.0 * F32_MAX_REL, "{text}");
+        // Khaki, in the paper's range, gets no note at all.
+        let (_, notes) = pack_text(KHAKI, None);
+        assert!(notes.is_empty(), "{notes:?}");
     }
 
     #[test]
