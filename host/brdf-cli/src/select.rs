@@ -67,15 +67,14 @@ impl SelectCmd {
             self.max_theta_r.unwrap_or(self.max_theta),
         );
         let kept = DataDomain::new(d, max_i, max_r);
-        if let Some(note) = kept.left_out_note(max_i, max_r, d.points.len()) {
+        if let Some(note) = kept.left_out_note() {
             eprintln!("{note}");
         }
         let domain = &kept.domain;
         let s = select_data(
-            domain,
+            &kept,
             &|k| self.engine.settings(k),
             self.budget,
-            (max_i, max_r),
             self.allow_nonphysical,
         )
         .map_err(|e| anyhow!(e))?;

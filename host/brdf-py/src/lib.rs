@@ -704,14 +704,13 @@ fn select_dataset<'py>(
         }
     }
     let kept = DataDomain::new(&d, limits.0, limits.1);
-    notes.extend(kept.left_out_note(limits.0, limits.1, d.points.len()));
+    notes.extend(kept.left_out_note());
     let base = settings.settings;
     let (text, candidates, blob) = py.detach(move || -> Result<_, String> {
         let s = select_data(
-            &kept.domain,
+            &kept,
             &|kind| FitSettings { kind, ..base },
             budget,
-            limits,
             allow_nonphysical,
         )?;
         let blob = match &s.material {

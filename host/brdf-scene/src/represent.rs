@@ -240,6 +240,11 @@ pub fn one_dataset(origin: &str, mut datasets: Vec<Dataset>) -> Result<Dataset, 
 pub struct DataDomain {
     /// The points kept, under the dataset's name.
     pub domain: Dataset,
+    /// The limits (degrees).
+    pub max_theta_i: f64,
+    pub max_theta_r: f64,
+    /// Points in the whole dataset.
+    pub total: usize,
     /// Points left out for `theta_i` beyond the limit.
     pub beyond_i: usize,
     /// Points left out for `theta_r` beyond its limit (among those within the `theta_i` one).
@@ -268,20 +273,26 @@ impl DataDomain {
         };
         DataDomain {
             domain,
+            max_theta_i,
+            max_theta_r,
+            total: d.points.len(),
             beyond_i,
             beyond_r,
         }
     }
 
     /// What was left out, for the user (`None` when every point is kept).
-    pub fn left_out_note(&self, max_theta_i: f64, max_theta_r: f64, total: usize) -> Option<String> {
+    pub fn left_out_note(&self) -> Option<String> {
         let (bi, br) = (self.beyond_i, self.beyond_r);
         (bi + br > 0).then(|| {
             format!(
-                "{}: left out {} of {total} points: {bi} with theta_i > {max_theta_i} deg, {br} more with \
-                 theta_r > {max_theta_r} deg (limits kept within {} deg)",
+                "{}: left out {} of {} points: {bi} with theta_i > {} deg, {br} more with \
+                 theta_r > {} deg (limits kept within {} deg)",
                 self.domain.name,
                 bi + br,
+                self.total,
+                self.max_theta_i,
+                self.max_theta_r,
                 brdf_core::tolerance::ANGLE_FILTER_DEG
             )
         })
@@ -314,17 +325,17 @@ pub struct DataSelection {
     pub material: Option<(Material, Option<Vec<u8>>)>,
 }
 
-/// Fits every model of [`ModelKind::LADDER`] to `domain` with `settings(kind)`, measures every
+/// Fits every model of [`ModelKind::LADDER`] to the points `kept` with `settings(kind)`, measures every
 /// representation and chooses among them ([`choose`]). Fails with a message naming the
 /// dataset when the domain has fewer than 7 points (too few to compare models) or a fitted
 /// model cannot become a device material.
 pub fn select_data(
-    domain: &Dataset,
+    kept: &DataDomain,
     settings: &dyn Fn(ModelKind) -> brdf_fit::FitSettings,
     budget: f64,
-    (max_theta_i, max_theta_r): (f64, f64),
     allow_nonphysical: bool,
 ) -> Result<DataSelection, String> {
+    let (domain, max_theta_i, max_theta_r) = (&kept.domain, kept.max_theta_i, kept.max_theta_r);
     if domain.points.len() < 7 {
         return Err(format!(
             "{}: only {} points with theta_i <= {max_theta_i} and theta_r <= {max_theta_r} deg; too few to compare models",

@@ -2,8 +2,9 @@
 
 The same core as the ``brdf`` command: :func:`eval` gives the values ``brdf eval`` prints,
 :func:`fit` the report ``brdf fit --json`` prints (``FitResult.to_json()``), :func:`pack`
-the blob ``brdf pack`` writes, :func:`select` the choice ``brdf select --json`` prints, and errors are raised as :class:`ValueError` with the
-command's messages, located by array index instead of CSV line.
+the blob ``brdf pack`` writes, :func:`select` the choice ``brdf select --json`` prints,
+and errors are raised as :class:`ValueError` with the command's messages, located by array
+index instead of CSV line.
 """
 
 from __future__ import annotations
