@@ -1,5 +1,5 @@
-//! The batch path spread over all cores (rayon; feature `rayon`): `brdf eval`, `brdf bench
-//! eval` and the Python package's `brdf.eval`. Each direction's value is the one
+//! The batch path spread over all cores (rayon; feature `rayon`): `brdf bench eval` and the
+//! Python package's `brdf.eval`. Each direction's value is the one
 //! [`Batch`] gives on one thread, bit for bit.
 
 extern crate std;
