@@ -96,7 +96,7 @@ pub trait Float:
 }
 
 macro_rules! impl_float {
-    ($t:ident, $splitter:expr, $sqrt:ident, $exp:ident, $ln:ident, $ln1p:ident, $pow:ident, $sin:path,
+    ($t:ident, $splitter:expr, $sqrt:ident, $exp:path, $ln:path, $ln1p:path, $pow:ident, $sin:path,
      $cos:path, $sincos:path, $fabs:ident) => {
         impl Float for $t {
             const ZERO: Self = 0.0;
@@ -124,15 +124,15 @@ macro_rules! impl_float {
             }
             #[inline]
             fn exp(self) -> Self {
-                libm::$exp(self)
+                $exp(self)
             }
             #[inline]
             fn ln(self) -> Self {
-                libm::$ln(self)
+                $ln(self)
             }
             #[inline]
             fn ln_1p(self) -> Self {
-                libm::$ln1p(self)
+                $ln1p(self)
             }
             #[inline]
             fn powf(self, y: Self) -> Self {
@@ -166,9 +166,9 @@ impl_float!(
     f32,
     4097.0,
     sqrt_f32,
-    expf,
-    logf,
-    log1pf,
+    exp_f32,
+    ln_f32,
+    ln_1p_f32,
     powf_f32,
     sin_f32,
     cos_f32,
@@ -179,9 +179,9 @@ impl_float!(
     f64,
     134_217_729.0,
     sqrt_f64,
-    exp,
-    log,
-    log1p,
+    libm::exp,
+    libm::log,
+    libm::log1p,
     pow_f64,
     libm::sin,
     libm::cos,
@@ -244,8 +244,209 @@ fn sqrt_f64(x: f64) -> f64 {
     libm::sqrt(x)
 }
 
-#[inline]
+/// 1.5 * 2^23: adding it to `|v| < 2^22` rounds `v` to the nearest integer `n` (ties to
+/// even), and the sum's bits are `SHIFT`'s plus `n`.
+const SHIFT: f32 = 12_582_912.0;
+
+/// The integer `n` that `t = v + SHIFT` holds (see [`SHIFT`]).
+#[inline(always)]
+fn shifted_int(t: f32) -> i32 {
+    t.to_bits() as i32 - SHIFT.to_bits() as i32
+}
+
+/// `p 2^n` for `p` in `[1/2, 2]`, rounding once (subnormal results included); 0 for
+/// `n < -151`, infinity for `n > 128` (where `p 2^n` is beyond half the smallest subnormal
+/// or the largest f32).
+#[inline(always)]
+fn times_pow2(p: f32, n: i32) -> f32 {
+    let pow2 = |k: i32| f32::from_bits(((k + 127) as u32) << 23);
+    if ((n + 126) as u32) <= 253 {
+        p * pow2(n)
+    } else {
+        times_pow2_edges(p, n)
+    }
+}
+
+/// [`times_pow2`] outside the normal exponents.
+#[cold]
+#[inline(never)]
+fn times_pow2_edges(p: f32, n: i32) -> f32 {
+    let pow2 = |k: i32| f32::from_bits(((k + 127) as u32) << 23);
+    if n < -151 {
+        0.0
+    } else if n < -126 {
+        // The first product is exact; the second rounds into the subnormal range.
+        p * pow2(n + 64) * pow2(-64)
+    } else if n <= 128 {
+        p * pow2(127) * pow2(n - 127)
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// `ln 2` in two parts: `LN2_HI` has 15 significant bits, so `n LN2_HI` is exact for
+/// `|n| < 2^9`; `LN2_LO` is the rest, to f32 precision.
+// The parts are written with the digits of their exact binary values.
+#[allow(clippy::excessive_precision)]
+const LN2_HI: f32 = 0.693_145_751_953_125;
+#[allow(clippy::excessive_precision)]
+const LN2_LO: f32 = 1.428_606_765_330_187_045_e-6;
+
+/// `x = 2^e m` with `m` in `[sqrt(1/2), sqrt(2))`, for positive normal `x`: returns
+/// `(e, t)` with `t = (m - 1)/(m + 1)`, so that `ln m = 2 atanh t` and `|t| <= 0.1716`.
+/// `m - 1` is exact (Sterbenz); `t` is within about 1.5 ulp.
+#[inline(always)]
+fn log_reduce(x: f32) -> (f32, f32) {
+    // The bits of sqrt(1/2): offsetting by them puts the mantissa's break at sqrt(1/2).
+    const SQRT_HALF_BITS: u32 = 0x3F35_04F3;
+    let bits = x.to_bits() + (0x3F80_0000 - SQRT_HALF_BITS);
+    let e = (bits >> 23) as i32 - 127;
+    let f = f32::from_bits((bits & 0x007F_FFFF) + SQRT_HALF_BITS) - 1.0;
+    (e as f32, f / (2.0 + f))
+}
+
+/// `ln m = 2 atanh t = 2t + t^3 R(t^2)` for `|t| <= 0.1716`: `R` is the minimax polynomial
+/// of degree 2 (relative error of the result below 1e-9 before rounding).
+#[allow(clippy::excessive_precision)]
+#[inline(always)]
+fn ln_series(t: f32) -> f32 {
+    const L0: f32 = 0.666_667_82;
+    const L1: f32 = 0.399_766_36;
+    const L2: f32 = 0.298_981_52;
+    let s = t * t;
+    2.0 * t + t * s * (L0 + s * (L1 + s * L2))
+}
+
+/// `e^x` in f32 arithmetic: `x = n ln 2 + r` (Cody–Waite with [`LN2_HI`], [`LN2_LO`]: `r`
+/// good to an ulp), `e^r = 1 + r + r^2 Q(r)` on `|r| <= 0.354` with `Q` the minimax
+/// polynomial of degree 4 (relative error below 4e-9), times `2^n`. Within 1.5 units of
+/// `2^-24` relative (test `f32_elementary_functions_within_their_ulps`). 0 below -104,
+/// infinity above 88.8, NaN for NaN.
+#[allow(clippy::excessive_precision)]
+fn exp_f32(x: f32) -> f32 {
+    const E0: f32 = 0.499_999_94;
+    const E1: f32 = 0.166_665_09;
+    const E2: f32 = 0.041_668_53;
+    const E3: f32 = 0.008_370_141;
+    const E4: f32 = 0.001_381_165_1;
+    if !(x > -104.0) {
+        return if x.is_nan() { x } else { 0.0 };
+    }
+    if x > 88.8 {
+        return f32::INFINITY;
+    }
+    let t = x * core::f32::consts::LOG2_E + SHIFT;
+    let n = t - SHIFT;
+    // n LN2_HI is exact and so is the first subtraction (Sterbenz).
+    let r = (x - n * LN2_HI) - n * LN2_LO;
+    let q = E0 + r * (E1 + r * (E2 + r * (E3 + r * E4)));
+    times_pow2(1.0 + (r + r * r * q), shifted_int(t))
+}
+
+/// Natural logarithm in f32 arithmetic: `e ln 2 + ln m` from [`log_reduce`] and
+/// [`ln_series`], `e ln 2` in two parts. Within 1.5 units of `2^-24` relative away from
+/// `x = 1`, where it is within that of `|ln m|`'s. NaN below 0, `-inf` at 0.
+fn ln_f32(x: f32) -> f32 {
+    if !(x > 0.0) {
+        return if x == 0.0 { f32::NEG_INFINITY } else { f32::NAN };
+    }
+    if x == f32::INFINITY {
+        return x;
+    }
+    if x < f32::MIN_POSITIVE {
+        // Subnormal: 2^25 x is normal (and exact).
+        return ln_f32(x * 33_554_432.0) - 25.0 * LN2_HI - 25.0 * LN2_LO;
+    }
+    let (e, t) = log_reduce(x);
+    e * LN2_HI + (e * LN2_LO + ln_series(t))
+}
+
+/// `ln(1 + x)` in f32 arithmetic, keeping its relative accuracy for small `x`:
+/// - `sqrt(1/2) - 1 <= x <= sqrt(2) - 1`: `2 atanh(x / (2 + x))`, no rounding of `1 + x`;
+/// - `sqrt(2) - 1 < x <= 1` (the model's `ln(1 + cos ti cos tr)`): `ln 2 + 2 atanh((x - 1)/(x + 3))`;
+/// - elsewhere: `ln(u)` of `u = fl(1 + x)` plus the correction `(x - (u - 1))/u`.
+///
+/// Within 2 units of `2^-24` relative. NaN below -1, `-inf` at -1.
+#[allow(clippy::excessive_precision)]
+fn ln_1p_f32(x: f32) -> f32 {
+    const LOW: f32 = -0.292_893_22;
+    const HIGH: f32 = 0.414_213_56;
+    if (LOW..=HIGH).contains(&x) {
+        return ln_series(x / (2.0 + x));
+    }
+    if x > HIGH && x <= 1.0 {
+        return LN2_HI + (LN2_LO + ln_series((x - 1.0) / (x + 3.0)));
+    }
+    if !(x > -1.0) {
+        return if x == -1.0 { f32::NEG_INFINITY } else { f32::NAN };
+    }
+    let u = 1.0 + x;
+    if u == f32::INFINITY {
+        return u;
+    }
+    ln_f32(u) + (x - (u - 1.0)) / u
+}
+
+/// `x^y` for `x >= 0` in f32 arithmetic: `2^(y log2 x)` with `y log2 x` carried in two
+/// parts, so that its rounding does not grow with `|y log2 x|` (a plain
+/// `exp2(y * log2(x))` in f32 loses `|y log2 x|` ulp):
+/// - `log2 x = e + s`, `e` an integer, `|s| <= 1/2` ([`log_reduce`], [`ln_series`]);
+/// - `y = yh + yl`, `yh` the leading 12 bits of `y`: `yh e` is exact and holds the large
+///   part, `zs = yl e + y s` the small one (`|zs| <= 0.58 |y|`);
+/// - `n` the integer nearest `yh e + zs`, `f = (yh e - n) + zs` (the subtraction exact) on
+///   `|f| <= 1/2 + ulp`, `2^f = 1 + f P(f)` with `P` the minimax polynomial of degree 5
+///   (relative error below 3e-9), times `2^n`.
+///
+/// Error: about `(1 + |y|/2)` units of `2^-24` relative (test
+/// `f32_elementary_functions_within_their_ulps`), against libm's `powf`, which computes in
+/// f64 (software on the Cortex-M4F). `x^0 = 1`; zero, infinite, negative and NaN `x`, and
+/// `|y| > 16`, go to `libm::powf` (`0^y = 0` for `y > 0`).
 fn powf_f32(x: f32, y: f32) -> f32 {
+    // One unsigned comparison each (NaN and infinities fail both): x positive and normal,
+    // |y| <= 16.
+    let normal_x = x.to_bits().wrapping_sub(0x0080_0000) < 0x7F00_0000;
+    if !(normal_x && y.to_bits() & 0x7FFF_FFFF <= 16.0f32.to_bits()) {
+        return powf_f32_edges(x, y);
+    }
+    pow_normal(x, y, 0.0)
+}
+
+/// `2^e_extra x^y` for positive normal `x`, `|y| <= 16` and integer `e_extra` (see
+/// [`powf_f32`]).
+#[allow(clippy::excessive_precision)]
+#[inline(always)]
+fn pow_normal(x: f32, y: f32, e_extra: f32) -> f32 {
+    const P0: f32 = 0.693_147_18;
+    const P1: f32 = 0.240_226_48;
+    const P2: f32 = 0.055_503_26;
+    const P3: f32 = 0.009_618_463;
+    const P4: f32 = 0.001_340_147_8;
+    const P5: f32 = 0.000_153_512_62;
+    let (e, t) = log_reduce(x);
+    let e = e + e_extra;
+    let s = ln_series(t) * core::f32::consts::LOG2_E;
+    let yh = f32::from_bits(y.to_bits() & 0xFFFF_F000);
+    let yl = y - yh;
+    // yh has 12 significant bits and |e| <= 150 has 8: the product is exact.
+    let zb = yh * e;
+    let zs = yl * e + y * s;
+    // |zb + zs| <= 16 * 150 < 2^22, within SHIFT's range.
+    let t = (zb + zs) + SHIFT;
+    let n = shifted_int(t);
+    let f = (zb - (t - SHIFT)) + zs;
+    let p = 1.0 + f * (P0 + f * (P1 + f * (P2 + f * (P3 + f * (P4 + f * P5)))));
+    times_pow2(p, n)
+}
+
+/// [`powf_f32`] where `x` is not a positive normal number or `|y| > 16`: a subnormal `x` is
+/// scaled by `2^24` (exactly) and its exponent corrected; the rest is libm's `powf` (zero,
+/// infinite, negative and NaN `x`, large `|y|`).
+#[cold]
+#[inline(never)]
+fn powf_f32_edges(x: f32, y: f32) -> f32 {
+    if x > 0.0 && x < f32::MIN_POSITIVE && libm::fabsf(y) <= 16.0 {
+        return pow_normal(x * 16_777_216.0, y, -24.0);
+    }
     libm::powf(x, y)
 }
 
@@ -281,8 +482,6 @@ const SIN_COS_F32_MAX: f32 = 4096.0;
 #[allow(clippy::excessive_precision)]
 fn sin_cos_f32(x: f32) -> (f32, f32) {
     const FRAC_2_PI: f32 = core::f32::consts::FRAC_2_PI;
-    // 1.5 * 2^23: adding it rounds |v| < 2^22 to an integer.
-    const SHIFT: f32 = 12_582_912.0;
     const P1: f32 = 1.570_312_5;
     const P2: f32 = 4.837_512_969_970_703e-4;
     const P3: f32 = 7.549_533_620_476_723e-8;
@@ -410,5 +609,78 @@ mod tests {
         let far = sin_cos_f32(1e6);
         assert_eq!(far, libm::sincosf(1e6));
         assert!(sin_cos_f32(f32::NAN).0.is_nan() && sin_cos_f32(f32::INFINITY).1.is_nan());
+    }
+
+    /// Worst error, in units of `2^-24` relative (see [`ulps`]), of `f` against `exact` over
+    /// `xs`, with the argument where it occurs.
+    fn worst_ulps(xs: &[f32], f: impl Fn(f32) -> f32, exact: impl Fn(f64) -> f64) -> (f64, f32) {
+        let mut worst = (0.0f64, 0.0f32);
+        for &x in xs {
+            let (got, want) = (f(x), exact(f64::from(x)));
+            if want.abs() > f64::from(f32::MAX) {
+                // Beyond f32: infinity, or the largest finite value when rounding down.
+                assert!(got.abs() >= f32::MAX, "{x}: {got} for {want}");
+                continue;
+            }
+            let e = ulps(got, want);
+            if e > worst.0 || e.is_nan() {
+                worst = (e, x);
+            }
+        }
+        worst
+    }
+
+    /// An even spread of f32 bit patterns over `[lo, hi]` (same sign), about `n` of them.
+    fn spread(lo: f32, hi: f32, n: u32) -> Vec<f32> {
+        let (a, b) = (lo.to_bits().min(hi.to_bits()), lo.to_bits().max(hi.to_bits()));
+        let step = ((b - a) / n).max(1);
+        (0..=(b - a) / step).map(|k| f32::from_bits(a + k * step)).collect()
+    }
+
+    #[test]
+    fn f32_elementary_functions_within_their_ulps() {
+        use crate::tolerance::{f32_pow_ulps, F32_EXP_ULPS, F32_LN_ULPS};
+        let mut pos = spread(1e-44, 3e38, 2_000_000);
+        // Every f32 within 2^-8 relative of 1, where ln x is small.
+        pos.extend(spread(0.996, 1.004, 200_000));
+        let mut exp_in = spread(1e-30, 88.8, 1_000_000);
+        exp_in.extend(spread(-1e-30, -104.0, 1_000_000));
+        let e = worst_ulps(&exp_in, exp_f32, libm::exp);
+        assert!(e.0 <= F32_EXP_ULPS, "exp {e:?}");
+        let l = worst_ulps(&pos, ln_f32, libm::log);
+        assert!(l.0 <= F32_LN_ULPS, "ln {l:?}");
+        let mut l1_in = spread(1e-30, 1e30, 1_000_000);
+        l1_in.extend(spread(-1e-30, -0.999_999, 1_000_000));
+        // The model's range, cos ti cos tr, densely.
+        l1_in.extend(spread(1e-6, 1.0, 1_000_000));
+        let l1 = worst_ulps(&l1_in, ln_1p_f32, libm::log1p);
+        assert!(l1.0 <= F32_LN_ULPS, "ln_1p {l1:?}");
+        // Exponents: the ends of the model's ranges and random ones across (-1, 16].
+        let mut ys = std::vec![1e-3f32, 0.5, 1.0, 2.0, 10.0, 16.0, -0.5, -0.999];
+        let mut state = 7u64;
+        ys.extend((0..40).map(|_| {
+            (crate::accuracy::splitmix64(&mut state) >> 40) as f32 / (1u64 << 24) as f32 * 17.0 - 1.0
+        }));
+        let mut bases = spread(1e-40, 1e6, 20_000);
+        bases.extend(spread(0.999, 1.001, 5_000));
+        for y in ys {
+            let p = worst_ulps(&bases, |x| powf_f32(x, y), |x| x.powf(f64::from(y)));
+            assert!(p.0 <= f32_pow_ulps(f64::from(y)), "pow y={y} {p:?}");
+        }
+        // The edges: libm's special cases, over- and underflow, subnormal results.
+        assert_eq!(exp_f32(0.0), 1.0);
+        assert_eq!(exp_f32(-200.0), 0.0);
+        assert_eq!(exp_f32(89.0), f32::INFINITY);
+        assert_eq!(exp_f32(f32::NEG_INFINITY), 0.0);
+        assert!(exp_f32(f32::NAN).is_nan() && ln_f32(-1.0).is_nan() && ln_1p_f32(-2.0).is_nan());
+        assert_eq!((ln_f32(0.0), ln_f32(1.0)), (f32::NEG_INFINITY, 0.0));
+        assert_eq!((ln_1p_f32(-1.0), ln_1p_f32(0.0)), (f32::NEG_INFINITY, 0.0));
+        assert_eq!(ln_1p_f32(f32::INFINITY), f32::INFINITY);
+        assert_eq!((powf_f32(0.0, 0.5), powf_f32(0.0, -0.5)), (0.0, f32::INFINITY));
+        assert_eq!((powf_f32(0.3, 0.0), powf_f32(1.0, 7.3)), (1.0, 1.0));
+        assert_eq!(powf_f32(1e30, 5.0), f32::INFINITY);
+        assert_eq!(powf_f32(1e-30, 6.0), 0.0);
+        assert!(powf_f32(1e-20, 2.1) > 0.0 && powf_f32(1e-20, 2.1) < f32::MIN_POSITIVE);
+        assert!(powf_f32(-1.0, 0.5).is_nan() && powf_f32(f32::NAN, 2.0).is_nan());
     }
 }
