@@ -465,8 +465,39 @@ const SIN_COS_F32_MAX: f32 = 4096.0;
 /// `(sin x, cos x)` in f32 arithmetic alone — the device has no double-precision FPU, and
 /// libm's `sincosf` computes in software f64 (about 2,000 instructions on the Cortex-M4F).
 ///
-/// For `|x| <= 4096`: `x = n pi/2 + r`, with `pi/2` in four parts of 8, 12, 12 and 24 bits
-/// (`n < 2^12`, so the first three products are exact, `x - n P1` is exact by Sterbenz and
+/// The model's angles mostly need no reduction: zeniths lie in `[0, pi/2]`, and so do the
+/// half sums and half azimuths of [`crate::Geometry::from_angles`]. So:
+/// - `|x| <= pi/4`: the kernels directly;
+/// - `|x| <= fl(pi/2)`: `sin x = cos d`, `cos x = sin d` for `d = pi/2 - |x|`, with `pi/2` in
+///   three parts (f32, then 4.4e-8, then 1.7e-15): the first subtraction is exact
+///   (Sterbenz), the second's rounding is carried as the kernels' tail (Fast2Sum), so `d` is
+///   good to about 2^-48 relative even where it is tiny (the zeniths at the horizon);
+/// - beyond: [`sin_cos_reduced`].
+#[inline]
+fn sin_cos_f32(x: f32) -> (f32, f32) {
+    const FRAC_PI_4: f32 = core::f32::consts::FRAC_PI_4;
+    const PIO2_HI: f32 = core::f32::consts::FRAC_PI_2;
+    // pi/2 - PIO2_HI in two further f32 parts, digit for digit.
+    #[allow(clippy::excessive_precision)]
+    const PIO2_LO: f32 = -4.371_138_828_673_793e-8;
+    #[allow(clippy::excessive_precision)]
+    const PIO2_LO2: f32 = -1.715_124_510_005_882e-15;
+    let ax = f32::from_bits(x.to_bits() & 0x7FFF_FFFF);
+    if ax <= FRAC_PI_4 {
+        return (k_sinf(x, 0.0), k_cosf(x, 0.0));
+    }
+    if ax <= PIO2_HI {
+        let a = PIO2_HI - ax;
+        let d = a + PIO2_LO;
+        let y = (PIO2_LO - (d - a)) + PIO2_LO2;
+        let s = k_cosf(d, y);
+        return (if x < 0.0 { -s } else { s }, k_sinf(d, y));
+    }
+    sin_cos_reduced(x)
+}
+
+/// [`sin_cos_f32`] beyond `pi/2`. For `|x| <= 4096`: `x = n pi/2 + r`, with `pi/2` in four
+/// parts of 8, 12, 12 and 24 bits (`n < 2^12`, so the first three products are exact, `x - n P1` is exact by Sterbenz and
 /// `- n P2` is exact on the 2^-24 grid below 1); the third subtraction's rounding is carried
 /// as a tail `y` (TwoSum), and the fourth part's product joins it. What is left of `pi/2`
 /// (8e-20 per unit of `n`) moves `r` by at most 3.2e-9 relative at the f32 nearest to any
@@ -480,14 +511,15 @@ const SIN_COS_F32_MAX: f32 = 4096.0;
 /// `libm::sincosf`.
 // The parts of pi/2 are written with the digits of their exact binary values.
 #[allow(clippy::excessive_precision)]
-fn sin_cos_f32(x: f32) -> (f32, f32) {
+#[inline(never)]
+fn sin_cos_reduced(x: f32) -> (f32, f32) {
     const FRAC_2_PI: f32 = core::f32::consts::FRAC_2_PI;
     const P1: f32 = 1.570_312_5;
     const P2: f32 = 4.837_512_969_970_703e-4;
     const P3: f32 = 7.549_533_620_476_723e-8;
     const P4: f32 = 2.563_344_068_257_089_6e-12;
     if x.is_nan() || libm::fabsf(x) > SIN_COS_F32_MAX {
-        return libm::sincosf(x);
+        return sin_cos_libm(x);
     }
     let t = x * FRAC_2_PI + SHIFT;
     let n = t - SHIFT;
@@ -508,6 +540,13 @@ fn sin_cos_f32(x: f32) -> (f32, f32) {
         2 => (-s, -c),
         _ => (-c, s),
     }
+}
+
+/// libm's `sincosf`, kept out of line so that its frame stays off the common path.
+#[cold]
+#[inline(never)]
+fn sin_cos_libm(x: f32) -> (f32, f32) {
+    libm::sincosf(x)
 }
 
 fn sin_f32(x: f32) -> f32 {
