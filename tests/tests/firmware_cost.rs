@@ -1,7 +1,7 @@
 //! The device cost figures `brdf select` ranks by (`brdf_core::cost`) against a fresh count
 //! under QEMU (`firmware/core-cost/src/bin/cost.rs`, `-icount shift=0`: exact and repeatable).
 
-use brdf_core::cost::{exact_instructions, COST_DRIFT, FAST_SIX_INSTRUCTIONS, TABLE_INSTRUCTIONS};
+use brdf_core::cost::{exact_instructions, COST_DRIFT, TABLE_INSTRUCTIONS};
 use brdf_core::ModelKind;
 
 #[test]
@@ -36,7 +36,6 @@ fn device_cost_constants_match_a_fresh_count() {
             "six table 256 from cosines, rebound per query",
             TABLE_INSTRUCTIONS,
         ),
-        ("six fast from cosines", FAST_SIX_INSTRUCTIONS),
     ];
     for (name, constant) in expected {
         let m = measured(name);
@@ -59,7 +58,7 @@ fn other_cores_count_every_path() {
     let count = |core: Core| {
         let elf = brdf_tests::qemu::program_for("core-cost", "cost", core)?;
         let counts = brdf_link::instruction_counts_on(core, &elf).unwrap();
-        assert!(counts.len() >= 16, "{core:?}: {counts:?}");
+        assert!(counts.len() >= 15, "{core:?}: {counts:?}");
         Some(counts)
     };
     let Some(m4f) = count(Core::M4F) else {

@@ -1,6 +1,6 @@
 //! What one lookup costs on the Cortex-M4F, per model and representation: instructions per
-//! evaluation from cosines as the firmware serves EVAL (release, LTO, `opt-level = "s"`,
-//! libm; counted exactly under QEMU by `bash bench/firmware_cost.sh`). `brdf select` ranks
+//! evaluation from cosines as the firmware serves EVAL (release, LTO, `opt-level = "s"`;
+//! counted exactly under QEMU by `bash bench/firmware_cost.sh`). `brdf select` ranks
 //! representations by these figures; the test `tests/tests/firmware_cost.rs` re-counts them
 //! under QEMU and fails when one drifts by more than [`COST_DRIFT`].
 
@@ -10,10 +10,10 @@ use crate::model::ModelKind;
 pub const fn exact_instructions(kind: ModelKind) -> u32 {
     match kind {
         ModelKind::Lambert => 69,
-        ModelKind::Minnaert => 289,
-        ModelKind::Five => 457,
-        ModelKind::Six => 752,
-        ModelKind::SixCos2 => 752,
+        ModelKind::Minnaert => 150,
+        ModelKind::Five => 277,
+        ModelKind::Six => 379,
+        ModelKind::SixCos2 => 383,
     }
 }
 
@@ -22,9 +22,7 @@ pub const fn exact_instructions(kind: ModelKind) -> u32 {
 pub const TABLE_INSTRUCTIONS: u32 = 285;
 
 /// Relative drift of a measured count from these constants that the test tolerates (a
-/// compiler or libm update moves counts by a few percent; a change of method moves them by
+/// compiler update moves counts by a few percent; a change of method moves them by
 /// far more).
 pub const COST_DRIFT: f64 = 0.10;
 
-/// Instructions per evaluation of [`crate::fast::FastSix`] from cosines.
-pub const FAST_SIX_INSTRUCTIONS: u32 = 393;

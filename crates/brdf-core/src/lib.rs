@@ -4,8 +4,10 @@
 //! models around it — the five-parameter model it replaced, Minnaert and Lambert — with a
 //! geometry that stays accurate in `f32` near the retro and mirror directions and at
 //! grazing angles, evaluation from angles, cosines or unit vectors, and physical checks
-//! (reciprocity, energy bound, albedo by quadrature). All math goes through `libm`, so
-//! the host runs exactly the arithmetic the Cortex-M4F firmware runs.
+//! (reciprocity, energy bound, albedo by quadrature). The f32 path computes its elementary
+//! functions (`exp`, `ln`, `ln_1p`, `powf`, `sin`/`cos`) in f32 arithmetic alone
+//! (the [`Float`] implementation for `f32`), and the f64 path through `libm`, so the host runs exactly the arithmetic the
+//! Cortex-M4F firmware runs.
 //!
 //! Angles are in radians in the canonical convention of `docs/model.md`: directions point away
 //! from the surface, `phi = phi_r - phi_i`, mirror at `(theta_r = theta_i, phi = pi)`, retro
@@ -38,7 +40,6 @@
 //! | [`tolerance`] | every promised accuracy, with its reason | a test or a check compares two values |
 //! | [`checks`] | reciprocity, the energy bound, albedo by quadrature | you judge whether a parameter set is physical |
 //! | [`table`] | the tabulated six-parameter path, its byte layout and accuracy | a device repeats lookups of one material and can spare `table_len(n)` bytes |
-//! | [`fast`] | the six-parameter model with this crate's own `exp2`/`log2` | a device needs about half the instructions of the exact `f32` path and accepts [`tolerance::FAST_MAX_REL`] |
 //! | [`batch`] | one material over many directions (`std` feature: AVX2/AVX-512 chosen at run time) | the host evaluates thousands of directions (renderers, scenes, quadrature) |
 //! | [`anneal`] | the heap-free simulated annealer and its degenerate-sample rule | a device refits a material from its own measurements |
 //! | [`cost`] | Cortex-M4F instructions per evaluation, per model and path | you choose a representation for an instruction budget |
@@ -82,27 +83,6 @@
 //! let promised = TABLE_MAX_REL.iter().find(|(n, _)| *n == 256).unwrap().1;
 //! assert!(acc.n > 0 && acc.max <= promised, "{acc:?}");
 //! # Ok::<(), Box<dyn core::error::Error>>(())
-//! ```
-//!
-//! # Fast path
-//!
-//! [`fast::FastSix`] is a [`Brdf<f32>`] like the exact model; construct it from the same
-//! parameters.
-//!
-//! ```
-//! use brdf_core::fast::FastSix;
-//! use brdf_core::tolerance::FAST_MAX_REL;
-//! use brdf_core::{Brdf, SixParam, SixParams};
-//!
-//! let khaki = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
-//! let fast = FastSix::new(SixParams::<f32>::from_array(khaki.map(|v| v as f32)))?;
-//! let exact = SixParam::new(SixParams::<f64>::from_array(khaki))?;
-//! for (ci, cr, cp) in [(1.0f32, 1.0f32, 1.0f32), (0.9, 0.7, -1.0), (0.5, 0.3, 0.2)] {
-//!     let f = f64::from(fast.eval_cosines(ci, cr, cp));
-//!     let e = exact.eval_cosines(f64::from(ci), f64::from(cr), f64::from(cp));
-//!     assert!(((f - e) / e).abs() <= FAST_MAX_REL, "{f} vs {e}");
-//! }
-//! # Ok::<(), brdf_core::ParamError>(())
 //! ```
 //!
 //! # Annealer
@@ -151,7 +131,6 @@ pub mod batch;
 pub mod checks;
 pub mod cost;
 mod error;
-pub mod fast;
 mod float;
 mod geometry;
 mod model;

@@ -99,15 +99,6 @@ pub fn table_max_rel(nodes: usize) -> Option<f64> {
     TABLE_MAX_REL.iter().find(|t| t.0 == nodes).map(|t| t.1)
 }
 
-/// Maximum relative error of the fast f32 path ([`crate::fast::FastSix`], own `exp2`/`log2`)
-/// against exact f64 at the same f32 inputs, on the grid of [`F32_MAX_REL`] (zeniths to
-/// 89.9°, points near retro and mirror), where `f >= F32_FLOOR_OF_MAX * max f`, for
-/// parameters in the paper's range. Measured 1.7e-6 over the Table 1 sets and 150 random
-/// ones (test `fast_six_error_bound`): the own `exp2`/`log2` err by about 1.5e-7 against
-/// libm's 0.5 ulp, and the lobe amplifies both alike. 4e-6
-/// leaves a factor 2.4 over the worst set measured; most sets stay within [`F32_MAX_REL`].
-pub const FAST_MAX_REL: f64 = 4e-6;
-
 /// Angular filters (`brdf select --max-theta-i 40`) keep points within this many degrees
 /// beyond the limit: importers convert radians to degrees (the Cornell 40 deg incidence comes
 /// out as 40.000017 deg), and a limit written as 40 means the 40 deg measurements.

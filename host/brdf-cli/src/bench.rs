@@ -10,7 +10,6 @@ use anyhow::{anyhow, bail, Context, Result};
 use brdf_bench::peer::numpy_eval;
 use brdf_core::accuracy::compare;
 use brdf_core::batch::{Batch, Level};
-use brdf_core::fast::FastSix;
 use brdf_core::table::{fill_six_table, table_len, SixTable, TABLE_SIZES};
 use brdf_core::{AnyModel, Brdf, Float, ModelKind, SixParam, SixParams};
 use brdf_fit::{Dataset, Point};
@@ -50,13 +49,12 @@ const MATERIALS: [(&str, [f64; 6]); 3] = brdf_core::TABLE1;
 
 /// Every evaluation path on one material, timed in one run: the scalar path (the device's
 /// code) and the batch path (`brdf_core::batch`), f64 and f32, from angles, cosines and unit
-/// vectors, on one core and on all cores; the f32 path with this crate's own exp2/log2; the
-/// tables at each promised size; Minnaert and Lambert fitted to the six-parameter model
-/// standing in for it; and numpy's vectorised f64 evaluation of the same grid
+/// vectors, on one core and on all cores; the tables at each promised size; Minnaert and
+/// Lambert fitted to the six-parameter model standing in for it; and numpy's vectorised f64 evaluation of the same grid
 /// (`bench/numpy_eval.py`, run when python3 and numpy are present). Accuracy of every variant
 /// is against the f64 scalar path from angles on the same grid (an `N^3` grid of zeniths up
 /// to `--max-theta` and azimuths over the circle), where the value is at least 1e-6 of its
-/// maximum. Device cost is counted under QEMU (`firmware/brdf-fw/src/bin/cost.rs`, khaki
+/// maximum. Device cost is counted under QEMU (`firmware/core-cost/src/bin/cost.rs`, khaki
 /// parameters) when QEMU is present.
 #[derive(Debug, Args)]
 pub struct EvalBench {
@@ -278,7 +276,6 @@ impl EvalBench {
         let g32 = grid::<f32>(&dirs);
         let exact64 = AnyModel::Six(SixParam::new(six64)?);
         let exact32 = AnyModel::Six(SixParam::new(six32)?);
-        let fast = FastSix::new(six32)?;
         let reference: Vec<f64> = (0..n)
             .map(|k| exact64.eval_angles(g64.angles[0][k], g64.angles[1][k], g64.angles[2][k]))
             .collect();
@@ -317,7 +314,6 @@ impl EvalBench {
         let device_of = |name: &str| match name {
             "f32 scalar angles" => device("six exact from angles"),
             "f32 scalar cosines" => device("six exact from cosines"),
-            "f32 own exp2/log2 cosines" => device("six fast from cosines"),
             "Minnaert for six, cosines" => device("minnaert exact from cosines"),
             "Lambert for six, cosines" => device("lambert exact from cosines"),
             t if t.starts_with("f32 table ") => {
@@ -354,9 +350,6 @@ impl EvalBench {
             let values: Vec<f64> = out.iter().map(|&v| f64::from(v)).collect();
             add(name, 1, ns, &values);
         };
-        single("f32 own exp2/log2 cosines".into(), &|k| {
-            fast.eval_cosines(c32[0][k], c32[1][k], c32[2][k])
-        });
         for (nodes, bytes) in &tables {
             let t = SixTable::new(six32, bytes)?;
             single(format!("f32 table {nodes} cosines"), &|k| {

@@ -11,7 +11,6 @@
 #![no_std]
 #![no_main]
 
-use brdf_core::fast::FastSix;
 use brdf_core::table::{fill_six_table, table_len, SixTable};
 use brdf_core::{Brdf, FiveParam, Lambert, Minnaert, Model, SixParam, SixParamCos2};
 use core::hint::black_box;
@@ -136,9 +135,5 @@ fn main() -> ! {
     measure(13, "minnaert exact from angles", &ticks, |x| angles(&minnaert, x));
     measure(14, "lambert exact from angles", &ticks, |x| angles(&lambert, x));
     measure(15, "six-cos2 exact from angles", &ticks, |x| angles(&six_cos2, x));
-    let Ok(fast) = FastSix::new(six_p) else {
-        exit(false)
-    };
-    measure(16, "six fast from cosines", &ticks, |x| cosines(&fast, x));
     exit(true)
 }
