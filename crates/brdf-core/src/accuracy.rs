@@ -1,5 +1,5 @@
 //! How far an `f32` evaluation path is from the exact `f64` model: the one comparator every
-//! accuracy claim goes through (the exact path, the fast path, the tables, the device's
+//! accuracy claim goes through (the exact path, the tables, the batch path, the device's
 //! answers), and the direction grid the claims are checked on.
 //!
 //! An `f32` path is judged at its own `f32` inputs, widened exactly for the `f64` reference,

@@ -10,10 +10,10 @@ use crate::model::ModelKind;
 pub const fn exact_instructions(kind: ModelKind) -> u32 {
     match kind {
         ModelKind::Lambert => 69,
-        ModelKind::Minnaert => 150,
-        ModelKind::Five => 277,
-        ModelKind::Six => 379,
-        ModelKind::SixCos2 => 383,
+        ModelKind::Minnaert => 149,
+        ModelKind::Five => 278,
+        ModelKind::Six => 378,
+        ModelKind::SixCos2 => 402,
     }
 }
 
