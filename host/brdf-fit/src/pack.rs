@@ -180,7 +180,7 @@ pub fn encode(
 /// cosines (the two inputs EVAL takes; `brdf_core::accuracy::f32_claim_accuracy`): a
 /// sentence saying how far it errs when that exceeds [`F32_MAX_REL`], which is promised only
 /// for parameters in the paper's range (steep lobes and large `c` over the fitter's search
-/// box reach 8e-6); `None` within it.
+/// box reach 9.5e-6); `None` within it.
 fn f32_beyond_claim(m: &Material) -> Result<Option<String>, brdf_core::ParamError> {
     let p = &m.params[..m.kind.param_count()];
     let mut worst: Option<(f64, &str, [f32; 3])> = None;
