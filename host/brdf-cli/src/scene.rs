@@ -5,11 +5,10 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use brdf_scene::lrcs::{domain, lrcs};
+use brdf_scene::lrcs::{domain, lrcs, LrcsReport};
 use brdf_scene::progress::terminal_bar;
 use brdf_scene::scene::{Mode, Scene};
 use clap::{Args, Subcommand};
-use serde::Serialize;
 
 /// Scenes: a target mesh with a material per part and a sensor sweep (a TOML scene file).
 #[derive(Debug, Args)]
@@ -53,25 +52,6 @@ pub struct DomainCmd {
     /// Write the CSV here instead of standard output.
     #[arg(short = 'o', long)]
     output: Option<PathBuf>,
-}
-
-#[derive(Serialize)]
-struct LrcsJson<'a> {
-    scene: String,
-    mesh: String,
-    facets: usize,
-    mode: &'static str,
-    separation_deg: Option<f64>,
-    materials: Vec<MaterialJson>,
-    seconds: f64,
-    aspects: &'a [brdf_scene::lrcs::AspectSigma],
-}
-
-#[derive(Serialize)]
-struct MaterialJson {
-    part: String,
-    model: &'static str,
-    params: Vec<f64>,
 }
 
 fn load(path: &Path) -> Result<Scene> {
@@ -119,28 +99,7 @@ impl LrcsCmd {
         );
         let mut out = sink(&self.output)?;
         if self.json {
-            let (mode, separation_deg) = match scene.sensor.mode {
-                Mode::Monostatic => ("monostatic", None),
-                Mode::Bistatic { separation_deg } => ("bistatic", Some(separation_deg)),
-            };
-            let j = LrcsJson {
-                scene: self.scene.display().to_string(),
-                mesh: scene.mesh.file.display().to_string(),
-                facets: scene.mesh.facets.len(),
-                mode,
-                separation_deg,
-                materials: scene
-                    .materials
-                    .iter()
-                    .map(|m| MaterialJson {
-                        part: m.part.clone(),
-                        model: m.model.kind().name(),
-                        params: m.model.to_params()[..m.model.kind().param_count()].to_vec(),
-                    })
-                    .collect(),
-                seconds: result.seconds,
-                aspects: &result.aspects,
-            };
+            let j = LrcsReport::new(self.scene.display().to_string(), &scene, &result);
             writeln!(out, "{}", serde_json::to_string_pretty(&j)?)?;
         } else {
             writeln!(out, "azimuth,elevation,lrcs")?;

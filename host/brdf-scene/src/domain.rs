@@ -21,6 +21,52 @@ fn deg(c: f64) -> f64 {
     c.clamp(-1.0, 1.0).acos().to_degrees()
 }
 
+/// One row of the domain file: one query of one aspect (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DomainRow<'a> {
+    /// Aspect azimuth, degrees.
+    pub azimuth: f64,
+    /// Aspect elevation, degrees.
+    pub elevation: f64,
+    /// Material index (0-based, scene order).
+    pub material: usize,
+    /// The mesh part the facet belongs to.
+    pub part: &'a str,
+    /// Facet number (1-based, mesh order).
+    pub facet: usize,
+    /// Incidence zenith on the facet, degrees.
+    pub theta_i: f64,
+    /// Viewing zenith on the facet, degrees.
+    pub theta_r: f64,
+    /// Relative azimuth, degrees in [0, 180].
+    pub phi: f64,
+    /// `4 pi cos(theta_i) cos(theta_r) A`, m² sr.
+    pub weight: f64,
+}
+
+/// Every query of `domain` as rows, in file order (aspect, then material, then facet); what
+/// [`write_csv`] writes and `brdf.scene_domain` returns.
+pub fn rows<'a>(scene: &'a Scene, domain: &'a Domain) -> impl Iterator<Item = DomainRow<'a>> + 'a {
+    domain.aspects.iter().zip(&domain.batches).flat_map(move |(a, per)| {
+        per.iter().enumerate().flat_map(move |(m, b)| {
+            (0..b.len()).map(move |k| {
+                let facet = b.facet[k] as usize;
+                DomainRow {
+                    azimuth: a.azimuth_deg,
+                    elevation: a.elevation_deg,
+                    material: m,
+                    part: &scene.mesh.parts[scene.mesh.facets[facet].part as usize],
+                    facet: facet + 1,
+                    theta_i: deg(b.cos_theta_i[k]),
+                    theta_r: deg(b.cos_theta_r[k]),
+                    phi: deg(b.cos_phi[k]),
+                    weight: b.weight[k],
+                }
+            })
+        })
+    })
+}
+
 /// Writes the domain as CSV (shortest round-trip decimal for every number).
 pub fn write_csv<W: Write>(scene: &Scene, domain: &Domain, out: W) -> Result<(), csv::Error> {
     let mut w = csv::Writer::from_writer(out);
@@ -35,24 +81,18 @@ pub fn write_csv<W: Write>(scene: &Scene, domain: &Domain, out: W) -> Result<(),
         "phi",
         "weight",
     ])?;
-    for (a, per) in domain.aspects.iter().zip(&domain.batches) {
-        for (m, b) in per.iter().enumerate() {
-            for k in 0..b.len() {
-                let facet = b.facet[k] as usize;
-                let part = &scene.mesh.parts[scene.mesh.facets[facet].part as usize];
-                w.write_record([
-                    a.azimuth_deg.to_string(),
-                    a.elevation_deg.to_string(),
-                    m.to_string(),
-                    part.clone(),
-                    (facet + 1).to_string(),
-                    deg(b.cos_theta_i[k]).to_string(),
-                    deg(b.cos_theta_r[k]).to_string(),
-                    deg(b.cos_phi[k]).to_string(),
-                    b.weight[k].to_string(),
-                ])?;
-            }
-        }
+    for r in rows(scene, domain) {
+        w.write_record([
+            r.azimuth.to_string(),
+            r.elevation.to_string(),
+            r.material.to_string(),
+            r.part.to_owned(),
+            r.facet.to_string(),
+            r.theta_i.to_string(),
+            r.theta_r.to_string(),
+            r.phi.to_string(),
+            r.weight.to_string(),
+        ])?;
     }
     w.flush()?;
     Ok(())

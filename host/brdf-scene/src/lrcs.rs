@@ -23,6 +23,67 @@ use crate::eval::{sigma, Evaluator};
 use crate::mesh::v3;
 use crate::scene::{Aspect, Mode, Scene};
 
+/// What `brdf scene lrcs --json` prints and `brdf.scene_lrcs(...).to_json()` returns: the
+/// scene, its materials and σ at every aspect.
+#[derive(Debug, Serialize)]
+pub struct LrcsReport<'a> {
+    /// The scene file as given.
+    pub scene: String,
+    /// The mesh file.
+    pub mesh: String,
+    /// Facets in the mesh.
+    pub facets: usize,
+    /// `monostatic` or `bistatic`.
+    pub mode: &'static str,
+    /// Source-receiver separation of a bistatic sweep, degrees.
+    pub separation_deg: Option<f64>,
+    /// The materials in scene order.
+    pub materials: Vec<LrcsMaterial>,
+    /// Wall time of the sweep, s.
+    pub seconds: f64,
+    /// σ per aspect.
+    pub aspects: &'a [AspectSigma],
+}
+
+/// One material of an [`LrcsReport`].
+#[derive(Debug, Serialize)]
+pub struct LrcsMaterial {
+    /// The mesh part it covers.
+    pub part: String,
+    /// Its model's name.
+    pub model: &'static str,
+    /// Its parameters, in the model's order.
+    pub params: Vec<f64>,
+}
+
+impl<'a> LrcsReport<'a> {
+    /// The report of `result`, the sweep of `scene` loaded from the file named `name`.
+    pub fn new(name: String, scene: &Scene, result: &'a Lrcs) -> Self {
+        let (mode, separation_deg) = match scene.sensor.mode {
+            Mode::Monostatic => ("monostatic", None),
+            Mode::Bistatic { separation_deg } => ("bistatic", Some(separation_deg)),
+        };
+        LrcsReport {
+            scene: name,
+            mesh: scene.mesh.file.display().to_string(),
+            facets: scene.mesh.facets.len(),
+            mode,
+            separation_deg,
+            materials: scene
+                .materials
+                .iter()
+                .map(|m| LrcsMaterial {
+                    part: m.part.clone(),
+                    model: m.model.kind().name(),
+                    params: m.model.to_params()[..m.model.kind().param_count()].to_vec(),
+                })
+                .collect(),
+            seconds: result.seconds,
+            aspects: &result.aspects,
+        }
+    }
+}
+
 /// The queries one material receives at one aspect, as slices ([`crate::eval::eval_batch`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Batch {
