@@ -25,4 +25,3 @@ pub const TABLE_INSTRUCTIONS: u32 = 285;
 /// compiler update moves counts by a few percent; a change of method moves them by
 /// far more).
 pub const COST_DRIFT: f64 = 0.10;
-

@@ -683,7 +683,9 @@ mod tests {
     fn spread(lo: f32, hi: f32, n: u32) -> Vec<f32> {
         let (a, b) = (lo.to_bits().min(hi.to_bits()), lo.to_bits().max(hi.to_bits()));
         let step = ((b - a) / n).max(1);
-        (0..=(b - a) / step).map(|k| f32::from_bits(a + k * step)).collect()
+        (0..=(b - a) / step)
+            .map(|k| f32::from_bits(a + k * step))
+            .collect()
     }
 
     #[test]

@@ -695,9 +695,7 @@ fn select_dataset<'py>(
     notes: &mut Vec<String>,
 ) -> Result<(String, Vec<String>, Option<Bound<'py, PyBytes>>), String> {
     use brdf_scene::represent::{select_data, DataDomain};
-    if !(budget.is_finite() && budget > 0.0) {
-        return Err(format!("budget {budget} is not a finite fraction greater than 0"));
-    }
+    check_budget(budget)?;
     for (name, v) in [("max_theta_i", limits.0), ("max_theta_r", limits.1)] {
         if !(0.0..=90.0).contains(&v) {
             return Err(format!("{name} {v} is outside 0..=90 degrees"));
@@ -730,6 +728,16 @@ fn select_dataset<'py>(
         Ok((text, candidates, blob))
     })?;
     Ok((text, candidates, blob.map(|b| PyBytes::new(py, &b.bytes))))
+}
+
+/// A selection budget is a finite fraction greater than 0 (`budget` as `brdf select
+/// --budget` parses it).
+fn check_budget(budget: f64) -> Result<(), String> {
+    if budget.is_finite() && budget > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("budget {budget} is not a finite fraction greater than 0"))
+    }
 }
 
 /// `brdf select` on a file: see [`select_dataset`] and [`Selected`]; the notes are the
@@ -861,6 +869,114 @@ fn pack<'py>(
     }
 }
 
+/// The scene at `path`, or the message `brdf scene` prints when it cannot be used.
+fn scene_at(path: &str) -> PyResult<brdf_scene::scene::Scene> {
+    brdf_scene::scene::Scene::load(std::path::Path::new(path))
+        .map_err(|e| PyValueError::new_err(format!("cannot use scene {path}: {e}")))
+}
+
+/// σ per aspect, as `brdf scene lrcs` computes it.
+type SceneLrcs = (
+    String,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<Vec<f64>>,
+    Vec<usize>,
+    Vec<String>,
+);
+
+/// `brdf scene lrcs` through the same library calls (`brdf_scene::lrcs::lrcs`,
+/// `LrcsReport`): the JSON `--json` prints, then per aspect azimuth, elevation, σ, each
+/// material's share and the facets seen, then the materials' parts.
+#[pyfunction]
+fn scene_lrcs(py: Python<'_>, path: String) -> PyResult<SceneLrcs> {
+    use brdf_scene::lrcs::{lrcs, LrcsReport};
+    let scene = scene_at(&path)?;
+    py.detach(|| {
+        let result = lrcs(&scene, &|| {});
+        let text = serde_json::to_string_pretty(&LrcsReport::new(path, &scene, &result))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let a = &result.aspects;
+        Ok((
+            text,
+            a.iter().map(|x| x.azimuth).collect(),
+            a.iter().map(|x| x.elevation).collect(),
+            a.iter().map(|x| x.lrcs).collect(),
+            a.iter().map(|x| x.by_material.clone()).collect(),
+            a.iter().map(|x| x.facets_seen).collect(),
+            scene.materials.iter().map(|m| m.part.clone()).collect(),
+        ))
+    })
+}
+
+/// The scene's queries, as `brdf scene domain` writes them.
+type SceneDomain = (
+    Vec<f64>,
+    Vec<f64>,
+    Vec<usize>,
+    Vec<String>,
+    Vec<usize>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+);
+
+/// `brdf scene domain` through the same library calls (`brdf_scene::lrcs::domain`,
+/// `brdf_scene::domain::rows`): its columns, in its row order.
+#[pyfunction]
+fn scene_domain(py: Python<'_>, path: String) -> PyResult<SceneDomain> {
+    let scene = scene_at(&path)?;
+    Ok(py.detach(|| {
+        let d = brdf_scene::lrcs::domain(&scene, &|| {});
+        let mut c: SceneDomain = Default::default();
+        for r in brdf_scene::domain::rows(&scene, &d) {
+            c.0.push(r.azimuth);
+            c.1.push(r.elevation);
+            c.2.push(r.material);
+            c.3.push(r.part.to_owned());
+            c.4.push(r.facet);
+            c.5.push(r.theta_i);
+            c.6.push(r.theta_r);
+            c.7.push(r.phi);
+            c.8.push(r.weight);
+        }
+        c
+    }))
+}
+
+/// `brdf select --scene` through the same library calls (`brdf_scene::lrcs::domain`,
+/// `brdf_scene::select::select`): the JSON `--json` prints, the blob `-o` writes (or None)
+/// and why there is none.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+fn select_scene<'py>(
+    py: Python<'py>,
+    path: String,
+    budget: f64,
+    seed: u64,
+    sequence: u32,
+) -> PyResult<(String, Option<Bound<'py, PyBytes>>, Option<String>)> {
+    use brdf_scene::select::{select, SelectOptions};
+    check_budget(budget).map_err(PyValueError::new_err)?;
+    let scene = scene_at(&path)?;
+    let opts = SelectOptions {
+        budget,
+        seed,
+        sequence,
+        ..SelectOptions::default()
+    };
+    let (text, blob, note) = py.detach(|| {
+        let domain = brdf_scene::lrcs::domain(&scene, &|| {});
+        let s = select(&scene, &domain, &opts);
+        let text = serde_json::to_string_pretty(&s).map_err(|e| e.to_string());
+        (text, s.blob().map(<[u8]>::to_vec), s.blob_note.clone())
+    });
+    let text = text.map_err(PyValueError::new_err)?;
+    Ok((text, blob.map(|b| PyBytes::new(py, &b)), note))
+}
+
 /// The compiled module.
 #[pymodule]
 fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -872,6 +988,10 @@ fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // The core's named tolerances, for the tests (one home: brdf_core::tolerance).
     m.add("BATCH_F64_REL", brdf_core::tolerance::BATCH_F64_REL)?;
     m.add("ALBEDO_DEFAULT_REL", brdf_core::tolerance::ALBEDO_DEFAULT_REL)?;
+    m.add(
+        "F64_REFORMULATION_REL",
+        brdf_core::tolerance::F64_REFORMULATION_REL,
+    )?;
     m.add_class::<Settings>()?;
     m.add_function(wrap_pyfunction!(eval_angles, m)?)?;
     m.add_function(wrap_pyfunction!(eval_columns, m)?)?;
@@ -882,5 +1002,8 @@ fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pack, m)?)?;
     m.add_function(wrap_pyfunction!(select_path, m)?)?;
     m.add_function(wrap_pyfunction!(select_arrays, m)?)?;
+    m.add_function(wrap_pyfunction!(scene_lrcs, m)?)?;
+    m.add_function(wrap_pyfunction!(scene_domain, m)?)?;
+    m.add_function(wrap_pyfunction!(select_scene, m)?)?;
     Ok(())
 }

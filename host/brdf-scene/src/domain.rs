@@ -47,24 +47,28 @@ pub struct DomainRow<'a> {
 /// Every query of `domain` as rows, in file order (aspect, then material, then facet); what
 /// [`write_csv`] writes and `brdf.scene_domain` returns.
 pub fn rows<'a>(scene: &'a Scene, domain: &'a Domain) -> impl Iterator<Item = DomainRow<'a>> + 'a {
-    domain.aspects.iter().zip(&domain.batches).flat_map(move |(a, per)| {
-        per.iter().enumerate().flat_map(move |(m, b)| {
-            (0..b.len()).map(move |k| {
-                let facet = b.facet[k] as usize;
-                DomainRow {
-                    azimuth: a.azimuth_deg,
-                    elevation: a.elevation_deg,
-                    material: m,
-                    part: &scene.mesh.parts[scene.mesh.facets[facet].part as usize],
-                    facet: facet + 1,
-                    theta_i: deg(b.cos_theta_i[k]),
-                    theta_r: deg(b.cos_theta_r[k]),
-                    phi: deg(b.cos_phi[k]),
-                    weight: b.weight[k],
-                }
+    domain
+        .aspects
+        .iter()
+        .zip(&domain.batches)
+        .flat_map(move |(a, per)| {
+            per.iter().enumerate().flat_map(move |(m, b)| {
+                (0..b.len()).map(move |k| {
+                    let facet = b.facet[k] as usize;
+                    DomainRow {
+                        azimuth: a.azimuth_deg,
+                        elevation: a.elevation_deg,
+                        material: m,
+                        part: &scene.mesh.parts[scene.mesh.facets[facet].part as usize],
+                        facet: facet + 1,
+                        theta_i: deg(b.cos_theta_i[k]),
+                        theta_r: deg(b.cos_theta_r[k]),
+                        phi: deg(b.cos_phi[k]),
+                        weight: b.weight[k],
+                    }
+                })
             })
         })
-    })
 }
 
 /// Writes the domain as CSV (shortest round-trip decimal for every number).

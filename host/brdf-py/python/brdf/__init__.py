@@ -3,7 +3,8 @@
 The same core as the ``brdf`` command: :func:`eval` gives the values ``brdf eval`` prints,
 :func:`fit` the report ``brdf fit --json`` prints (``FitResult.to_json()``), :func:`pack`
 the blob ``brdf pack`` writes, :func:`select` the choice ``brdf select --json`` prints,
-and errors are raised as :class:`ValueError` with the command's messages, located by array
+:func:`scene_lrcs`, :func:`scene_domain` and :func:`select_scene` what ``brdf scene
+lrcs``, ``brdf scene domain`` and ``brdf select --scene`` compute, and errors are raised as :class:`ValueError` with the command's messages, located by array
 index instead of CSV line.
 """
 
@@ -23,6 +24,8 @@ from . import _brdf
 __all__ = [
     "MODELS",
     "FitResult",
+    "SceneLrcs",
+    "SceneSelection",
     "Selection",
     "albedo",
     "eval",
@@ -31,7 +34,10 @@ __all__ = [
     "fit",
     "pack",
     "read",
+    "scene_domain",
+    "scene_lrcs",
     "select",
+    "select_scene",
     "to_json",
 ]
 
@@ -468,3 +474,116 @@ def pack(results, table_nodes: Optional[int] = None, *, sequence: int = 1) -> by
     if error is not None:
         raise ValueError(error)
     return blob
+
+
+class SceneLrcs:
+    """A target's laser radar cross-section over its sensor sweep, as ``brdf scene lrcs``
+    computes it: per aspect ``azimuth`` and ``elevation`` (degrees), ``lrcs`` (sigma, m^2),
+    ``by_material`` (each material's share, m^2: shape (aspects, materials), columns in
+    scene order, named by ``parts``) and ``facets_seen`` (facets seen by both source and
+    receiver), all numpy arrays in sweep order; ``seconds`` (the sweep's wall time) and
+    ``report`` (the whole JSON as a dict). ``to_json()`` is the text ``brdf scene lrcs
+    --json`` prints for the same scene (its ``seconds`` is this run's).
+    """
+
+    def __init__(self, text, azimuth, elevation, lrcs, by_material, facets_seen, parts):
+        self._text = text
+        self.report: Dict[str, Any] = json.loads(text)
+        self.azimuth = np.array(azimuth, dtype=np.float64)
+        self.elevation = np.array(elevation, dtype=np.float64)
+        self.lrcs = np.array(lrcs, dtype=np.float64)
+        self.by_material = np.array(by_material, dtype=np.float64).reshape(len(self.lrcs), len(parts))
+        self.facets_seen = np.array(facets_seen, dtype=np.int64)
+        self.parts: List[str] = list(parts)
+        self.seconds: float = self.report["seconds"]
+
+    def to_json(self) -> str:
+        """The sweep exactly as ``brdf scene lrcs --json`` prints it (without its final newline)."""
+        return self._text
+
+    def __repr__(self) -> str:
+        return f"SceneLrcs({self.report['scene']!r}, {len(self.lrcs)} aspects, parts {self.parts})"
+
+
+def scene_lrcs(scene) -> SceneLrcs:
+    """Laser radar cross-section of the scene file ``scene`` (TOML: a mesh, a material per
+    part, a sensor sweep) at every aspect of its sweep, with each material's exact model
+    (f64), as ``brdf scene lrcs``: sigma = sum over the facets seen by source and receiver
+    of 4 pi f_r cos(theta_i) cos(theta_r) A. Runs on all cores. Raises ValueError with the
+    command's message when the scene cannot be used.
+    """
+    return SceneLrcs(*_brdf.scene_lrcs(os.fspath(scene)))
+
+
+def scene_domain(scene) -> Dict[str, Any]:
+    """Every BRDF query the scene makes, as ``brdf scene domain`` writes it: a dict of
+    numpy arrays, one element per (aspect, facet seen), in the command's row order —
+    ``azimuth``, ``elevation`` (the aspect, degrees), ``material`` (0-based, scene order:
+    the material's index in the blob ``brdf select --scene`` writes), ``part`` (list of
+    str), ``facet`` (1-based, mesh order), ``theta_i``, ``theta_r``, ``phi`` (degrees,
+    canonical convention, ``phi`` in [0, 180]) and ``weight`` (4 pi cos(theta_i)
+    cos(theta_r) A, m^2 sr: sigma at an aspect is the sum of ``weight * brdf`` over its
+    queries). Raises ValueError with the command's message when the scene cannot be used.
+    """
+    az, el, material, part, facet, ti, tr, phi, weight = _brdf.scene_domain(os.fspath(scene))
+    f = lambda v: np.array(v, dtype=np.float64)  # noqa: E731
+    i = lambda v: np.array(v, dtype=np.int64)  # noqa: E731
+    return {
+        "azimuth": f(az),
+        "elevation": f(el),
+        "material": i(material),
+        "part": list(part),
+        "facet": i(facet),
+        "theta_i": f(ti),
+        "theta_r": f(tr),
+        "phi": f(phi),
+        "weight": f(weight),
+    }
+
+
+class SceneSelection:
+    """What ``brdf select --scene --json`` reports: per material of the scene, every device
+    representation (the model ladder fitted to the material at the scene's own queries, the
+    six-parameter tables) with its Cortex-M4F instructions per lookup, its blob bytes and
+    its worst relative sigma error over the aspects that see it, and the cheapest within
+    the budget.
+
+    Attributes: ``materials`` (a dict per material, as in the JSON), ``chosen`` (per
+    material, the chosen representation's name or None), ``blob`` (the bytes ``brdf select
+    --scene -o`` writes: the chosen set in scene order, or None), ``blob_note`` (why there
+    is no blob), ``report`` (the whole JSON as a dict). ``to_json()`` is the text the
+    command prints for the same scene, budget and seed.
+    """
+
+    def __init__(self, text: str, blob: Optional[bytes], blob_note: Optional[str]):
+        self._text = text
+        self.report: Dict[str, Any] = json.loads(text)
+        self.materials: List[Dict[str, Any]] = self.report["materials"]
+        self.chosen: List[Optional[str]] = [
+            None if m["chosen"] is None else m["candidates"][m["chosen"]]["name"] for m in self.materials
+        ]
+        self.blob: Optional[bytes] = blob
+        self.blob_note: Optional[str] = blob_note
+
+    def to_json(self) -> str:
+        """The selection exactly as ``brdf select --scene --json`` prints it (without its final newline)."""
+        return self._text
+
+    def __repr__(self) -> str:
+        return f"SceneSelection({self.report['scene']!r}, chosen: {self.chosen})"
+
+
+def select_scene(scene, *, budget: float = 0.02, seed: int = 1, sequence: int = 1) -> SceneSelection:
+    """Per material of the scene file ``scene``, the cheapest device representation whose
+    sigma stays within ``budget`` (a fraction: 0.01 is 1%) of the exact model's at every
+    aspect that sees it, as ``brdf select --scene``; ``seed`` seeds the ladder's fits and
+    ``sequence`` is the blob's sequence number. Raises ValueError with the command's message
+    when the scene cannot be used.
+    """
+    sequence = operator.index(sequence)
+    if not 0 <= sequence <= 0xFFFFFFFF:
+        raise ValueError(f"sequence {sequence}: outside 0..=4294967295")
+    seed = operator.index(seed)
+    if not 0 <= seed <= 0xFFFFFFFFFFFFFFFF:
+        raise ValueError(f"seed {seed}: outside 0..=18446744073709551615")
+    return SceneSelection(*_brdf.select_scene(os.fspath(scene), float(budget), seed, sequence))

@@ -104,3 +104,42 @@ def pack(
     *,
     sequence: int = 1,
 ) -> bytes: ...
+class SceneLrcs:
+    report: Dict[str, Any]
+    azimuth: np.ndarray
+    elevation: np.ndarray
+    lrcs: np.ndarray
+    by_material: np.ndarray
+    facets_seen: np.ndarray
+    parts: List[str]
+    seconds: float
+    def __init__(
+        self,
+        text: str,
+        azimuth: Sequence[float],
+        elevation: Sequence[float],
+        lrcs: Sequence[float],
+        by_material: Sequence[Sequence[float]],
+        facets_seen: Sequence[int],
+        parts: Sequence[str],
+    ) -> None: ...
+    def to_json(self) -> str: ...
+
+def scene_lrcs(scene: Union[str, os.PathLike]) -> SceneLrcs: ...
+def scene_domain(scene: Union[str, os.PathLike]) -> Dict[str, Any]: ...
+class SceneSelection:
+    report: Dict[str, Any]
+    materials: List[Dict[str, Any]]
+    chosen: List[Optional[str]]
+    blob: Optional[bytes]
+    blob_note: Optional[str]
+    def __init__(self, text: str, blob: Optional[bytes], blob_note: Optional[str]) -> None: ...
+    def to_json(self) -> str: ...
+
+def select_scene(
+    scene: Union[str, os.PathLike],
+    *,
+    budget: float = 0.02,
+    seed: int = 1,
+    sequence: int = 1,
+) -> SceneSelection: ...

@@ -1,0 +1,104 @@
+"""`brdf.scene_lrcs` and `brdf.scene_domain`: what `brdf scene lrcs --json` and `brdf scene
+domain` print, as arrays, and the command's errors."""
+
+import csv
+import io
+import json
+
+import numpy as np
+import pytest
+
+import brdf
+
+SCENE = "data/scenes/target.toml"
+# The bundled scene's materials are all six-parameter; the sweep's JSON lists their values
+# in this order.
+SIX = ["kb", "kr", "b", "a", "kd", "c"]
+
+
+def test_lrcs_is_the_cli_sweep(cli, root):
+    want = json.loads(cli("scene", "lrcs", "--json", root / SCENE).stdout)
+    got = brdf.scene_lrcs(root / SCENE)
+    report = json.loads(got.to_json())
+    assert report.pop("seconds") >= 0 and want.pop("seconds") >= 0
+    assert report == want
+    aspects = want["aspects"]
+    assert len(got.lrcs) == len(aspects) == 216
+    assert got.azimuth.tolist() == [a["azimuth"] for a in aspects]
+    assert got.elevation.tolist() == [a["elevation"] for a in aspects]
+    assert got.lrcs.tolist() == [a["lrcs"] for a in aspects]
+    assert got.by_material.tolist() == [a["by_material"] for a in aspects]
+    assert got.facets_seen.tolist() == [a["facets_seen"] for a in aspects]
+    assert got.parts == [m["part"] for m in want["materials"]] == ["hull", "caps", "fin"]
+    assert got.by_material.shape == (216, 3)
+    # sigma is the sum of the materials' shares, and something is seen at every aspect.
+    np.testing.assert_allclose(got.by_material.sum(axis=1), got.lrcs, rtol=brdf._brdf.F64_REFORMULATION_REL)
+    assert (got.lrcs > 0).all()
+
+
+def test_domain_is_the_cli_file(cli, root):
+    rows = list(csv.DictReader(io.StringIO(cli("scene", "domain", root / SCENE).stdout)))
+    got = brdf.scene_domain(root / SCENE)
+    assert len(rows) == len(got["theta_i"]) == 221321
+    for key in ("azimuth", "elevation", "theta_i", "theta_r", "phi", "weight"):
+        # The CLI writes the shortest decimal that reads back as the same f64.
+        assert got[key].tolist() == [float(r[key]) for r in rows], key
+    for key in ("material", "facet"):
+        assert got[key].tolist() == [int(r[key]) for r in rows], key
+    assert got["part"] == [r["part"] for r in rows]
+    # sigma at each aspect is the sum of weight * brdf over its queries: the domain and the
+    # sweep agree for the scene's own models.
+    lr = brdf.scene_lrcs(root / SCENE)
+    scene_models = json.loads(lr.to_json())["materials"]
+    f = np.empty_like(got["weight"])
+    for k, m in enumerate(scene_models):
+        sel = got["material"] == k
+        assert m["model"] == "six"
+        params = dict(zip(SIX, m["params"]))
+        f[sel] = brdf.eval(m["model"], params, got["theta_i"][sel], got["theta_r"][sel], got["phi"][sel])
+    sigma = {}
+    for a, e, w, v in zip(got["azimuth"], got["elevation"], got["weight"], f):
+        sigma[(a, e)] = sigma.get((a, e), 0.0) + w * v
+    want = {(a, e): s for a, e, s in zip(lr.azimuth, lr.elevation, lr.lrcs)}
+    assert sigma.keys() == want.keys()
+    worst = max(abs(sigma[k] - want[k]) / want[k] for k in want)
+    print(f"sigma from the domain against the sweep: worst relative difference {worst:.2e}")
+    assert worst <= brdf._brdf.F64_REFORMULATION_REL
+
+
+def test_errors_are_the_cli_messages(cli, root, tmp_path):
+    missing = tmp_path / "none.toml"
+    bad = tmp_path / "bad.toml"
+    bad.write_text("bad = [")
+    for path in (missing, bad):
+        stderr = cli("scene", "lrcs", path, check=False).stderr.strip()
+        assert stderr.startswith("error: cannot use scene")
+        for fn in (brdf.scene_lrcs, brdf.scene_domain):
+            with pytest.raises(ValueError) as e:
+                fn(path)
+            assert "error: " + str(e.value) == stderr
+
+
+@pytest.mark.parametrize("flags,kwargs", [([], {}), (["--budget", "1%", "--seed", "3"], {"budget": 0.01, "seed": 3})])
+def test_select_scene_is_the_cli_choice_and_blob(cli, root, tmp_path, flags, kwargs):
+    out = tmp_path / "scene.bin"
+    text = cli("select", "--scene", root / SCENE, "--json", *flags).stdout
+    cli("select", "--scene", root / SCENE, "-o", out, "--sequence", "5", *flags)
+    s = brdf.select_scene(root / SCENE, sequence=5, **kwargs)
+    assert s.to_json() + "\n" == text
+    want = json.loads(text)
+    assert s.chosen == [m["candidates"][m["chosen"]]["name"] for m in want["materials"]]
+    assert s.blob == out.read_bytes() and s.blob_note is None
+    # Every choice is within the budget and no cheaper candidate is.
+    budget = kwargs.get("budget", 0.02)
+    for m in s.materials:
+        c = m["candidates"][m["chosen"]]
+        assert c["worst_sigma_error"] <= budget and c["fits_blob"]
+        assert all(not (d["within_budget"] and d["fits_blob"]) for d in m["candidates"][: m["chosen"]])
+
+
+def test_select_scene_refuses_a_bad_budget_and_scene(tmp_path):
+    with pytest.raises(ValueError, match="budget 0 is not a finite fraction"):
+        brdf.select_scene("data/scenes/target.toml", budget=0)
+    with pytest.raises(ValueError, match="cannot use scene"):
+        brdf.select_scene(tmp_path / "none.toml")
