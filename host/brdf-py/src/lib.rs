@@ -680,10 +680,11 @@ type Selected<'py> = (
 
 /// `brdf select DATA` on one dataset: the ladder fitted over the domain with `settings` (its
 /// model is ignored), through the same library call (`brdf_scene::represent::select_data`).
-/// Returns the JSON `brdf select --json` prints, each candidate's report as `brdf fit --json`
-/// prints it and the chosen representation's blob (as `brdf select -o` writes it) or None;
-/// pushes onto `notes` what the CLI prints on standard error first (the points left out).
-#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+/// Returns (see [`Selected`]) the JSON `brdf select --json` prints, each candidate's report
+/// as `brdf fit --json` prints it and the chosen representation's blob (as `brdf select -o`
+/// writes it) or None, or the error; with either, `notes` and then what the CLI prints on
+/// standard error first (the points left out).
+#[allow(clippy::too_many_arguments)]
 fn select_dataset<'py>(
     py: Python<'py>,
     settings: &Settings,
@@ -692,42 +693,49 @@ fn select_dataset<'py>(
     limits: (f64, f64),
     allow_nonphysical: bool,
     sequence: u32,
-    notes: &mut Vec<String>,
-) -> Result<(String, Vec<String>, Option<Bound<'py, PyBytes>>), String> {
+    mut notes: Vec<String>,
+) -> Selected<'py> {
     use brdf_scene::represent::{select_data, DataDomain};
-    check_budget(budget)?;
-    for (name, v) in [("max_theta_i", limits.0), ("max_theta_r", limits.1)] {
-        if !(0.0..=90.0).contains(&v) {
-            return Err(format!("{name} {v} is outside 0..=90 degrees"));
+    #[allow(clippy::type_complexity)]
+    let result = (|| -> Result<(String, Vec<String>, Option<Bound<'py, PyBytes>>), String> {
+        check_budget(budget)?;
+        for (name, v) in [("max_theta_i", limits.0), ("max_theta_r", limits.1)] {
+            if !(0.0..=90.0).contains(&v) {
+                return Err(format!("{name} {v} is outside 0..=90 degrees"));
+            }
         }
+        let kept = DataDomain::new(&d, limits.0, limits.1);
+        notes.extend(kept.left_out_note());
+        let base = settings.settings;
+        let (text, candidates, blob) = py.detach(move || -> Result<_, String> {
+            let s = select_data(
+                &kept,
+                &|kind| FitSettings { kind, ..base },
+                budget,
+                allow_nonphysical,
+            )?;
+            let blob = match &s.material {
+                Some((m, table)) => Some(
+                    brdf_fit::pack::encode(&[*m], std::slice::from_ref(table), sequence)
+                        .map_err(|e| e.to_string())?,
+                ),
+                None => None,
+            };
+            let text = serde_json::to_string_pretty(&s).map_err(|e| e.to_string())?;
+            let candidates = s
+                .candidates
+                .iter()
+                .map(serde_json::to_string_pretty)
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| e.to_string())?;
+            Ok((text, candidates, blob))
+        })?;
+        Ok((text, candidates, blob.map(|b| PyBytes::new(py, &b.bytes))))
+    })();
+    match result {
+        Ok(v) => (Some(v), notes, None),
+        Err(e) => (None, notes, Some(e)),
     }
-    let kept = DataDomain::new(&d, limits.0, limits.1);
-    notes.extend(kept.left_out_note());
-    let base = settings.settings;
-    let (text, candidates, blob) = py.detach(move || -> Result<_, String> {
-        let s = select_data(
-            &kept,
-            &|kind| FitSettings { kind, ..base },
-            budget,
-            allow_nonphysical,
-        )?;
-        let blob = match &s.material {
-            Some((m, table)) => Some(
-                brdf_fit::pack::encode(&[*m], std::slice::from_ref(table), sequence)
-                    .map_err(|e| e.to_string())?,
-            ),
-            None => None,
-        };
-        let text = serde_json::to_string_pretty(&s).map_err(|e| e.to_string())?;
-        let candidates = s
-            .candidates
-            .iter()
-            .map(serde_json::to_string_pretty)
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| e.to_string())?;
-        Ok((text, candidates, blob))
-    })?;
-    Ok((text, candidates, blob.map(|b| PyBytes::new(py, &b.bytes))))
 }
 
 /// A selection budget is a finite fraction greater than 0 (`budget` as `brdf select
@@ -754,27 +762,22 @@ fn select_path<'py>(
     allow_nonphysical: bool,
     sequence: u32,
 ) -> PyResult<Selected<'py>> {
-    let (datasets, mut notes) = load(settings, std::slice::from_ref(&path))?;
+    let (datasets, notes) = load(settings, std::slice::from_ref(&path))?;
     let d = match brdf_scene::represent::one_dataset(&path, datasets) {
         Ok(d) => d,
         Err(e) => return Ok((None, notes, Some(e))),
     };
     let limits = (max_theta_i, max_theta_r);
-    Ok(
-        match select_dataset(
-            py,
-            settings,
-            d,
-            budget,
-            limits,
-            allow_nonphysical,
-            sequence,
-            &mut notes,
-        ) {
-            Ok(v) => (Some(v), notes, None),
-            Err(e) => (None, notes, Some(e)),
-        },
-    )
+    Ok(select_dataset(
+        py,
+        settings,
+        d,
+        budget,
+        limits,
+        allow_nonphysical,
+        sequence,
+        notes,
+    ))
 }
 
 /// `brdf select` on one dataset given as arrays: see [`select_dataset`] and [`Selected`].
@@ -811,23 +814,17 @@ fn select_arrays<'py>(
             allow_zero,
         ),
     )?;
-    let mut notes = Vec::new();
     let limits = (max_theta_i, max_theta_r);
-    Ok(
-        match select_dataset(
-            py,
-            settings,
-            d,
-            budget,
-            limits,
-            allow_nonphysical,
-            sequence,
-            &mut notes,
-        ) {
-            Ok(v) => (Some(v), notes, None),
-            Err(e) => (None, notes, Some(e)),
-        },
-    )
+    Ok(select_dataset(
+        py,
+        settings,
+        d,
+        budget,
+        limits,
+        allow_nonphysical,
+        sequence,
+        Vec::new(),
+    ))
 }
 
 /// `brdf pack` through the same library function (`brdf_fit::pack::pack`). `sources` are
