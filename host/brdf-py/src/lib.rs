@@ -678,24 +678,27 @@ type Selected<'py> = (
     Option<String>,
 );
 
+/// `brdf.select`'s options after the data: `(budget, max_theta_i, max_theta_r,
+/// allow_nonphysical, sequence)`, as `brdf select --budget --max-theta-i --max-theta-r
+/// --allow-nonphysical --sequence`.
+type SelectArgs = (f64, f64, f64, bool, u32);
+
 /// `brdf select DATA` on one dataset: the ladder fitted over the domain with `settings` (its
 /// model is ignored), through the same library call (`brdf_scene::represent::select_data`).
 /// Returns (see [`Selected`]) the JSON `brdf select --json` prints, each candidate's report
 /// as `brdf fit --json` prints it and the chosen representation's blob (as `brdf select -o`
 /// writes it) or None, or the error; with either, `notes` and then what the CLI prints on
 /// standard error first (the points left out).
-#[allow(clippy::too_many_arguments)]
 fn select_dataset<'py>(
     py: Python<'py>,
     settings: &Settings,
     d: Dataset,
-    budget: f64,
-    limits: (f64, f64),
-    allow_nonphysical: bool,
-    sequence: u32,
+    options: SelectArgs,
     mut notes: Vec<String>,
 ) -> Selected<'py> {
     use brdf_scene::represent::{select_data, DataDomain};
+    let (budget, max_theta_i, max_theta_r, allow_nonphysical, sequence) = options;
+    let limits = (max_theta_i, max_theta_r);
     #[allow(clippy::type_complexity)]
     let result = (|| -> Result<(String, Vec<String>, Option<Bound<'py, PyBytes>>), String> {
         check_budget(budget)?;
@@ -751,39 +754,23 @@ fn check_budget(budget: f64) -> Result<(), String> {
 /// `brdf select` on a file: see [`select_dataset`] and [`Selected`]; the notes are the
 /// skipped or rejected rows, then the points left out.
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
 fn select_path<'py>(
     py: Python<'py>,
     settings: &Settings,
     path: String,
-    budget: f64,
-    max_theta_i: f64,
-    max_theta_r: f64,
-    allow_nonphysical: bool,
-    sequence: u32,
+    options: SelectArgs,
 ) -> PyResult<Selected<'py>> {
     let (datasets, notes) = load(settings, std::slice::from_ref(&path))?;
     let d = match brdf_scene::represent::one_dataset(&path, datasets) {
         Ok(d) => d,
         Err(e) => return Ok((None, notes, Some(e))),
     };
-    let limits = (max_theta_i, max_theta_r);
-    Ok(select_dataset(
-        py,
-        settings,
-        d,
-        budget,
-        limits,
-        allow_nonphysical,
-        sequence,
-        notes,
-    ))
+    Ok(select_dataset(py, settings, d, options, notes))
 }
 
 /// `brdf select` on one dataset given as arrays: see [`select_dataset`] and [`Selected`].
 #[pyfunction]
-#[pyo3(signature = (settings, name, theta_i, theta_r, phi, brdf, sigma, weight, budget,
-                    max_theta_i, max_theta_r, allow_nonphysical, sequence))]
+#[pyo3(signature = (settings, name, theta_i, theta_r, phi, brdf, sigma, weight, options))]
 #[allow(clippy::too_many_arguments)]
 fn select_arrays<'py>(
     py: Python<'py>,
@@ -795,11 +782,7 @@ fn select_arrays<'py>(
     brdf: PyReadonlyArray1<'py, f64>,
     sigma: Option<PyReadonlyArray1<'py, f64>>,
     weight: Option<PyReadonlyArray1<'py, f64>>,
-    budget: f64,
-    max_theta_i: f64,
-    max_theta_r: f64,
-    allow_nonphysical: bool,
-    sequence: u32,
+    options: SelectArgs,
 ) -> PyResult<Selected<'py>> {
     let allow_zero = settings.settings.residual == Residual::Absolute;
     let d = dataset(
@@ -814,17 +797,7 @@ fn select_arrays<'py>(
             allow_zero,
         ),
     )?;
-    let limits = (max_theta_i, max_theta_r);
-    Ok(select_dataset(
-        py,
-        settings,
-        d,
-        budget,
-        limits,
-        allow_nonphysical,
-        sequence,
-        Vec::new(),
-    ))
+    Ok(select_dataset(py, settings, d, options, Vec::new()))
 }
 
 /// `brdf pack` through the same library function (`brdf_fit::pack::pack`). `sources` are

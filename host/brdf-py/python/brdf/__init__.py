@@ -370,7 +370,7 @@ def select(
         raise ValueError(f"sequence {sequence}: outside 0..=4294967295")
     args = (float(budget), mi, mr, bool(allow_nonphysical), sequence)
     if isinstance(data, (str, os.PathLike)):
-        done, notes, error = _brdf.select_path(s, os.fspath(data), *args)
+        done, notes, error = _brdf.select_path(s, os.fspath(data), args)
     elif _is_paths(data):
         raise TypeError("select works on one dataset: give one path")
     else:
@@ -378,7 +378,7 @@ def select(
         try:
             done, notes, error = _brdf.select_arrays(
                 s, name, flat["theta_i"], flat["theta_r"], flat["phi"], flat["brdf"],
-                flat.get("sigma"), flat.get("weight"), *args,
+                flat.get("sigma"), flat.get("weight"), args,
             )
         except _brdf.ElementError as e:
             raise _located(["data"], shape, e) from None
