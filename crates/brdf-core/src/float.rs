@@ -746,8 +746,9 @@ mod tests {
             2.0f32.powi(7),
             2.0f32.powi(100),
         ] {
-            bases.extend(spread(1.405 * scale, 1.414_213 * scale, 8_000));
-            bases.extend(spread(0.707_107 * scale, 0.712 * scale, 4_000));
+            let (sqrt2, sqrt_half) = (core::f32::consts::SQRT_2, core::f32::consts::FRAC_1_SQRT_2);
+            bases.extend(spread(1.405 * scale, sqrt2 * scale, 8_000));
+            bases.extend(spread(sqrt_half * scale, 0.712 * scale, 4_000));
         }
         bases.extend([180.822_07f32, 22.618_917, 0.704_597_9]);
         for y in ys {
