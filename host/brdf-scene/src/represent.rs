@@ -240,11 +240,10 @@ pub fn one_dataset(origin: &str, mut datasets: Vec<Dataset>) -> Result<Dataset, 
 pub struct DataDomain {
     /// The points kept, under the dataset's name.
     pub domain: Dataset,
-    /// The limits (degrees).
+    /// The `theta_i` limit (degrees).
     pub max_theta_i: f64,
+    /// The `theta_r` limit (degrees).
     pub max_theta_r: f64,
-    /// Points in the whole dataset.
-    pub total: usize,
     /// Points left out for `theta_i` beyond the limit.
     pub beyond_i: usize,
     /// Points left out for `theta_r` beyond its limit (among those within the `theta_i` one).
@@ -275,7 +274,6 @@ impl DataDomain {
             domain,
             max_theta_i,
             max_theta_r,
-            total: d.points.len(),
             beyond_i,
             beyond_r,
         }
@@ -290,7 +288,8 @@ impl DataDomain {
                  theta_r > {} deg (limits kept within {} deg)",
                 self.domain.name,
                 bi + br,
-                self.total,
+                // Kept, left out for theta_i and for theta_r partition the dataset.
+                self.domain.points.len() + bi + br,
                 self.max_theta_i,
                 self.max_theta_r,
                 brdf_core::tolerance::ANGLE_FILTER_DEG
