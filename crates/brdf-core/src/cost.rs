@@ -9,17 +9,17 @@ use crate::model::ModelKind;
 /// Instructions per exact f32 evaluation from cosines.
 pub const fn exact_instructions(kind: ModelKind) -> u32 {
     match kind {
-        ModelKind::Lambert => 69,
-        ModelKind::Minnaert => 149,
-        ModelKind::Five => 278,
-        ModelKind::Six => 378,
-        ModelKind::SixCos2 => 402,
+        ModelKind::Lambert => 59,
+        ModelKind::Minnaert => 141,
+        ModelKind::Five => 261,
+        ModelKind::Six => 366,
+        ModelKind::SixCos2 => 391,
     }
 }
 
 /// Instructions per tabulated six-parameter lookup from cosines as the firmware serves it
 /// (table constants rebound to the blob per query); independent of the node count.
-pub const TABLE_INSTRUCTIONS: u32 = 285;
+pub const TABLE_INSTRUCTIONS: u32 = 227;
 
 /// Relative drift of a measured count from these constants that the test tolerates (a
 /// compiler update moves counts by a few percent; a change of method moves them by

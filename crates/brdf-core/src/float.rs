@@ -57,6 +57,8 @@ pub trait Float:
     const LN_2: Self;
     /// Machine epsilon.
     const EPSILON: Self;
+    /// The smallest positive normal number.
+    const MIN_POSITIVE: Self;
     /// Veltkamp splitting constant `2^ceil(p/2) + 1` (p = mantissa bits) for exact products.
     const SPLITTER: Self;
 
@@ -119,6 +121,7 @@ macro_rules! impl_float {
             const FRAC_PI_2: Self = core::$t::consts::FRAC_PI_2;
             const LN_2: Self = core::$t::consts::LN_2;
             const EPSILON: Self = $t::EPSILON;
+            const MIN_POSITIVE: Self = $t::MIN_POSITIVE;
             const SPLITTER: Self = $splitter;
 
             #[inline]
@@ -216,38 +219,32 @@ pub(crate) fn product_error<T: Float>(a_hi: T, a_lo: T, b: T, p: T) -> T {
     ((a_hi * b_hi - p) + a_hi * b_lo + a_lo * b_hi) + a_lo * b_lo
 }
 
-/// Correctly rounded f32 square root. On a hard-float Arm target (the Cortex-M4F) it is the
-/// FPU's `vsqrt.f32` (14 cycles; 6 instructions with its operand moves) instead of libm's
-/// software routine (about 51 instructions); both are IEEE 754 correctly rounded, so host and device results stay
-/// bit-identical.
+/// Correctly rounded f32 square root. On a hard-float Arm target (the Cortex-M4F and M33) it
+/// is a call to the C library's `sqrtf`, which LLVM turns into the FPU's `vsqrt.f32` (14
+/// cycles) and a test of its result: 4 instructions in all, with a call to the software
+/// `sqrtf` (which `compiler_builtins` supplies) only when the result is NaN, to set `errno`
+/// as C requires. Both are IEEE 754 correctly rounded, as libm's `sqrtf` on the host is, so
+/// host and device results stay bit-identical. (Inline assembly cannot name an `s` register
+/// on these targets, since Rust's `sreg` class needs the double-precision `vfp2` feature, and
+/// moving the operand through a core register costs 6 instructions.)
 #[inline(always)]
 fn sqrt_f32(x: f32) -> f32 {
     #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
     {
-        let bits: u32;
-        // Rust's `sreg` operand class needs the double-precision `vfp2` feature, which the
-        // single-precision FPU of the M4F lacks; so the operand travels in a core register
-        // and s15 is saved around the instruction (6 instructions in all).
-        // SAFETY: s15 is restored before the block ends; the stack use is balanced; no
-        // memory visible to Rust is touched; every eabihf target has `vsqrt.f32`.
-        #[allow(unsafe_code)]
-        unsafe {
-            core::arch::asm!(
-                "vpush {{s15}}",
-                "vmov s15, {0}",
-                "vsqrt.f32 s15, s15",
-                "vmov {0}, s15",
-                "vpop {{s15}}",
-                inout(reg) x.to_bits() => bits,
-                options(pure, nomem, preserves_flags),
-            );
-        }
-        f32::from_bits(bits)
+        sqrtf(x)
     }
     #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
     {
         libm::sqrtf(x)
     }
+}
+
+// The C library's square root: `compiler_builtins` defines the symbol on bare-metal targets;
+// declaring it here lets LLVM recognise it and emit the FPU instruction (see `sqrt_f32`).
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+#[allow(unsafe_code)]
+unsafe extern "C" {
+    safe fn sqrtf(x: f32) -> f32;
 }
 
 #[inline]

@@ -107,47 +107,46 @@ impl<T: Float> Geometry<T> {
     }
 
     /// From `cos theta_i`, `cos theta_r` and `cos phi` — the device path, with no
-    /// trigonometric call (two square roots and four divisions).
+    /// trigonometric call (two square roots and six divisions).
     ///
-    /// Accurate to a few ulp for the given cosines: `1 - cos phi` and `1 + cos phi` are exact
-    /// where they are small (Sterbenz), and `theta_i - theta_r` enters only through
-    /// `sin(ti - tr) = (cos tr - cos ti)(cos tr + cos ti) / sin(ti + tr)`. Resolution near the
-    /// retro direction is limited by how finely `cos phi` itself can say `phi` (in f32,
-    /// `phi` below about 3e-4 rad rounds `cos phi` to 1); callers who need that region should
-    /// use [`Geometry::from_angles`] or [`Geometry::from_vectors`].
+    /// Accurate to a few ulp for the given cosines. `sin ti sin tr = sqrt((1 - cos^2 ti)(1 -
+    /// cos^2 tr))` is the only square root; each sum that would cancel is rewritten through
+    /// an exact product (`(1 - x)(1 + x)` is exact where `1 - x` is small, by Sterbenz):
+    /// - `1 - cos(ti - tr) = (cos ti - cos tr)^2 / (1 - cos(ti + tr))`,
+    /// - `1 + cos(ti + tr) = (cos ti + cos tr)^2 / (1 + cos(ti - tr))`,
+    /// - `(sin ti - sin tr)^2 = (sin^2 ti - sin^2 tr)^2 / (sin ti + sin tr)^2`,
+    ///
+    /// with `2 (1 -+ cos ti cos tr)` written as the symmetric sum of two products, so the
+    /// result is exactly reciprocal. `1 - cos phi` and `1 + cos phi` are exact where they are
+    /// small (Sterbenz). Resolution near the retro direction is limited by how finely
+    /// `cos phi` itself can say `phi` (in f32, `phi` below about 3e-4 rad rounds `cos phi` to
+    /// 1); callers who need that region should use [`Geometry::from_angles`] or
+    /// [`Geometry::from_vectors`].
     #[inline]
     pub fn from_cosines(cos_theta_i: T, cos_theta_r: T, cos_phi: T) -> Self {
         let (mi, mr) = (cos_theta_i, cos_theta_r);
-        let si = ((T::ONE - mi) * (T::ONE + mi)).sqrt();
-        let sr = ((T::ONE - mr) * (T::ONE + mr)).sqrt();
-        let ss = si * sr;
-        let mm = mi * mr;
-        // (cos tr - cos ti)(cos tr + cos ti) = sin^2 ti - sin^2 tr, exact difference.
-        let d2 = (mr - mi) * (mr + mi);
-        // sin(ti - tr) = d2 / sin(ti + tr); 1 - cos(ti - tr) = sin^2 / (1 + cos).
-        let sin_sum = si * mr + mi * sr;
-        let sin_diff = if sin_sum > T::ZERO { d2 / sin_sum } else { T::ZERO };
-        let cos_diff = mm + ss;
-        let one_minus_cos_diff = sin_diff * sin_diff / (T::ONE + cos_diff);
-        // 1 + cos(ti + tr): direct where cos(ti + tr) >= 0, else sin^2 / (1 - cos).
-        let cos_sum = mm - ss;
-        let one_plus_cos_sum = if cos_sum >= T::ZERO {
-            T::ONE + cos_sum
-        } else {
-            sin_sum * sin_sum / (T::ONE - cos_sum)
-        };
-        // sin ti - sin tr = d2 / (sin ti + sin tr).
-        let sin_sum_r = si + sr;
-        let sin_dr = if sin_sum_r > T::ZERO {
-            d2 / sin_sum_r
-        } else {
-            T::ZERO
-        };
-        let one_minus_cp = T::ONE - cos_phi;
+        let (pi, qi, pr, qr) = (T::ONE - mi, T::ONE + mi, T::ONE - mr, T::ONE + mr);
+        // sin^2 ti, sin^2 tr and sin ti sin tr.
+        let (a, b) = (pi * qi, pr * qr);
+        let ss = (a * b).sqrt();
+        let ss2 = ss + ss;
+        // Denominators are at least the smallest normal number, so that the 0/0 at normal
+        // incidence and view (and on the horizon) gives 0; adding it to any denominator that
+        // is not 0 changes nothing (they are at least 2^-24 there).
+        let tiny = T::MIN_POSITIVE;
+        let (dm, sm) = (mi - mr, mi + mr);
+        // 2 (1 - cos(ti + tr)) and 2 (1 + cos(ti - tr)).
+        let den_sum = (pi * qr + qi * pr) + ss2 + tiny;
+        let den_diff = (qi * qr + pi * pr) + ss2 + tiny;
+        // (sin ti - sin tr)^2, from sin^2 ti - sin^2 tr = (cos tr - cos ti)(cos tr + cos ti).
+        let d2 = dm * sm;
+        let sin_dr2 = (d2 * d2) / ((a + b) + ss2 + tiny);
+        let half_ss = ss * T::HALF;
         let one_plus_cp = T::ONE + cos_phi;
-        let sin2_gamma = (one_minus_cos_diff + ss * one_minus_cp) * T::HALF;
-        let cos2_gamma = (one_plus_cos_sum + ss * one_plus_cp) * T::HALF;
-        let p = sin_dr * sin_dr + T::TWO * ss * one_plus_cp;
+        // sin^2(gamma) = (1 - cos(ti - tr) + ss (1 - cos phi)) / 2, and cos^2(gamma) alike.
+        let sin2_gamma = (dm * dm) / den_sum + half_ss * (T::ONE - cos_phi);
+        let cos2_gamma = (sm * sm) / den_diff + half_ss * one_plus_cp;
+        let p = sin_dr2 + ss2 * one_plus_cp;
         Self::from_parts(mi, mr, sin2_gamma, cos2_gamma, p)
     }
 

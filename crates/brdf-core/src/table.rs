@@ -12,20 +12,26 @@
 //! with linear interpolation:
 //!
 //! - the lobe `L = exp(-|b| (1 - cos gamma)^a)`, indexed by `u = (1 - cos gamma)^(1/8)`
-//!   (three square roots, one instruction each on the Cortex-M4F). In `1 - cos gamma`
+//!   (three square roots, 4 instructions each on the Cortex-M4F). In `1 - cos gamma`
 //!   itself the lobe has an unbounded slope at the retro direction for `a < 1` (every
 //!   Table 1 material); in `u` it is `exp(-|b| u^(8a))`, whose slope is finite for
 //!   `a >= 1/8` (with `u^(1/4)` instead, random sets with `a` near 0.2 erred 10x more);
 //! - `ln(1 + m)` indexed by `m = cos ti cos tr`;
-//! - `mu^c` indexed by `mu = cos theta`, looked up once for each direction, so the diffuse
-//!   term keeps its exact reciprocity.
+//! - `mu^c` indexed by `mu`, looked up once at `mu = v = sqrt(cos ti cos tr)` and squared:
+//!   `cos(ti)^c cos(tr)^c = (v^c)^2`. One lookup where one per direction took two (about 20
+//!   instructions each), and the diffuse term keeps its exact reciprocity because the
+//!   product does. `v` is at least the smaller cosine, so it sits no nearer the table's
+//!   steep end than the two lookups did: over the grid of `examples/table_domain.rs` the
+//!   worst errors up to 89° are those of two lookups, and beyond they are smaller.
 //!
 //! The geometry is the exact cancellation-free [`Geometry`], so the table adds only the
 //! interpolation error of three smooth 1-D functions, and the result is still exactly
 //! reciprocal. Where it fails: `mu^c` has an unbounded slope at `mu = 0`, so the relative
-//! error grows in the last cell before the horizon (zenith beyond `acos(1/(n-1))`, 89.1° for
-//! 64 nodes, 89.9° for 1024); and a steep lobe (large `a |b|`) needs more nodes. Measured
-//! maximum errors per size are in [`crate::tolerance`] and tested in `tests/table_accuracy.rs`.
+//! error grows in the last cell before the horizon (`v` below `1/(n-1)`: for 64 nodes both
+//! zeniths beyond 89.1°, or one beyond 89.986° with the other at normal; for 1024 nodes
+//! 89.94° and 89.9999°); and a steep lobe (large `a |b|`) needs more nodes.
+//! Measured maximum errors per size are in [`crate::tolerance`] and tested in
+//! `tests/table_accuracy.rs`.
 //!
 //! The nodes are stored as little-endian f32 bytes, lobe then `ln(1 + m)` then `mu^c`
 //! ([`table_len`] bytes), exactly as they travel in a parameter blob, so the device reads them
@@ -273,8 +279,8 @@ impl<'t> SixTable<'t> {
 
     #[inline(always)]
     fn node(&self, i: usize) -> f32 {
-        match self.bytes.get(4 * i..4 * i + 4) {
-            Some(b) => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+        match self.bytes.as_chunks::<4>().0.get(i) {
+            Some(&b) => f32::from_le_bytes(b),
             None => f32::NAN,
         }
     }
@@ -282,35 +288,38 @@ impl<'t> SixTable<'t> {
     /// Linear interpolation in table `t` at `x` in `[0, 1]`.
     #[inline(always)]
     fn lerp(&self, t: usize, x: f32) -> f32 {
+        let n = self.c.nodes;
+        // `new` guarantees three tables of `n >= 2` nodes; the checks below make that visible
+        // to the compiler, which then proves both node reads in bounds.
+        let nodes = match self.bytes.as_chunks::<4>().0.get(t * n..(t + 1) * n) {
+            Some(nodes) if nodes.len() >= 2 => nodes,
+            _ => return f32::NAN,
+        };
         let s = x * self.c.scale;
         // `as` saturates (negative and NaN give 0); the last interval serves x = 1.
-        let i = (s as usize).min(self.c.nodes - 2);
+        let i = (s as usize).min(nodes.len() - 2);
         let w = s - i as f32;
-        let at = 4 * (t * self.c.nodes + i);
-        // Both nodes with one bounds check; `new` guarantees the range exists.
-        match self.bytes.get(at..at + 8) {
-            Some(&[a0, a1, a2, a3, b0, b1, b2, b3]) => {
-                let a = f32::from_le_bytes([a0, a1, a2, a3]);
-                let b = f32::from_le_bytes([b0, b1, b2, b3]);
-                a + w * (b - a)
-            }
-            _ => f32::NAN,
-        }
+        let (a, b) = (f32::from_le_bytes(nodes[i]), f32::from_le_bytes(nodes[i + 1]));
+        a + w * (b - a)
     }
 }
 
 impl Brdf<f32> for SixTable<'_> {
-    #[inline]
+    #[inline(always)]
     fn eval(&self, g: &Geometry<f32>) -> f32 {
         if let Some(v) = g.outside() {
             return v;
         }
         let (mi, mr) = (g.cos_theta_i(), g.cos_theta_r());
+        let m = mi * mr;
         // (1 - cos gamma)^(1/8), the lobe table's variable.
         let u = g.one_minus_cos_gamma().sqrt().sqrt().sqrt();
         let c = &self.c;
-        let spec = c.spec_scale * facet(c.kr2, g) * self.lerp(0, u) * self.lerp(1, mi * mr);
-        spec + c.diffuse_scale * (self.lerp(2, mi) * self.lerp(2, mr))
+        let spec = c.spec_scale * facet(c.kr2, g) * self.lerp(0, u) * self.lerp(1, m);
+        // cos(ti)^c cos(tr)^c = (v^c)^2 at v = sqrt(cos ti cos tr): one lookup, and exactly
+        // reciprocal because the product is.
+        let root = self.lerp(2, m.sqrt());
+        spec + c.diffuse_scale * (root * root)
     }
 }
 

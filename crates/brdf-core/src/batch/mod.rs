@@ -594,28 +594,21 @@ fn lane_angles<A: Arith>(z: &Zeniths, sin_hp: f64, cos_hp: f64) -> Lane {
 /// `Geometry::from_cosines`.
 #[inline(always)]
 fn lane_cosines<A: Arith>(mi: f64, mr: f64, cos_phi: f64) -> Lane {
-    let si = sqrt((1.0 - mi) * (1.0 + mi));
-    let sr = sqrt((1.0 - mr) * (1.0 + mr));
-    let ss = si * sr;
-    let mm = mi * mr;
-    let d2 = (mr - mi) * (mr + mi);
-    let sin_sum = si * mr + mi * sr;
-    let sin_diff = if sin_sum > 0.0 { d2 / sin_sum } else { 0.0 };
-    let cos_diff = mm + ss;
-    let one_minus_cos_diff = sin_diff * sin_diff / (1.0 + cos_diff);
-    let cos_sum = mm - ss;
-    let one_plus_cos_sum = if cos_sum >= 0.0 {
-        1.0 + cos_sum
-    } else {
-        sin_sum * sin_sum / (1.0 - cos_sum)
-    };
-    let sin_sum_r = si + sr;
-    let sin_dr = if sin_sum_r > 0.0 { d2 / sin_sum_r } else { 0.0 };
-    let one_minus_cp = 1.0 - cos_phi;
+    let (pi, qi, pr, qr) = (1.0 - mi, 1.0 + mi, 1.0 - mr, 1.0 + mr);
+    let (a, b) = (pi * qi, pr * qr);
+    let ss = sqrt(a * b);
+    let ss2 = ss + ss;
+    let tiny = f64::MIN_POSITIVE;
+    let (dm, sm) = (mi - mr, mi + mr);
+    let den_sum = (pi * qr + qi * pr) + ss2 + tiny;
+    let den_diff = (qi * qr + pi * pr) + ss2 + tiny;
+    let d2 = dm * sm;
+    let sin_dr2 = (d2 * d2) / ((a + b) + ss2 + tiny);
+    let half_ss = ss * 0.5;
     let one_plus_cp = 1.0 + cos_phi;
-    let sin2_gamma = (one_minus_cos_diff + ss * one_minus_cp) * 0.5;
-    let cos2_gamma = (one_plus_cos_sum + ss * one_plus_cp) * 0.5;
-    let p = sin_dr * sin_dr + 2.0 * ss * one_plus_cp;
+    let sin2_gamma = (dm * dm) / den_sum + half_ss * (1.0 - cos_phi);
+    let cos2_gamma = (sm * sm) / den_diff + half_ss * one_plus_cp;
+    let p = sin_dr2 + ss2 * one_plus_cp;
     from_parts::<A>(mi, mr, sin2_gamma, cos2_gamma, p)
 }
 
