@@ -19,7 +19,7 @@ pub const fn exact_instructions(kind: ModelKind) -> u32 {
 
 /// Instructions per tabulated six-parameter lookup from cosines as the firmware serves it
 /// (table constants rebound to the blob per query); independent of the node count.
-pub const TABLE_INSTRUCTIONS: u32 = 227;
+pub const TABLE_INSTRUCTIONS: u32 = 215;
 
 /// Relative drift of a measured count from these constants that the test tolerates (a
 /// compiler update moves counts by a few percent; a change of method moves them by

@@ -285,22 +285,33 @@ impl<'t> SixTable<'t> {
         }
     }
 
-    /// Linear interpolation in table `t` at `x` in `[0, 1]`.
+    /// The three tables (lobe, `ln(1 + m)`, `mu^c`), each of `nodes >= 2` nodes; `None`
+    /// only if the bytes are shorter than `new` checked, which cannot happen. Splitting once
+    /// lets the compiler prove every interpolation's two reads in bounds.
     #[inline(always)]
-    fn lerp(&self, t: usize, x: f32) -> f32 {
+    fn tables(&self) -> Option<[&[[u8; 4]]; 3]> {
         let n = self.c.nodes;
-        // `new` guarantees three tables of `n >= 2` nodes; the checks below make that visible
-        // to the compiler, which then proves both node reads in bounds.
-        let nodes = match self.bytes.as_chunks::<4>().0.get(t * n..(t + 1) * n) {
-            Some(nodes) if nodes.len() >= 2 => nodes,
-            _ => return f32::NAN,
-        };
-        let s = x * self.c.scale;
-        // `as` saturates (negative and NaN give 0); the last interval serves x = 1.
-        let i = (s as usize).min(nodes.len() - 2);
-        let w = s - i as f32;
-        let (a, b) = (f32::from_le_bytes(nodes[i]), f32::from_le_bytes(nodes[i + 1]));
-        a + w * (b - a)
+        let all = self.bytes.as_chunks::<4>().0;
+        if n < 2 {
+            return None;
+        }
+        Some([all.get(..n)?, all.get(n..2 * n)?, all.get(2 * n..3 * n)?])
+    }
+}
+
+/// Linear interpolation in `nodes` (at least two; `scale = nodes - 1`) at `x` in `[0, 1]`.
+#[inline(always)]
+fn lerp(nodes: &[[u8; 4]], scale: f32, x: f32) -> f32 {
+    let s = x * scale;
+    // `as` saturates (negative and NaN give 0); the last interval serves x = 1.
+    let i = (s as usize).min(nodes.len().saturating_sub(2));
+    let w = s - i as f32;
+    match (nodes.get(i), nodes.get(i + 1)) {
+        (Some(&a), Some(&b)) => {
+            let (a, b) = (f32::from_le_bytes(a), f32::from_le_bytes(b));
+            a + w * (b - a)
+        }
+        _ => f32::NAN,
     }
 }
 
@@ -310,15 +321,18 @@ impl Brdf<f32> for SixTable<'_> {
         if let Some(v) = g.outside() {
             return v;
         }
+        let Some([lobe, log1p, power]) = self.tables() else {
+            return f32::NAN;
+        };
         let (mi, mr) = (g.cos_theta_i(), g.cos_theta_r());
         let m = mi * mr;
         // (1 - cos gamma)^(1/8), the lobe table's variable.
         let u = g.one_minus_cos_gamma().sqrt().sqrt().sqrt();
         let c = &self.c;
-        let spec = c.spec_scale * facet(c.kr2, g) * self.lerp(0, u) * self.lerp(1, m);
+        let spec = c.spec_scale * facet(c.kr2, g) * lerp(lobe, c.scale, u) * lerp(log1p, c.scale, m);
         // cos(ti)^c cos(tr)^c = (v^c)^2 at v = sqrt(cos ti cos tr): one lookup, and exactly
         // reciprocal because the product is.
-        let root = self.lerp(2, m.sqrt());
+        let root = lerp(power, c.scale, m.sqrt());
         spec + c.diffuse_scale * (root * root)
     }
 }
