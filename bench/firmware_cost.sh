@@ -70,7 +70,7 @@ def soft_float(pc):
     name = table[bisect.bisect_right(addrs, pc & ~1) - 1][1]
     return "compiler_builtins" in name or name.startswith(("__aeabi_", "__clz"))
 print("the same paths counted from the instruction log (share in software floating point):")
-i, path = 0, 1
+i, path, spans = 0, 0, {}
 while True:
     try:
         s = pcs.index(start, i)
@@ -79,23 +79,24 @@ while True:
         break
     soft = sum(soft_float(pc) for pc in pcs[s:e])
     print(f"  path {path}: {(e - s) / 100:.1f} instructions ({100 * soft / (e - s):.0f}%)")
-    if path == 2:
-        six = (s, e)
+    spans[path] = (s, e)
     i, path = e + 1, path + 1
-# Where path 2 (six exact from cosines) spends its instructions: per function, with the
-# calls (entries at the function's first address) and instructions per call.
+# Where path 2 (six exact from cosines) and path 4 (the 256-node table from cosines) spend
+# their instructions: per function, with the calls (entries at the function's first address)
+# and instructions per call. Path 0 is the measuring loop alone.
 starts = {a: n for a, n in table}
-calls, count = {}, {}
-for pc in pcs[six[0]:six[1]]:
-    name = table[bisect.bisect_right(addrs, pc & ~1) - 1][1]
-    count[name] = count.get(name, 0) + 1
-    if (pc & ~1) in starts:
-        calls[name] = calls.get(name, 0) + 1
-print("path 2 by function (instructions per evaluation, calls, instructions per call):")
-for name, k in sorted(count.items(), key=lambda x: -x[1])[:6]:
-    c = calls.get(name, 0)
-    per = f"{k / c:.0f}" if c else "-"
-    print(f"  {k / 100:8.1f} {c / 100:6.1f} {per:>5}  {name[:100]}")
+for path in (2, 4):
+    calls, count = {}, {}
+    for pc in pcs[spans[path][0]:spans[path][1]]:
+        name = table[bisect.bisect_right(addrs, pc & ~1) - 1][1]
+        count[name] = count.get(name, 0) + 1
+        if (pc & ~1) in starts:
+            calls[name] = calls.get(name, 0) + 1
+    print(f"path {path} by function (instructions per evaluation, calls, instructions per call):")
+    for name, k in sorted(count.items(), key=lambda x: -x[1])[:6]:
+        c = calls.get(name, 0)
+        per = f"{k / c:.0f}" if c else "-"
+        print(f"  {k / 100:8.1f} {c / 100:6.1f} {per:>5}  {name[:100]}")
 PY
   fi
 done

@@ -23,13 +23,14 @@ pub const SEVEN_DIGIT_REFERENCE_REL: f64 = 1.5e-7;
 /// `(cos ti cos tr)^c` multiplies the relative error of its base by `c`. The claim is
 /// validated (test `f32_accuracy`, 24 random sets per model) for the Table 1 sets (measured
 /// 5.3e-7) and for parameters in the paper's range with room — `|b| <= 40`, `a <= 1`,
-/// `c <= 1.5` (measured up to 9.1e-7 over 150 sets by
+/// `c <= 1.5` (measured up to 5.9e-7 over 150 sets by
 /// `cargo run --release -p brdf-tests --example f32_domain -- 150`). It is **not** met
-/// everywhere: with `|b| <= 60`, `a <= 2`, `c <= 2` 2 of 150 sets reach 3.5e-6, and over the
-/// fitter's whole search box (`a` to 4, `|b|` to 200, `c` to 5) 59 of 150 exceed it, up to
+/// everywhere: with `|b| <= 60`, `a <= 2`, `c <= 2` 2 of 150 sets reach 3.1e-6, and over the
+/// fitter's whole search box (`a` to 4, `|b|` to 200, `c` to 5) 51 of 150 exceed it, up to
 /// 9.5e-6. The f32 elementary functions ([`F32_EXP_ULPS`], [`F32_LN_ULPS`],
 /// [`f32_pow_ulps`]) change these figures little: through libm's f32 routines (which round
-/// correctly, computing in f64) they were 4.9e-7, 8.7e-7, 3.5e-6 and 1.0e-5 (60 of 150).
+/// correctly, computing in f64), with the earlier geometry from cosines (two more square
+/// roots), they were 4.9e-7, 8.7e-7, 3.5e-6 and 1.0e-5 (60 of 150).
 /// `brdf pack` therefore measures each material it packs on the same grid
 /// ([`crate::accuracy::f32_claim_accuracy`]) and warns when it exceeds this figure.
 /// The textbook forms of `1 - cos(gamma)` and of `1 + (kr^2 - 1) cos(alpha)` miss it by two
