@@ -17,7 +17,9 @@ use brdf_link::{decode_defmt, Link, LinkError, Qemu, FLASH_IMAGE};
 use brdf_tests::qemu::firmware;
 use brdf_tests::TABLE1;
 use brdf_wire::blob::{blob_crc, table1_blob, Blob, Material, MAX_BLOB_LEN};
-use brdf_wire::frame::{parse_response, ErrorCode, Input, Request, Response, MAX_FIT_SAMPLES};
+use brdf_wire::frame::{
+    parse_response, ErrorCode, Input, Request, Response, MAX_FIT_BUDGET, MAX_FIT_SAMPLES,
+};
 use brdf_wire::slots::SLOT_IMAGE_LEN;
 use rand_core::SeedableRng;
 
@@ -218,16 +220,23 @@ fn a_long_fit_keeps_the_link_alive_and_answers_busy() {
         .iter()
         .flat_map(|s| s.iter().flat_map(|v| v.to_le_bytes()))
         .collect();
-    // QEMU's speed on this machine, from a short FIT: seconds per evaluation.
-    let started = std::time::Instant::now();
-    dev.fit(ModelKind::Six, 600, &samples).unwrap();
-    let per_eval = started.elapsed().as_secs_f64() / 600.0;
-    // PROGRESS comes every 512 evaluations for 256 samples; the link waits for two of those
-    // gaps, and the FIT lasts about twelve times as long. (The short FIT's evaluations cost
-    // more on average than the long one's: its 64 screening points evaluate every factor of
-    // the model, a move only those it changes; so the timeout errs long.)
-    let budget = 12_000;
-    let timeout = Duration::from_secs_f64((1024.0 * per_eval).max(0.2));
+    // QEMU's speed on this machine: seconds per evaluation, from two short FITs, so that
+    // what does not grow with the budget (the exchange, QEMU translating the code, the
+    // screening points) cancels. A single short FIT overstated it sevenfold on a fast machine.
+    let mut timed = |budget: u32| {
+        let started = std::time::Instant::now();
+        dev.fit(ModelKind::Six, budget, &samples).unwrap();
+        started.elapsed().as_secs_f64()
+    };
+    let (short, long) = (timed(600), timed(3_000));
+    let per_eval = ((long - short) / 2_400.0).max(1e-7);
+    // PROGRESS comes every 512 evaluations for 256 samples, the first after the start-up
+    // as well: the link waits for twice the short FIT (which covers that start-up) or four
+    // gaps, at least 0.2 s, and the FIT is sized to last eight times that (so an estimate
+    // four times too slow still leaves the margin the assertion below needs): at least
+    // 12,000 evaluations, at most the device's largest budget.
+    let timeout = Duration::from_secs_f64((2.0 * short).max(2_048.0 * per_eval).max(0.2));
+    let budget = (8.0 * timeout.as_secs_f64() / per_eval).clamp(12_000.0, f64::from(MAX_FIT_BUDGET)) as u32;
     dev.transport_mut().set_timeout(timeout);
     let started = std::time::Instant::now();
     let fit_tag = dev

@@ -59,6 +59,17 @@ fn angles<M: Brdf<f32>>(m: &M, x: f32) -> f32 {
 }
 
 #[inline(always)]
+fn vectors<M: Brdf<f32>>(m: &M, x: f32) -> f32 {
+    // Unit vectors to within an ulp or two: (2t, 1 - t^2) / (1 + t^2) and (-0.48, 0.36, 0.8).
+    let t = 0.3 + x;
+    let n = 1.0 / (1.0 + t * t);
+    m.eval_vectors(
+        [black_box(2.0 * t * n), black_box(0.0), black_box((1.0 - t * t) * n)],
+        [black_box(-0.48), black_box(0.36), black_box(0.8)],
+    )
+}
+
+#[inline(always)]
 fn cosines<M: Brdf<f32>>(m: &M, x: f32) -> f32 {
     m.eval_cosines(black_box(0.9 - x), black_box(0.7 + x), black_box(-0.3 + x))
 }
@@ -73,6 +84,10 @@ impl Brdf<f32> for Null {
     #[inline(always)]
     fn eval_cosines(&self, cos_theta_i: f32, _: f32, _: f32) -> f32 {
         cos_theta_i
+    }
+    #[inline(always)]
+    fn eval_vectors(&self, wi: [f32; 3], _: [f32; 3]) -> f32 {
+        wi[2]
     }
 }
 
@@ -149,5 +164,8 @@ fn main() -> ! {
     measure(13, "minnaert exact from angles", &ticks, |x| angles(&minnaert, x));
     measure(14, "lambert exact from angles", &ticks, |x| angles(&lambert, x));
     measure(15, "six-cos2 exact from angles", &ticks, |x| angles(&six_cos2, x));
+    measure(16, "loop alone, vectors (inputs, call, sum)", &ticks, |x| vectors(&Null, x));
+    measure(17, "six exact from vectors", &ticks, |x| vectors(&six, x));
+    measure(18, "six table 256 from vectors", &ticks, |x| vectors(&t, x));
     exit(true)
 }
