@@ -64,7 +64,11 @@ fn vectors<M: Brdf<f32>>(m: &M, x: f32) -> f32 {
     let t = 0.3 + x;
     let n = 1.0 / (1.0 + t * t);
     m.eval_vectors(
-        [black_box(2.0 * t * n), black_box(0.0), black_box((1.0 - t * t) * n)],
+        [
+            black_box(2.0 * t * n),
+            black_box(0.0),
+            black_box((1.0 - t * t) * n),
+        ],
         [black_box(-0.48), black_box(0.36), black_box(0.8)],
     )
 }
@@ -164,7 +168,9 @@ fn main() -> ! {
     measure(13, "minnaert exact from angles", &ticks, |x| angles(&minnaert, x));
     measure(14, "lambert exact from angles", &ticks, |x| angles(&lambert, x));
     measure(15, "six-cos2 exact from angles", &ticks, |x| angles(&six_cos2, x));
-    measure(16, "loop alone, vectors (inputs, call, sum)", &ticks, |x| vectors(&Null, x));
+    measure(16, "loop alone, vectors (inputs, call, sum)", &ticks, |x| {
+        vectors(&Null, x)
+    });
     measure(17, "six exact from vectors", &ticks, |x| vectors(&six, x));
     measure(18, "six table 256 from vectors", &ticks, |x| vectors(&t, x));
     exit(true)
