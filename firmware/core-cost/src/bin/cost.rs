@@ -81,6 +81,21 @@ fn cosines<M: Brdf<f32>>(m: &M, x: f32) -> f32 {
 /// A path that does no work: returns its first input.
 struct Null;
 
+/// The geometry alone: every quantity a model reads from it, summed.
+struct GeometryOnly;
+
+impl Brdf<f32> for GeometryOnly {
+    #[inline(always)]
+    fn eval(&self, g: &brdf_core::Geometry<f32>) -> f32 {
+        g.cos_theta_i()
+            + g.cos_theta_r()
+            + g.cos_gamma()
+            + g.one_minus_cos_gamma()
+            + g.cos_alpha()
+            + g.one_minus_cos_alpha()
+    }
+}
+
 impl Brdf<f32> for Null {
     fn eval(&self, g: &brdf_core::Geometry<f32>) -> f32 {
         g.cos_theta_i()
@@ -173,5 +188,8 @@ fn main() -> ! {
     });
     measure(17, "six exact from vectors", &ticks, |x| vectors(&six, x));
     measure(18, "six table 256 from vectors", &ticks, |x| vectors(&t, x));
+    measure(19, "geometry alone from cosines", &ticks, |x| {
+        cosines(&GeometryOnly, x)
+    });
     exit(true)
 }
