@@ -55,7 +55,7 @@ pub struct DomainCmd {
 }
 
 fn load(path: &Path) -> Result<Scene> {
-    Scene::load(path).with_context(|| format!("cannot use scene {}", path.display()))
+    Ok(Scene::open(path)?)
 }
 
 /// Standard output or a file, buffered.

@@ -168,8 +168,7 @@ impl SelectCmd {
             .scene
             .as_ref()
             .ok_or_else(|| anyhow!("give a data file or --scene"))?;
-        let scene = brdf_scene::scene::Scene::load(path)
-            .map_err(|e| anyhow!(e).context(format!("cannot use scene {}", path.display())))?;
+        let scene = brdf_scene::scene::Scene::open(path)?;
         let bar = brdf_scene::progress::terminal_bar(scene.aspects().len(), "aspects");
         let domain = brdf_scene::lrcs::domain(&scene, &|| bar.inc(1));
         bar.finish_and_clear();

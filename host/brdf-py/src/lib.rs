@@ -841,8 +841,8 @@ fn pack<'py>(
 
 /// The scene at `path`, or the message `brdf scene` prints when it cannot be used.
 fn scene_at(path: &str) -> PyResult<brdf_scene::scene::Scene> {
-    brdf_scene::scene::Scene::load(std::path::Path::new(path))
-        .map_err(|e| PyValueError::new_err(format!("cannot use scene {path}: {e}")))
+    brdf_scene::scene::Scene::open(std::path::Path::new(path))
+        .map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
 /// σ per aspect, as `brdf scene lrcs` computes it.

@@ -35,6 +35,18 @@ use crate::occlusion::Occluder;
 /// days): 10^6.
 pub const MAX_ASPECTS: usize = 1_000_000;
 
+/// A scene file that cannot be used, with the file named: `cannot use scene PATH: why`
+/// ([`Scene::open`]).
+#[derive(Debug, Error)]
+#[error("cannot use scene {path}: {source}")]
+pub struct LoadError {
+    /// The scene file as given.
+    pub path: String,
+    /// Why.
+    #[source]
+    pub source: Box<SceneError>,
+}
+
 /// Why a scene was refused.
 #[derive(Debug, Error)]
 #[non_exhaustive]
@@ -321,6 +333,15 @@ impl Scene {
             facet_material,
             sensor,
             occluder,
+        })
+    }
+
+    /// [`Scene::load`] with the file named in the error, as every command reports a scene it
+    /// cannot use (`brdf scene`, `brdf select --scene`, the Python package's scene functions).
+    pub fn open(path: &Path) -> Result<Scene, LoadError> {
+        Scene::load(path).map_err(|source| LoadError {
+            path: path.display().to_string(),
+            source: Box::new(source),
         })
     }
 
