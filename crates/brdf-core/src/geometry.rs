@@ -124,30 +124,8 @@ impl<T: Float> Geometry<T> {
     /// [`Geometry::from_vectors`].
     #[inline]
     pub fn from_cosines(cos_theta_i: T, cos_theta_r: T, cos_phi: T) -> Self {
-        let (mi, mr) = (cos_theta_i, cos_theta_r);
-        let (pi, qi, pr, qr) = (T::ONE - mi, T::ONE + mi, T::ONE - mr, T::ONE + mr);
-        // sin^2 ti, sin^2 tr and sin ti sin tr.
-        let (a, b) = (pi * qi, pr * qr);
-        let ss = (a * b).sqrt();
-        let ss2 = ss + ss;
-        // Denominators are at least the smallest normal number, so that the 0/0 at normal
-        // incidence and view (and on the horizon) gives 0; adding it to any denominator that
-        // is not 0 changes nothing (they are at least 2^-24 there).
-        let tiny = T::MIN_POSITIVE;
-        let (dm, sm) = (mi - mr, mi + mr);
-        // 2 (1 - cos(ti + tr)) and 2 (1 + cos(ti - tr)).
-        let den_sum = (pi * qr + qi * pr) + ss2 + tiny;
-        let den_diff = (qi * qr + pi * pr) + ss2 + tiny;
-        // (sin ti - sin tr)^2, from sin^2 ti - sin^2 tr = (cos tr - cos ti)(cos tr + cos ti).
-        let d2 = dm * sm;
-        let sin_dr2 = (d2 * d2) / ((a + b) + ss2 + tiny);
-        let half_ss = ss * T::HALF;
-        let one_plus_cp = T::ONE + cos_phi;
-        // sin^2(gamma) = (1 - cos(ti - tr) + ss (1 - cos phi)) / 2, and cos^2(gamma) alike.
-        let sin2_gamma = (dm * dm) / den_sum + half_ss * (T::ONE - cos_phi);
-        let cos2_gamma = (sm * sm) / den_diff + half_ss * one_plus_cp;
-        let p = sin_dr2 + ss2 * one_plus_cp;
-        Self::from_parts(mi, mr, sin2_gamma, cos2_gamma, p)
+        let (sin2_gamma, cos2_gamma, p) = cosine_sums(cos_theta_i, cos_theta_r, cos_phi, T::sqrt);
+        Self::from_parts(cos_theta_i, cos_theta_r, sin2_gamma, cos2_gamma, p)
     }
 
     /// From unit vectors `wi` (towards the source) and `wr` (towards the receiver), `z` along
@@ -239,6 +217,35 @@ impl<T: Float> Geometry<T> {
             Some(self.cos_theta_i * self.cos_theta_r)
         }
     }
+}
+
+/// `sin^2(gamma)`, `cos^2(gamma)` and `P` (module documentation) from `cos theta_i`,
+/// `cos theta_r` and `cos phi`, as [`Geometry::from_cosines`] describes; `sqrt` is the square
+/// root to use (the batch path passes its vectorisable one).
+#[inline(always)]
+pub(crate) fn cosine_sums<T: Float>(mi: T, mr: T, cos_phi: T, sqrt: impl Fn(T) -> T) -> (T, T, T) {
+    let (pi, qi, pr, qr) = (T::ONE - mi, T::ONE + mi, T::ONE - mr, T::ONE + mr);
+    // sin^2 ti, sin^2 tr and sin ti sin tr.
+    let (a, b) = (pi * qi, pr * qr);
+    let ss = sqrt(a * b);
+    let ss2 = ss + ss;
+    // Denominators are at least the smallest normal number, so that the 0/0 at normal
+    // incidence and view (and on the horizon) gives 0; adding it to any denominator that is
+    // not 0 changes nothing (they are at least 2^-24 there).
+    let tiny = T::MIN_POSITIVE;
+    let (dm, sm) = (mi - mr, mi + mr);
+    // 2 (1 - cos(ti + tr)) and 2 (1 + cos(ti - tr)).
+    let den_sum = (pi * qr + qi * pr) + ss2 + tiny;
+    let den_diff = (qi * qr + pi * pr) + ss2 + tiny;
+    // (sin ti - sin tr)^2, from sin^2 ti - sin^2 tr = (cos tr - cos ti)(cos tr + cos ti).
+    let d2 = dm * sm;
+    let sin_dr2 = (d2 * d2) / ((a + b) + ss2 + tiny);
+    let half_ss = ss * T::HALF;
+    let one_plus_cp = T::ONE + cos_phi;
+    // sin^2(gamma) = (1 - cos(ti - tr) + ss (1 - cos phi)) / 2, and cos^2(gamma) alike.
+    let sin2_gamma = (dm * dm) / den_sum + half_ss * (T::ONE - cos_phi);
+    let cos2_gamma = (sm * sm) / den_diff + half_ss * one_plus_cp;
+    (sin2_gamma, cos2_gamma, sin_dr2 + ss2 * one_plus_cp)
 }
 
 pub(crate) fn check_zenith<T: Float>(theta: T, what: &'static str) -> Result<(), DomainError> {

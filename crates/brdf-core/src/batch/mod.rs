@@ -594,21 +594,7 @@ fn lane_angles<A: Arith>(z: &Zeniths, sin_hp: f64, cos_hp: f64) -> Lane {
 /// `Geometry::from_cosines`.
 #[inline(always)]
 fn lane_cosines<A: Arith>(mi: f64, mr: f64, cos_phi: f64) -> Lane {
-    let (pi, qi, pr, qr) = (1.0 - mi, 1.0 + mi, 1.0 - mr, 1.0 + mr);
-    let (a, b) = (pi * qi, pr * qr);
-    let ss = sqrt(a * b);
-    let ss2 = ss + ss;
-    let tiny = f64::MIN_POSITIVE;
-    let (dm, sm) = (mi - mr, mi + mr);
-    let den_sum = (pi * qr + qi * pr) + ss2 + tiny;
-    let den_diff = (qi * qr + pi * pr) + ss2 + tiny;
-    let d2 = dm * sm;
-    let sin_dr2 = (d2 * d2) / ((a + b) + ss2 + tiny);
-    let half_ss = ss * 0.5;
-    let one_plus_cp = 1.0 + cos_phi;
-    let sin2_gamma = (dm * dm) / den_sum + half_ss * (1.0 - cos_phi);
-    let cos2_gamma = (sm * sm) / den_diff + half_ss * one_plus_cp;
-    let p = sin_dr2 + ss2 * one_plus_cp;
+    let (sin2_gamma, cos2_gamma, p) = crate::geometry::cosine_sums(mi, mr, cos_phi, sqrt);
     from_parts::<A>(mi, mr, sin2_gamma, cos2_gamma, p)
 }
 
