@@ -110,8 +110,9 @@ impl<T: Float> Geometry<T> {
     /// trigonometric call (two square roots and six divisions).
     ///
     /// Accurate to a few ulp for the given cosines. `sin ti sin tr = sqrt((1 - cos^2 ti)(1 -
-    /// cos^2 tr))` is the only square root; each sum that would cancel is rewritten through
-    /// an exact product (`(1 - x)(1 + x)` is exact where `1 - x` is small, by Sterbenz):
+    /// cos^2 tr))` is the only square root; each sum that would cancel is rewritten as a
+    /// quotient of terms that do not (`1 - x` is exact for `x` in `[1/2, 2]`, by Sterbenz, so
+    /// `(1 - x)(1 + x)` rounds once):
     /// - `1 - cos(ti - tr) = (cos ti - cos tr)^2 / (1 - cos(ti + tr))`,
     /// - `1 + cos(ti + tr) = (cos ti + cos tr)^2 / (1 + cos(ti - tr))`,
     /// - `(sin ti - sin tr)^2 = (sin^2 ti - sin^2 tr)^2 / (sin ti + sin tr)^2`,
