@@ -81,6 +81,20 @@ fn cosines<M: Brdf<f32>>(m: &M, x: f32) -> f32 {
 /// A path that does no work: returns its first input.
 struct Null;
 
+impl Brdf<f32> for Null {
+    fn eval(&self, g: &brdf_core::Geometry<f32>) -> f32 {
+        g.cos_theta_i()
+    }
+    #[inline(always)]
+    fn eval_cosines(&self, cos_theta_i: f32, _: f32, _: f32) -> f32 {
+        cos_theta_i
+    }
+    #[inline(always)]
+    fn eval_vectors(&self, wi: [f32; 3], _: [f32; 3]) -> f32 {
+        wi[2]
+    }
+}
+
 /// The geometry alone: every quantity a model reads from it, summed.
 struct GeometryOnly;
 
@@ -93,20 +107,6 @@ impl Brdf<f32> for GeometryOnly {
             + g.one_minus_cos_gamma()
             + g.cos_alpha()
             + g.one_minus_cos_alpha()
-    }
-}
-
-impl Brdf<f32> for Null {
-    fn eval(&self, g: &brdf_core::Geometry<f32>) -> f32 {
-        g.cos_theta_i()
-    }
-    #[inline(always)]
-    fn eval_cosines(&self, cos_theta_i: f32, _: f32, _: f32) -> f32 {
-        cos_theta_i
-    }
-    #[inline(always)]
-    fn eval_vectors(&self, wi: [f32; 3], _: [f32; 3]) -> f32 {
-        wi[2]
     }
 }
 
