@@ -241,21 +241,18 @@ pub fn measured(path: &str) -> std::path::PathBuf {
 
 /// The firmware under QEMU, for the tests that run it.
 pub mod qemu {
-    use brdf_link::firmware::Core;
+    use brdf_link::firmware::{Core, Programs};
     use std::path::PathBuf;
     use std::process::Command;
+    use std::sync::OnceLock;
 
-    fn build(package: &str, bin: &str, core: Core) -> Option<PathBuf> {
-        let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../firmware");
-        let status = Command::new(env!("CARGO"))
-            .args(["build", "--release", "-p", package, "--bin", bin])
-            .args(["--target", core.target()])
-            .current_dir(&dir)
-            .status()
-            .ok()?;
-        status
-            .success()
-            .then(|| brdf_link::firmware::in_repo(core.elf(bin)))
+    /// Each core's build, run once per test process (`brdf_link::firmware::build`: a no-op
+    /// after `cargo xtask test` built the firmware before the tests).
+    fn built(core: Core) -> &'static Result<Programs, String> {
+        static BUILDS: [OnceLock<Result<Programs, String>>; 3] =
+            [OnceLock::new(), OnceLock::new(), OnceLock::new()];
+        let k = Core::ALL.iter().position(|&c| c == core).expect("a listed core");
+        BUILDS[k].get_or_init(|| brdf_link::firmware::build(core))
     }
 
     /// Builds the firmware and returns its ELF. Without `qemu-system-arm` or the cross target
@@ -263,17 +260,17 @@ pub mod qemu {
     /// installs both), unless the user opted out with `BRDF_SKIP_QEMU=1`: then it prints a
     /// `SKIPPED:` line and returns `None`.
     pub fn firmware() -> Option<PathBuf> {
-        program("brdf-fw", "brdf-fw")
+        program("brdf-fw")
     }
 
-    /// Builds binary `bin` of the firmware workspace's package `package` for QEMU, with the
+    /// Binary `bin` of the firmware workspace built for QEMU's Cortex-M4F board, with the
     /// same rules as [`firmware`].
-    pub fn program(package: &str, bin: &str) -> Option<PathBuf> {
-        program_for(package, bin, Core::M4F)
+    pub fn program(bin: &str) -> Option<PathBuf> {
+        program_for(bin, Core::M4F)
     }
 
     /// [`program`] built for `core`'s target (to run on its board).
-    pub fn program_for(package: &str, bin: &str, core: Core) -> Option<PathBuf> {
+    pub fn program_for(bin: &str, core: Core) -> Option<PathBuf> {
         let skip = std::env::var("BRDF_SKIP_QEMU").as_deref() == Ok("1");
         let qemu = Command::new("qemu-system-arm").arg("--version").output().is_ok();
         if !qemu {
@@ -285,17 +282,24 @@ pub mod qemu {
             eprintln!("SKIPPED: firmware QEMU test (BRDF_SKIP_QEMU=1)");
             return None;
         }
-        let elf = build(package, bin, core);
-        if elf.is_none() {
-            let target = core.target();
-            assert!(
-                skip,
-                "the firmware did not build for {target}: run `cargo xtask test`, which adds the \
-                 target, or `rustup target add {target}`; or skip the firmware tests with \
-                 BRDF_SKIP_QEMU=1"
-            );
-            eprintln!("SKIPPED: firmware QEMU test (BRDF_SKIP_QEMU=1)");
+        match built(core) {
+            Ok(programs) => Some(
+                programs
+                    .get(bin)
+                    .unwrap_or_else(|| panic!("the firmware build for {} made no `{bin}`", core.target()))
+                    .to_path_buf(),
+            ),
+            Err(why) => {
+                let target = core.target();
+                assert!(
+                    skip,
+                    "the firmware did not build for {target}: {why}. Run `cargo xtask test`, which \
+                     adds the target, or `rustup target add {target}`; or skip the firmware tests with \
+                     BRDF_SKIP_QEMU=1"
+                );
+                eprintln!("SKIPPED: firmware QEMU test (BRDF_SKIP_QEMU=1)");
+                None
+            }
         }
-        elf
     }
 }

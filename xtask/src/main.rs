@@ -4,12 +4,16 @@
 //! installs what the tests need — the Rust targets and components listed in
 //! `rust-toolchain.toml` (through rustup) and `qemu-system-arm` (through apt-get when it runs as
 //! root or password-less sudo) — and stops at once with the exact command to run when it cannot.
-//! Then it runs `cargo test --workspace --release ARGS...`, and then the Python package's
-//! tests (`cargo xtask test-python` runs those alone): a virtual environment in
-//! `target/py-venv` gets `host/brdf-py` and its test requirements (from its `pyproject.toml`)
-//! through pip, built by cargo in `target/brdf-py`, and `python -m pytest host/brdf-py/tests`
-//! runs against `target/release/brdf`. A machine without `python3`, `venv` or `pip` stops
-//! with the command that installs them.
+//! Then it builds the firmware once (the commands of `brdf_link::firmware::FIRMWARE_BUILDS`,
+//! which the tests run again as no-ops), runs `cargo test --workspace --profile suite ARGS...`
+//! (the `suite` profile: optimised, without LTO, incremental; see `Cargo.toml`), and then the
+//! Python package's tests (`cargo xtask test-python` runs those alone): a virtual environment
+//! in `<target>/py-venv` gets `host/brdf-py` and its test requirements (from its
+//! `pyproject.toml`) through pip, built by maturin in the same profile and target folder (so it
+//! reuses the compiled dependencies it shares with the workspace), and `python -m pytest
+//! host/brdf-py/tests` runs against the `brdf` the Rust tests ran. `<target>` is the target
+//! folder cargo reports (`cargo metadata`), so `CARGO_TARGET_DIR` is honoured everywhere. A
+//! machine without `python3`, `venv` or `pip` stops with the command that installs them.
 //!
 //! The firmware tests never pass without running: with no QEMU they fail, naming the install
 //! command, unless the user opts out with `BRDF_SKIP_QEMU=1`, which prints a `SKIPPED:` line.
@@ -22,11 +26,14 @@ const USAGE: &str = "usage: cargo xtask test [ARGS passed to cargo test...]\n   
 
 /// The Python package: its own Cargo workspace, built by maturin through pip.
 const PY_PACKAGE: &str = "host/brdf-py";
-/// Where the Python package's tests run: a virtual environment, and the Rust build of the
-/// extension module (kept apart from the root workspace's `target/release`). `.ci/run` lints
-/// the package with the same target folder.
-const PY_VENV: &str = "target/py-venv";
-const PY_TARGET: &str = "target/brdf-py";
+/// Where the Python package's tests run: a virtual environment in the target folder.
+const PY_VENV: &str = "py-venv";
+
+/// The cargo profile of the test build (root `Cargo.toml`, and the Python package's).
+const PROFILE: &str = "suite";
+
+// The firmware build commands, shared with `brdf_link::firmware` (which the tests call).
+include!("../../host/brdf-link/src/firmware_builds.rs");
 
 /// The QEMU boards the firmware tests run on: the firmware's (Cortex-M4 with FPU), then the
 /// stand-ins for a Cortex-M33 and a Cortex-M0+ that `firmware/core-cost` counts on
@@ -40,6 +47,10 @@ fn main() {
             let rest: Vec<String> = args.collect();
             let root = root();
             if let Err(e) = setup(&root) {
+                eprintln!("error: {e}");
+                exit(2);
+            }
+            if let Err(e) = build_firmware(&root) {
                 eprintln!("error: {e}");
                 exit(2);
             }
@@ -187,10 +198,66 @@ fn qemu_has_board() -> bool {
     })
 }
 
+fn cargo() -> String {
+    std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
+}
+
+/// The target folder cargo uses for this workspace (`CARGO_TARGET_DIR`, a configured
+/// `build.target-dir`, or `target/`), as `cargo metadata` reports it.
+fn target_dir(root: &Path) -> Result<PathBuf, String> {
+    let out = Command::new(cargo())
+        .args(["metadata", "--format-version", "1", "--no-deps"])
+        .current_dir(root)
+        .stderr(Stdio::inherit())
+        .output()
+        .map_err(|e| format!("cannot run cargo metadata: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("cargo metadata failed ({})", out.status));
+    }
+    json_string(&String::from_utf8_lossy(&out.stdout), "target_directory")
+        .map(PathBuf::from)
+        .ok_or_else(|| "cargo metadata reported no target_directory".into())
+}
+
+/// The value of the first `"key": "value"` of a JSON text (string values with `\\` and `\"`
+/// escapes: a path).
+fn json_string(json: &str, key: &str) -> Option<String> {
+    let at = json.find(&format!("\"{key}\""))? + key.len() + 2;
+    let rest = json[at..]
+        .trim_start()
+        .strip_prefix(':')?
+        .trim_start()
+        .strip_prefix('"')?;
+    let mut value = String::new();
+    let mut chars = rest.chars();
+    loop {
+        match chars.next()? {
+            '"' => return Some(value),
+            '\\' => value.push(chars.next()?),
+            c => value.push(c),
+        }
+    }
+}
+
+/// Builds every firmware program once, before the tests (which run the same commands as
+/// no-ops). Without the cross targets under `BRDF_SKIP_QEMU=1` it says so and goes on.
+fn build_firmware(root: &Path) -> Result<(), String> {
+    for (target, args) in FIRMWARE_BUILDS {
+        eprintln!("xtask: building the firmware for {target}");
+        if let Err(e) = run_in(&root.join("firmware"), &cargo(), args, &[]) {
+            if std::env::var("BRDF_SKIP_QEMU").as_deref() == Ok("1") {
+                println!("SKIPPED: the firmware build for {target} (BRDF_SKIP_QEMU=1): {e}");
+                continue;
+            }
+            return Err(format!("the firmware did not build: {e}"));
+        }
+    }
+    Ok(())
+}
+
 fn run_tests(root: &Path, rest: &[String]) -> i32 {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(cargo)
-        .args(["test", "--workspace", "--release", "--no-fail-fast"])
+    let status = Command::new(cargo())
+        .args(["test", "--workspace", "--profile", PROFILE, "--no-fail-fast"])
         .args(rest)
         .current_dir(root)
         .status();
@@ -207,7 +274,11 @@ fn run_tests(root: &Path, rest: &[String]) -> i32 {
 /// requirements, builds `brdf` for the CLI comparisons and runs pytest. Returns the exit
 /// code; a setup failure is printed with what to do.
 fn python_tests(root: &Path) -> i32 {
-    match python_setup(root).and_then(|python| pytest(root, &python)) {
+    let run = target_dir(root).and_then(|target| {
+        let python = python_setup(root, &target)?;
+        pytest(root, &target, &python)
+    });
+    match run {
         Ok(()) => 0,
         Err(e) => {
             eprintln!("error: {e}");
@@ -224,13 +295,13 @@ const PYTHON_INSTALL: &str = "the Python package's tests need python3 (3.9 or la
 
 /// Creates [`PY_VENV`] when needed and installs the package there with its test extra;
 /// returns the environment's interpreter.
-fn python_setup(root: &Path) -> Result<PathBuf, String> {
-    let venv = root.join(PY_VENV);
+fn python_setup(root: &Path, target: &Path) -> Result<PathBuf, String> {
+    let venv = target.join(PY_VENV);
     let python = venv.join("bin").join("python");
     let has_pip = |py: &Path| quiet_ok(&py.to_string_lossy(), &["-m", "pip", "--version"]);
     if !has_pip(&python) {
         python_present()?;
-        eprintln!("xtask: creating the Python environment {PY_VENV}");
+        eprintln!("xtask: creating the Python environment {}", venv.display());
         // A half-made environment (no pip: Debian without python3-venv) is made anew.
         let _ = std::fs::remove_dir_all(&venv);
         let made = Command::new("python3")
@@ -240,7 +311,8 @@ fn python_setup(root: &Path) -> Result<PathBuf, String> {
             .is_ok_and(|s| s.success());
         if !made || !has_pip(&python) {
             return Err(format!(
-                "`python3 -m venv {PY_VENV}` gave no working pip; {PYTHON_INSTALL}"
+                "`python3 -m venv {}` gave no working pip; {PYTHON_INSTALL}",
+                venv.display()
             ));
         }
     }
@@ -256,8 +328,11 @@ fn python_setup(root: &Path) -> Result<PathBuf, String> {
     let mut args = vec!["-m", "pip", "install", "--quiet", "--disable-pip-version-check"];
     args.extend(backend.iter().map(String::as_str));
     run_in(root, &py, &args, &[])?;
-    eprintln!("xtask: building and installing {PY_PACKAGE} into {PY_VENV} (cargo target {PY_TARGET})");
-    let target = root.join(PY_TARGET);
+    eprintln!(
+        "xtask: building and installing {PY_PACKAGE} into {} (profile {PROFILE}, target {})",
+        venv.display(),
+        target.display()
+    );
     let spec = format!("./{PY_PACKAGE}[test]");
     // As an activated environment: maturin's build hook runs the `maturin` of PATH.
     let mut path = std::ffi::OsString::from(venv.join("bin"));
@@ -279,6 +354,10 @@ fn python_setup(root: &Path) -> Result<PathBuf, String> {
         ],
         &[
             ("CARGO_TARGET_DIR", target.as_os_str()),
+            (
+                "MATURIN_PEP517_ARGS",
+                std::ffi::OsStr::new(&format!("--profile {PROFILE}")),
+            ),
             ("PATH", &path),
             ("VIRTUAL_ENV", venv.as_os_str()),
         ],
@@ -288,10 +367,18 @@ fn python_setup(root: &Path) -> Result<PathBuf, String> {
 
 /// `brdf` for the CLI comparisons, then pytest over the package's tests (no tests collected
 /// is a failure).
-fn pytest(root: &Path, python: &Path) -> Result<(), String> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    run_in(root, &cargo, &["build", "--release", "-p", "brdf-cli"], &[])?;
-    let cli = root.join("target").join("release").join("brdf");
+fn pytest(root: &Path, target: &Path, python: &Path) -> Result<(), String> {
+    // The `brdf` the Rust tests ran (cargo puts a test's binaries in the profile's folder):
+    // the workspace's test build, a no-op after the Rust tests, brings it up to date when they
+    // were narrowed to other packages (`cargo build -p brdf-cli` would resolve features anew
+    // and rebuild much of the workspace).
+    run_in(
+        root,
+        &cargo(),
+        &["test", "--workspace", "--profile", PROFILE, "--no-run", "--quiet"],
+        &[],
+    )?;
+    let cli = target.join(PROFILE).join("brdf");
     let tests = format!("{PY_PACKAGE}/tests");
     eprintln!("xtask: python -m pytest {tests}");
     let status = Command::new(python)
@@ -352,7 +439,21 @@ fn run_or_explain(cmd: &str, args: &[&str]) -> Result<(), String> {
 
 #[cfg(test)]
 mod tests {
-    use super::toml_list;
+    use super::{json_string, toml_list};
+
+    #[test]
+    fn reads_a_string_of_cargo_metadata() {
+        let json = r#"{"packages":[],"target_directory":"/a/b \"c\"\\d","version":1}"#;
+        assert_eq!(
+            json_string(json, "target_directory").as_deref(),
+            Some(r#"/a/b "c"\d"#)
+        );
+        assert_eq!(json_string(json, "workspace_root"), None);
+        assert_eq!(
+            json_string(r#"{"target_directory":"/unterminated"#, "target_directory"),
+            None
+        );
+    }
 
     #[test]
     fn reads_the_toolchain_lists() {

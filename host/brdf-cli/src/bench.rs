@@ -3,7 +3,6 @@
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context, Result};
@@ -109,28 +108,15 @@ fn time_ns(n: usize, reps: usize, run: &mut dyn FnMut()) -> f64 {
     best * 1e9 / n as f64
 }
 
-/// Device instructions per path from the QEMU cost binary, by its path names.
+/// Device instructions per path from the QEMU cost binary, by its path names (the firmware
+/// built first: `brdf_link::firmware::build`).
 fn device_counts() -> Result<Vec<(String, f64)>> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../firmware");
-    let built = Command::new("cargo")
-        .args([
-            "build",
-            "--quiet",
-            "--release",
-            "-p",
-            "core-cost",
-            "--bin",
-            "cost",
-        ])
-        .current_dir(&dir)
-        .status()
-        .context("cannot run cargo to build the cost firmware")?;
-    if !built.success() {
-        bail!("the cost firmware did not build (is the thumbv7em-none-eabihf target installed?)");
-    }
-    Ok(brdf_link::instruction_counts(&brdf_link::firmware::in_repo(
-        brdf_link::firmware::qemu_elf("cost"),
-    ))?)
+    let programs =
+        brdf_link::firmware::build(brdf_link::firmware::Core::M4F).map_err(|e| anyhow::anyhow!(e))?;
+    let cost = programs
+        .get("cost")
+        .context("the firmware build made no `cost` program")?;
+    Ok(brdf_link::instruction_counts(cost)?)
 }
 
 /// Fits `kind` to the six-parameter values at `points` (relative residuals) and returns it.

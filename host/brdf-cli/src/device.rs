@@ -19,7 +19,8 @@ pub type Device = Link<Box<dyn Transport>>;
 #[derive(Debug, Args)]
 #[command(group(clap::ArgGroup::new("transport").required(true).args(["qemu", "serial", "probe"])))]
 pub struct DeviceArgs {
-    /// Run the firmware under QEMU (`--elf`, default: the release build in firmware/).
+    /// Run the firmware under QEMU (`--elf`, default: the release build of firmware/, under
+    /// $CARGO_TARGET_DIR when that is set).
     #[arg(long)]
     qemu: bool,
     /// A board's UART, e.g. /dev/ttyUSB0 (firmware built with `--features hardware`).
@@ -88,7 +89,8 @@ impl DeviceArgs {
     }
 }
 
-/// Default firmware location in this repository.
+/// Default firmware: the release build of this checkout's firmware workspace, where `cargo
+/// build` puts it (`$CARGO_TARGET_DIR` honoured; `brdf_link::firmware::qemu_elf`).
 pub fn default_elf() -> PathBuf {
-    brdf_link::firmware::in_repo(brdf_link::firmware::qemu_elf("brdf-fw"))
+    brdf_link::firmware::qemu_elf("brdf-fw")
 }

@@ -1,11 +1,12 @@
-//! Where this repository's firmware builds put their ELF files: the one place that spells the
-//! paths, for the defaults of `brdf check`, `brdf query` and `brdf flash`, `brdf bench` and
-//! the tests that build and run the firmware.
+//! Where this repository's firmware builds put their ELF files, and the builds themselves: the
+//! one place that spells them, for the defaults of `brdf check`, `brdf query` and `brdf flash`,
+//! `brdf bench` and the tests that build and run the firmware.
 //!
 //! The firmware is its own Cargo workspace ([`DIR`]) built for `thumbv7em-none-eabihf`; the
 //! default build runs under QEMU (`cd firmware && cargo build --release`), the STM32F407 build
 //! goes to its own target directory (`--no-default-features --features hardware
-//! --target-dir target/hardware`).
+//! --target-dir target/hardware`). [`build`] runs a build and reads where cargo put each
+//! program, so tests work with any `CARGO_TARGET_DIR`.
 
 use std::path::{Path, PathBuf};
 
@@ -15,11 +16,80 @@ pub const DIR: &str = "firmware";
 /// The firmware's target triple (Cortex-M4F with hardware floating point).
 pub const TARGET: &str = "thumbv7em-none-eabihf";
 
-/// Binary `bin` (`brdf-fw`, `embed-example`, and `core-cost`'s `cost` and `fitcost`) of the
-/// default release build for QEMU, relative to the repository root:
-/// `firmware/target/thumbv7em-none-eabihf/release/<bin>`.
+include!("firmware_builds.rs");
+
+/// The default build of binary `bin` (`brdf-fw`, `embed-example`, and `core-cost`'s `cost` and
+/// `fitcost`) for QEMU's Cortex-M4F board: [`Core::elf`] of [`Core::M4F`].
 pub fn qemu_elf(bin: &str) -> PathBuf {
     Core::M4F.elf(bin)
+}
+
+/// Where `cargo build` in the firmware workspace puts its output when run as this process
+/// would run it: `$CARGO_TARGET_DIR` when set (relative to the current directory, as cargo
+/// reads it), else `firmware/target` of this checkout. A target directory set in a cargo
+/// configuration file instead is not seen: [`build`] asks cargo itself.
+pub fn target_dir() -> PathBuf {
+    match std::env::var_os("CARGO_TARGET_DIR") {
+        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
+        _ => in_repo(DIR).join("target"),
+    }
+}
+
+/// The programs one firmware build made, by binary name, as cargo reported them.
+#[derive(Clone, Debug, Default)]
+pub struct Programs(std::collections::BTreeMap<String, PathBuf>);
+
+impl Programs {
+    /// The ELF of binary `bin`, if the build made it.
+    pub fn get(&self, bin: &str) -> Option<&Path> {
+        self.0.get(bin).map(PathBuf::as_path)
+    }
+}
+
+/// Builds every firmware program for `core` with the command of [`FIRMWARE_BUILDS`] (a no-op
+/// when nothing changed) and returns where cargo put each, read from its JSON messages, so
+/// the result holds wherever the target directory is. `Err` says why the build failed (the
+/// cross target missing, a compile error: cargo's diagnostics go to standard error).
+pub fn build(core: Core) -> Result<Programs, String> {
+    let target = core.target();
+    let (_, args) = FIRMWARE_BUILDS
+        .iter()
+        .find(|(t, _)| *t == target)
+        .ok_or_else(|| format!("no firmware build for {target}"))?;
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let out = std::process::Command::new(&cargo)
+        .args(*args)
+        .arg("--message-format=json-render-diagnostics")
+        .current_dir(in_repo(DIR))
+        .stderr(std::process::Stdio::inherit())
+        .output()
+        .map_err(|e| format!("cannot run cargo ({}): {e}", cargo.to_string_lossy()))?;
+    if !out.status.success() {
+        return Err(format!(
+            "`cargo {}` in {DIR}/ failed ({}); is the target installed (`rustup target add {target}`)?",
+            args.join(" "),
+            out.status
+        ));
+    }
+    let mut programs = Programs::default();
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        let Ok(msg) = serde_json::from_str::<serde_json::Value>(line) else {
+            continue;
+        };
+        if msg["reason"] != "compiler-artifact" {
+            continue;
+        }
+        if let (Some(exe), Some(name)) = (msg["executable"].as_str(), msg["target"]["name"].as_str()) {
+            programs.0.insert(name.to_owned(), PathBuf::from(exe));
+        }
+    }
+    if programs.0.is_empty() {
+        return Err(format!(
+            "`cargo {}` in {DIR}/ reported no program",
+            args.join(" ")
+        ));
+    }
+    Ok(programs)
 }
 
 /// A core `firmware/core-cost` counts `brdf-core`'s instructions on, with the QEMU board that
@@ -67,14 +137,11 @@ impl Core {
         }
     }
 
-    /// Binary `bin` of the firmware workspace's release build for this core, relative to the
-    /// repository root: `firmware/target/<target>/release/<bin>`.
+    /// Binary `bin` of the firmware workspace's release build for this core, where a plain
+    /// `cargo build` would put it: `<target_dir()>/<target>/release/<bin>` ([`target_dir`]).
+    /// Tests and benchmarks use [`build`], which asks cargo.
     pub fn elf(self, bin: &str) -> PathBuf {
-        Path::new(DIR)
-            .join("target")
-            .join(self.target())
-            .join("release")
-            .join(bin)
+        target_dir().join(self.target()).join("release").join(bin)
     }
 }
 
@@ -99,18 +166,22 @@ mod tests {
 
     #[test]
     fn paths_are_the_builds_outputs() {
-        assert_eq!(
-            qemu_elf("brdf-fw"),
-            Path::new("firmware/target/thumbv7em-none-eabihf/release/brdf-fw")
-        );
+        assert!(qemu_elf("brdf-fw").ends_with("thumbv7em-none-eabihf/release/brdf-fw"));
         assert_eq!(
             hardware_elf(),
             Path::new("firmware/target/hardware/thumbv7em-none-eabihf/release/brdf-fw")
         );
-        assert_eq!(
-            Core::M33.elf("cost"),
-            Path::new("firmware/target/thumbv8m.main-none-eabihf/release/cost")
-        );
+        assert!(Core::M33
+            .elf("cost")
+            .starts_with(target_dir().join("thumbv8m.main-none-eabihf")));
+        // One build command per core, for its target.
+        for core in Core::ALL {
+            let (_, args) = FIRMWARE_BUILDS.iter().find(|(t, _)| *t == core.target()).unwrap();
+            assert!(
+                args.windows(2).any(|w| w == ["--target", core.target()]),
+                "{core:?}"
+            );
+        }
         // The firmware workspace of this checkout, and the memory map of each core's board.
         for core in Core::ALL {
             let board = core.qemu_machine()[1];

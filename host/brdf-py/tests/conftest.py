@@ -1,7 +1,7 @@
 """Shared fixtures: the repository root and the `brdf` command the values are compared with.
 
-The command is `$BRDF_CLI` if set, else `target/release/brdf` at the repository root
-(`cargo build --release -p brdf-cli` builds it). A missing command fails the tests that
+The command is `$BRDF_CLI` if set (`cargo xtask test` sets it to the `brdf` its Rust tests
+ran), else `target/release/brdf` at the repository root (`cargo build --release -p brdf-cli`). A missing command fails the tests that
 need it, with that instruction: they are never skipped.
 """
 

@@ -1,14 +1,13 @@
 //! The model-comparison report in docs/ regenerates bit for bit from one command.
 
 use std::path::PathBuf;
-use std::process::Command;
 
 #[test]
 fn report_regenerates_bit_for_bit() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
     let committed = root.join("docs/comparison");
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_brdf"))
+    let out = crate::brdf_command()
         .args(["report", "--data"])
         .arg(root.join("data/measured"))
         .arg("--out")

@@ -1,17 +1,11 @@
 //! End-to-end tests of `brdf synth`, `brdf fit` and `brdf select`.
 
-use std::process::{Command, Output};
 use std::sync::LazyLock;
 
 /// Khaki (Table 1) as a `--params` argument.
 static KHAKI: LazyLock<String> = LazyLock::new(|| brdf_tests::table1_params_arg(0));
 
-fn brdf(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_brdf"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+use crate::brdf;
 
 fn ok(args: &[&str]) -> String {
     let out = brdf(args);

@@ -2,17 +2,11 @@
 //! --directions` on the bundled scene, end to end.
 
 use std::path::PathBuf;
-use std::process::Command;
 
 use brdf_core::tolerance::F64_REFORMULATION_REL;
 use brdf_core::{AnyModel, Brdf, ModelKind};
 
-fn brdf(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_brdf"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+use crate::brdf;
 
 fn scene() -> String {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -1,7 +1,6 @@
 //! `brdf bench eval` and `brdf bench fit` write their CSV and charts, with a Pareto front.
 
 use std::path::PathBuf;
-use std::process::Command;
 
 use brdf_core::tolerance::BATCH_F64_REL;
 
@@ -14,10 +13,7 @@ fn repo(p: &str) -> String {
 }
 
 fn run(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_brdf"))
-        .args(args)
-        .output()
-        .unwrap();
+    let out = crate::brdf(args);
     assert!(
         out.status.success(),
         "{args:?}: {}",

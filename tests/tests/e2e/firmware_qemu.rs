@@ -23,9 +23,12 @@ fn firmware_answers_like_the_host_and_survives_bad_frames() {
     let (_, format_version, _, materials) = dev.info().unwrap();
     assert_eq!((materials, format_version), (3, BLOB_VERSION));
 
-    // 10,240 directions per Table 1 material, f32 angles, against f64 at the same inputs.
+    // 2,048 directions per Table 1 material, f32 angles: bit for bit the host's f32 path (the
+    // one `tests/e2e/f32_accuracy` measures against f64 on dense grids), and within the f32
+    // tolerance of f64 at the same inputs. (QEMU's UART takes about 50 ms per 64-direction
+    // frame: a denser sample would only repeat the host's own grid at 50 times the cost.)
     let mut rng = SplitMix(2026);
-    let dirs: Vec<[f32; 3]> = (0..160 * MAX_BATCH)
+    let dirs: Vec<[f32; 3]> = (0..32 * MAX_BATCH)
         .map(|_| {
             [
                 (rng.unit() * 89.9f64).to_radians() as f32,
@@ -38,6 +41,14 @@ fn firmware_answers_like_the_host_and_survives_bad_frames() {
         let p64: Vec<f64> = p.iter().map(|&v| f64::from(v as f32)).collect();
         let host = AnyModel::<f64>::new(ModelKind::Six, &p64).unwrap();
         let device = dev.eval(m as u8, Input::Angles, &dirs).unwrap();
+        let host32 = AnyModel::<f32>::new(ModelKind::Six, &p.map(|v| v as f32)).unwrap();
+        for (x, d) in dirs.iter().zip(&device) {
+            assert_eq!(
+                d.to_bits(),
+                host32.eval_angles(x[0], x[1], x[2]).to_bits(),
+                "{name} at {x:?}"
+            );
+        }
         let exact: Vec<f64> = dirs
             .iter()
             .map(|x| host.eval_angles(x[0].into(), x[1].into(), x[2].into()))
@@ -189,7 +200,7 @@ fn firmware_serves_tabulated_materials_like_the_host() {
     let exact = SixParam::new(white64).unwrap();
     let limit = TABLE_MAX_ZENITH_DEG.to_radians();
     let mut rng = SplitMix(85);
-    let dirs: Vec<[f32; 3]> = (0..160 * MAX_BATCH)
+    let dirs: Vec<[f32; 3]> = (0..32 * MAX_BATCH)
         .map(|_| {
             [
                 rng.uniform(0.0, limit).cos() as f32,

@@ -1,7 +1,6 @@
 //! End-to-end tests of `brdf eval`: values, formats and every class of bad input.
 
 use std::path::PathBuf;
-use std::process::{Command, Output};
 use std::sync::LazyLock;
 
 use brdf_core::tolerance::{BATCH_F64_REL, F64_REFERENCE_REL, F64_REFORMULATION_REL};
@@ -16,12 +15,7 @@ fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
     p
 }
 
-fn brdf(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_brdf"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+use crate::brdf;
 
 fn eval_ok(args: &[&str]) -> Vec<Vec<String>> {
     let out = brdf(args);

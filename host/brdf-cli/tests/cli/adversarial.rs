@@ -19,12 +19,10 @@ use brdf_wire::frame::{encode_response, Response, MAX_FRAME};
 /// Khaki (Table 1) as a `--params` argument.
 static KHAKI: LazyLock<String> = LazyLock::new(|| brdf_tests::table1_params_arg(0));
 
-fn brdf() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_brdf"))
-}
+use crate::brdf_command as brdf;
 
 fn run(args: &[&str]) -> Output {
-    brdf().args(args).output().unwrap()
+    crate::brdf(args)
 }
 
 fn text(b: &[u8]) -> String {
@@ -262,7 +260,7 @@ fn no_local_process_can_pose_as_the_device() {
         forged.extend_from_slice(&f[..n]);
     }
     let mut child = brdf()
-        .args(["query", "--qemu", "--angles", "10,10,0"])
+        .args(crate::with_firmware(&["query", "--qemu", "--angles", "10,10,0"]))
         .env("PATH", &path)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

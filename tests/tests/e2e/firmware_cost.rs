@@ -6,7 +6,7 @@ use brdf_core::ModelKind;
 
 #[test]
 fn device_cost_constants_match_a_fresh_count() {
-    let Some(cost) = brdf_tests::qemu::program("core-cost", "cost") else {
+    let Some(cost) = brdf_tests::qemu::program("cost") else {
         return;
     };
     let counts = brdf_link::instruction_counts(&cost).unwrap();
@@ -56,7 +56,7 @@ fn device_cost_constants_match_a_fresh_count() {
 fn other_cores_count_every_path() {
     use brdf_link::firmware::Core;
     let count = |core: Core| {
-        let elf = brdf_tests::qemu::program_for("core-cost", "cost", core)?;
+        let elf = brdf_tests::qemu::program_for("cost", core)?;
         let counts = brdf_link::instruction_counts_on(core, &elf).unwrap();
         assert!(counts.len() >= 15, "{core:?}: {counts:?}");
         Some(counts)

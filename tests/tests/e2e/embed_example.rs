@@ -9,7 +9,7 @@ use brdf_core::{Brdf, SixParam, SixParams};
 
 #[test]
 fn embed_example_answers_like_the_host() {
-    let Some(elf) = brdf_tests::qemu::program("embed-example", "embed-example") else {
+    let Some(elf) = brdf_tests::qemu::program("embed-example") else {
         return;
     };
     let mut child = brdf_link::qemu_command()
