@@ -155,7 +155,7 @@ impl CheckCmd {
         // A directions file is read (and every row checked) before the device is opened.
         let (random_n, file) = match &self.directions {
             Directions::Count(n) => (*n, None),
-            Directions::File(p) => (0, Some((p.clone(), brdf_scene::domain::read_directions(p)?))),
+            Directions::File(p) => (0, Some((p.clone(), brdf_scene::queries::read_directions(p)?))),
         };
         let (mut link, loaded) = self.device.connect()?;
         // Without --blob the device must run the built-in Table 1, the only set the host

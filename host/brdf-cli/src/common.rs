@@ -104,6 +104,16 @@ pub struct EngineArgs {
 }
 
 impl EngineArgs {
+    /// The options as a command line without any of them gives them.
+    pub fn defaults() -> EngineArgs {
+        #[derive(clap::Parser)]
+        struct Only {
+            #[command(flatten)]
+            engine: EngineArgs,
+        }
+        <Only as clap::Parser>::parse_from(["brdf"]).engine
+    }
+
     /// Name of the residual form.
     pub fn residual_name(&self) -> &'static str {
         Residual::from(self.residual).name()

@@ -9,7 +9,6 @@ use brdf_core::{Geometry, ModelKind};
 use brdf_fit::report::FitReport;
 use brdf_fit::Engine;
 use clap::Args;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::common::{parse_shard, EngineArgs};
 use crate::params::parse_kind;
@@ -57,22 +56,6 @@ pub enum EngineKind {
     Embedded,
 }
 
-/// A progress bar on standard error when it is a terminal (whatever standard output is),
-/// for batches of more than one dataset.
-pub fn progress(len: usize) -> ProgressBar {
-    use std::io::IsTerminal;
-    let bar = if len > 1 && std::io::stderr().is_terminal() {
-        ProgressBar::with_draw_target(Some(len as u64), ProgressDrawTarget::stderr())
-    } else {
-        ProgressBar::hidden()
-    };
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} datasets, {elapsed} elapsed, eta {eta}")
-            .expect("static template"),
-    );
-    bar
-}
-
 impl FitCmd {
     pub fn run(self) -> Result<()> {
         let mut datasets = self.engine.load(&self.data)?;
@@ -110,7 +93,7 @@ impl FitCmd {
             }
             None => None,
         };
-        let bar = progress(datasets.len());
+        let bar = crate::progress::bar(datasets.len(), "datasets");
         let stdout = std::io::stdout();
         let many = datasets.len() > 1;
         let mut failure: Option<anyhow::Error> = None;

@@ -14,6 +14,7 @@ mod import;
 mod pack;
 mod params;
 mod plot;
+mod progress;
 mod query;
 mod report;
 mod scene;

@@ -4,9 +4,10 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use crate::progress;
 use anyhow::{Context, Result};
-use brdf_scene::lrcs::{domain, lrcs, LrcsReport};
-use brdf_scene::progress::terminal_bar;
+use brdf_scene::lrcs::{lrcs, LrcsReport};
+use brdf_scene::queries::collect_queries;
 use brdf_scene::scene::{Mode, Scene};
 use clap::{Args, Subcommand};
 
@@ -81,7 +82,7 @@ impl LrcsCmd {
     fn run(self) -> Result<()> {
         let scene = load(&self.scene)?;
         let n = scene.aspects().len();
-        let bar = terminal_bar(n, "aspects");
+        let bar = progress::bar(n, "aspects");
         let result = lrcs(&scene, &|| bar.inc(1));
         bar.finish_and_clear();
         let (lo, hi) = result
@@ -138,11 +139,11 @@ impl LrcsCmd {
 impl DomainCmd {
     fn run(self) -> Result<()> {
         let scene = load(&self.scene)?;
-        let bar = terminal_bar(scene.aspects().len(), "aspects");
-        let d = domain(&scene, &|| bar.inc(1));
+        let bar = progress::bar(scene.aspects().len(), "aspects");
+        let d = collect_queries(&scene, &|| bar.inc(1));
         bar.finish_and_clear();
         let out = sink(&self.output)?;
-        brdf_scene::domain::write_csv(&scene, &d, out).context("cannot write the queries")?;
+        brdf_scene::queries::write_csv(&scene, &d, out).context("cannot write the queries")?;
         eprintln!(
             "{}: {} queries over {} aspects",
             self.scene.display(),

@@ -18,17 +18,19 @@ use crate::common::{parse_fraction, write_blob, EngineArgs};
 /// a parameter blob for `brdf flash`.
 #[derive(Debug, Args)]
 pub struct SelectCmd {
-    /// Largest acceptable RMS relative error over the domain, e.g. 2% or 0.02.
-    #[arg(long, value_parser = parse_fraction, default_value = "2%")]
+    /// Largest acceptable error, e.g. 2% or 0.02: the RMS relative error over the data's
+    /// domain; with --scene, the worst relative error of a material's σ at any aspect.
+    #[arg(long, value_parser = parse_fraction, default_value_t = brdf_scene::select::DEFAULT_BUDGET)]
     budget: f64,
-    /// Angular domain: only points with theta_i and theta_r at most this (degrees).
-    #[arg(long, default_value_t = 90.0, value_parser = crate::common::degrees(0.0, 90.0))]
+    /// Angular domain: only points with theta_i and theta_r at most this (degrees; not with
+    /// --scene, whose domain is its own queries).
+    #[arg(long, default_value_t = 90.0, value_parser = crate::common::degrees(0.0, 90.0), conflicts_with = "scene")]
     max_theta: f64,
     /// Largest incidence zenith of the domain (degrees; default --max-theta).
-    #[arg(long, value_parser = crate::common::degrees(0.0, 90.0))]
+    #[arg(long, value_parser = crate::common::degrees(0.0, 90.0), conflicts_with = "scene")]
     max_theta_i: Option<f64>,
     /// Largest viewing zenith of the domain (degrees; default --max-theta).
-    #[arg(long, value_parser = crate::common::degrees(0.0, 90.0))]
+    #[arg(long, value_parser = crate::common::degrees(0.0, 90.0), conflicts_with = "scene")]
     max_theta_r: Option<f64>,
     /// Write the chosen representation as a parameter blob.
     #[arg(short = 'o', long)]
@@ -135,15 +137,15 @@ impl SelectCmd {
             writeln!(
                 out,
                 "{:<16} {:>10.3} {:>10.3} {:>13} {:>12} {:>8.1} {:>7}  {}{}",
-                r.name,
+                r.rung.name,
                 100.0 * r.rms_rel,
                 100.0 * r.max_rel,
                 r.table_vs_exact.map_or("-".into(), |e| format!("{e:.1e}")),
-                r.device_instructions,
+                r.rung.device_instructions,
                 r.host_ns,
-                r.blob_bytes,
-                r.caveat(),
-                if r.fits_blob { "" } else { " (over a slot)" }
+                r.rung.blob_bytes,
+                r.rung.caveat(),
+                if r.rung.fits_blob { "" } else { " (over a slot)" }
             )?;
         }
         match &s.chosen {
@@ -168,14 +170,35 @@ impl SelectCmd {
             .scene
             .as_ref()
             .ok_or_else(|| anyhow!("give a data file or --scene"))?;
+        // The scene ladder fits the exact model's values at the scene's own queries (relative
+        // residuals, least squares): options about reading or weighing data do not apply.
+        let e = &self.engine;
+        let defaults = crate::common::EngineArgs::defaults();
+        for (given, flag) in [
+            (e.residual != defaults.residual, "--residual"),
+            (e.loss != defaults.loss, "--loss"),
+            (e.loss_scale != defaults.loss_scale, "--loss-scale"),
+            (e.brightening, "--brightening"),
+            (e.skip_invalid, "--skip-invalid"),
+            (e.format.is_some(), "--format"),
+            (e.channel != defaults.channel, "--channel"),
+        ] {
+            if given {
+                bail!(
+                    "{flag} does not apply to --scene: the ladder is fitted to the exact model's values at \
+                     the scene's queries, with relative residuals and least squares"
+                );
+            }
+        }
         let scene = brdf_scene::scene::Scene::open(path)?;
-        let bar = brdf_scene::progress::terminal_bar(scene.aspects().len(), "aspects");
-        let domain = brdf_scene::lrcs::domain(&scene, &|| bar.inc(1));
+        let bar = crate::progress::bar(scene.aspects().len(), "aspects");
+        let domain = brdf_scene::queries::collect_queries(&scene, &|| bar.inc(1));
         bar.finish_and_clear();
         let opts = SelectOptions {
             budget: self.budget,
-            seed: self.engine.seed,
+            fit: self.engine.fit_options(),
             sequence: self.sequence,
+            allow_nonphysical: self.allow_nonphysical,
             ..SelectOptions::default()
         };
         let s = select(&scene, &domain, &opts);

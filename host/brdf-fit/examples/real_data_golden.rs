@@ -13,6 +13,9 @@ use brdf_fit::{fit, FitOptions, Problem, Residual};
 use rayon::prelude::*;
 use real_data_cases::{cases, jobs, key, long_search, GOLDEN, REFERENCE_CHAINS, SEEDS, SEED_COST_REL};
 
+/// One search's costs over the seeds, and the seconds they took.
+type SearchRuns = (Vec<f64>, f64);
+
 fn main() {
     let cases = cases();
     let jobs = jobs(&cases);
@@ -21,7 +24,7 @@ fn main() {
         ("earlier search", FitOptions::without_verification()),
     ];
     // Per pair: the reference cost, then per search (costs over the seeds, seconds).
-    let per_job: Vec<(f64, Vec<(Vec<f64>, f64)>)> = jobs
+    let per_job: Vec<(f64, Vec<SearchRuns>)> = jobs
         .par_iter()
         .map(|&(c, model)| {
             let problem = Problem::from_dataset(model, Residual::Relative, &c.data);

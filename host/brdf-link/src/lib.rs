@@ -384,23 +384,21 @@ pub fn instruction_counts(elf: &Path) -> Result<Vec<(String, f64)>, LinkError> {
     instruction_counts_on(firmware::Core::M4F, elf)
 }
 
-/// [`instruction_counts`] on `core`'s board (`elf` built for its target).
+/// Longest a counting run may take before it is killed and reported: the cost programs
+/// finish in about a second under `-icount shift=0` (the Cortex-M0+'s, the slowest, 0.7 s on a
+/// 2-core x86 host), so a run that lasts a minute is hung, not slow.
+pub const COUNT_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// [`instruction_counts`] on `core`'s board (`elf` built for its target), killed and
+/// reported after [`COUNT_TIMEOUT`].
 pub fn instruction_counts_on(core: firmware::Core, elf: &Path) -> Result<Vec<(String, f64)>, LinkError> {
     if !elf.is_file() {
         return Err(LinkError::ElfMissing(elf.to_owned()));
     }
-    let out = qemu_command_for(core)
-        .args(["-icount", "shift=0", "-kernel"])
-        .arg(elf)
-        .output()
-        .map_err(|e| LinkError::QemuMissing(e, "qemu-system-arm -icount shift=0".into()))?;
-    if !out.status.success() {
-        return Err(LinkError::Protocol(format!(
-            "{} failed under QEMU",
-            elf.display()
-        )));
-    }
-    Ok(String::from_utf8_lossy(&out.stdout)
+    let mut cmd = qemu_command_for(core);
+    cmd.args(["-icount", "shift=0", "-kernel"]).arg(elf);
+    let stdout = run_with_timeout(cmd, COUNT_TIMEOUT, &format!("{} under QEMU", elf.display()))?;
+    Ok(String::from_utf8_lossy(&stdout)
         .lines()
         .filter_map(|l| {
             let (_, rest) = l.split_once(": ")?;
@@ -411,6 +409,55 @@ pub fn instruction_counts_on(core: firmware::Core, elf: &Path) -> Result<Vec<(St
             ))
         })
         .collect())
+}
+
+/// Runs `cmd` to completion and returns its standard output; a run that fails, or outlasts
+/// `limit` (it is then killed), is an error naming `what`.
+fn run_with_timeout(mut cmd: Command, limit: Duration, what: &str) -> Result<Vec<u8>, LinkError> {
+    let line = command_line(&cmd);
+    let mut child = cmd
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| LinkError::QemuMissing(e, line.clone()))?;
+    // Drain the pipes while waiting, so a chatty program cannot block on a full pipe.
+    let mut out_pipe = child.stdout.take().expect("piped");
+    let mut err_pipe = child.stderr.take().expect("piped");
+    let out_reader = std::thread::spawn(move || {
+        let mut b = Vec::new();
+        let _ = out_pipe.read_to_end(&mut b);
+        b
+    });
+    let err_reader = std::thread::spawn(move || {
+        let mut b = Vec::new();
+        let _ = err_pipe.read_to_end(&mut b);
+        b
+    });
+    let deadline = Instant::now() + limit;
+    let status = loop {
+        if let Some(status) = child.try_wait().map_err(LinkError::Io)? {
+            break status;
+        }
+        if Instant::now() >= deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(LinkError::Protocol(format!(
+                "{what}: no result after {} s, killed (command: {line})",
+                limit.as_secs_f64()
+            )));
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let stdout = out_reader.join().unwrap_or_default();
+    let stderr = err_reader.join().unwrap_or_default();
+    if !status.success() {
+        return Err(LinkError::Protocol(format!(
+            "{what} failed ({status}): {}",
+            String::from_utf8_lossy(&stderr).trim()
+        )));
+    }
+    Ok(stdout)
 }
 
 /// Decodes a defmt byte stream with the tables of the firmware `elf`: one line per log
@@ -665,5 +712,38 @@ impl<T: Transport> Link<T> {
             Ok(Response::Error(e)) => Err(LinkError::Device(e)),
             other => Err(LinkError::Protocol(format!("{other:?}"))),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Before: a counting run had no time limit, so a hung QEMU hung `brdf bench eval` and
+    /// the cost tests for ever.
+    #[test]
+    fn a_hung_counting_run_is_killed_and_reported() {
+        let mut cmd = Command::new("sh");
+        cmd.args(["-c", "sleep 30"]);
+        let started = Instant::now();
+        let err = run_with_timeout(cmd, Duration::from_millis(300), "cost").unwrap_err();
+        assert!(
+            started.elapsed() < Duration::from_secs(5),
+            "{:?}",
+            started.elapsed()
+        );
+        assert!(err.to_string().contains("no result after 0.3 s, killed"), "{err}");
+        let mut ok = Command::new("sh");
+        ok.args(["-c", "echo 'path 1: x : 5 instructions'"]);
+        assert_eq!(
+            run_with_timeout(ok, COUNT_TIMEOUT, "cost").unwrap(),
+            b"path 1: x : 5 instructions\n"
+        );
+        let mut failing = Command::new("sh");
+        failing.args(["-c", "echo boom >&2; exit 3"]);
+        let err = run_with_timeout(failing, COUNT_TIMEOUT, "cost")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("boom") && err.contains("failed"), "{err}");
     }
 }

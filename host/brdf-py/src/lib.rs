@@ -893,15 +893,15 @@ type SceneDomain = (
     Vec<f64>,
 );
 
-/// `brdf scene domain` through the same library calls (`brdf_scene::lrcs::domain`,
-/// `brdf_scene::domain::rows`): its columns, in its row order.
+/// `brdf scene domain` through the same library calls (`brdf_scene::queries::collect_queries`,
+/// `brdf_scene::queries::rows`): its columns, in its row order.
 #[pyfunction]
 fn scene_domain(py: Python<'_>, path: String) -> PyResult<SceneDomain> {
     let scene = scene_at(&path)?;
     Ok(py.detach(|| {
-        let d = brdf_scene::lrcs::domain(&scene, &|| {});
+        let d = brdf_scene::queries::collect_queries(&scene, &|| {});
         let mut c: SceneDomain = Default::default();
-        for r in brdf_scene::domain::rows(&scene, &d) {
+        for r in brdf_scene::queries::rows(&scene, &d) {
             c.0.push(r.azimuth);
             c.1.push(r.elevation);
             c.2.push(r.material);
@@ -916,7 +916,7 @@ fn scene_domain(py: Python<'_>, path: String) -> PyResult<SceneDomain> {
     }))
 }
 
-/// `brdf select --scene` through the same library calls (`brdf_scene::lrcs::domain`,
+/// `brdf select --scene` through the same library calls (`brdf_scene::queries::collect_queries`,
 /// `brdf_scene::select::select`): the JSON `--json` prints, the blob `-o` writes (or None)
 /// and why there is none.
 #[pyfunction]
@@ -927,18 +927,23 @@ fn select_scene<'py>(
     budget: f64,
     seed: u64,
     sequence: u32,
+    allow_nonphysical: bool,
 ) -> PyResult<(String, Option<Bound<'py, PyBytes>>, Option<String>)> {
     use brdf_scene::select::{select, SelectOptions};
     check_budget(budget).map_err(PyValueError::new_err)?;
     let scene = scene_at(&path)?;
     let opts = SelectOptions {
         budget,
-        seed,
+        fit: FitOptions {
+            seed,
+            ..FitOptions::default()
+        },
         sequence,
+        allow_nonphysical,
         ..SelectOptions::default()
     };
     let (text, blob, note) = py.detach(|| {
-        let domain = brdf_scene::lrcs::domain(&scene, &|| {});
+        let domain = brdf_scene::queries::collect_queries(&scene, &|| {});
         let s = select(&scene, &domain, &opts);
         let text = serde_json::to_string_pretty(&s).map_err(|e| e.to_string());
         (text, s.blob().map(<[u8]>::to_vec), s.blob_note.clone())

@@ -11,8 +11,9 @@
 use std::time::Instant;
 
 use brdf_core::{AnyModel, ModelKind, TABLE1};
-use brdf_scene::eval::{sigma, Evaluator};
-use brdf_scene::lrcs::{domain, lrcs};
+use brdf_scene::eval::Evaluator;
+use brdf_scene::lrcs::lrcs;
+use brdf_scene::queries::collect_queries;
 use brdf_scene::scene::{Mode, Scene, SceneMaterial, Sensor};
 use brdf_scene::shapes::{target, TargetSpec};
 
@@ -78,7 +79,7 @@ fn main() {
                 Some(f) => assert_eq!(f, &sig, "one core and all cores must agree bit for bit"),
             }
             // Split: the queries (geometry and rays) against the BRDF evaluation of them.
-            let d = pool.install(|| domain(&scene, &|| {}));
+            let d = pool.install(|| collect_queries(&scene, &|| {}));
             let models: Vec<Evaluator> = scene
                 .materials
                 .iter()
@@ -89,7 +90,7 @@ fn main() {
             let mut total = 0.0;
             for per in &d.batches {
                 for (b, m) in per.iter().zip(&models) {
-                    total += sigma(m, b, &mut scratch);
+                    total += b.sigma(m, &mut scratch);
                 }
             }
             let eval_one_core = t.elapsed().as_secs_f64();

@@ -1,14 +1,12 @@
 //! The one place where this crate evaluates BRDFs: a batch of queries, as slices of
 //! cosines, through one material representation.
 //!
-//! Every σ, every domain weight and every candidate's error goes through [`eval_batch`], one
-//! call per (aspect, material), so that a batch (SIMD) evaluation in the core replaces the
-//! loop here without touching the callers.
+//! Every σ, every query weight and every candidate's error goes through [`eval_batch`], one
+//! call per (aspect, material) (`crate::queries::QueryBatch::sigma`), so that a batch (SIMD)
+//! evaluation in the core replaces the loop here without touching the callers.
 
 use brdf_core::table::{SixTable, TableConsts};
 use brdf_core::{AnyModel, Brdf};
-
-use crate::lrcs::Batch;
 
 /// How a material's BRDF is evaluated.
 #[derive(Clone, Debug)]
@@ -66,12 +64,4 @@ pub fn eval_batch(e: &Evaluator, cos_theta_i: &[f64], cos_theta_r: &[f64], cos_p
             }
         }
     }
-}
-
-/// `sum_k weight[k] f_r(k)`: a batch's share of σ, m². `scratch` is reused between calls.
-pub fn sigma(e: &Evaluator, b: &Batch, scratch: &mut Vec<f64>) -> f64 {
-    scratch.clear();
-    scratch.resize(b.weight.len(), 0.0);
-    eval_batch(e, &b.cos_theta_i, &b.cos_theta_r, &b.cos_phi, scratch);
-    b.weight.iter().zip(scratch.iter()).map(|(w, f)| w * f).sum()
 }

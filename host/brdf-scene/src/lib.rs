@@ -18,12 +18,12 @@
 //! assert!((sigma - exact).abs() < 0.01 * exact);
 //! ```
 
-pub mod domain;
 pub mod eval;
+pub mod ladder;
 pub mod lrcs;
 pub mod mesh;
 pub mod occlusion;
-pub mod progress;
+pub mod queries;
 pub mod represent;
 pub mod scene;
 pub mod select;

@@ -13,15 +13,14 @@
 //! a shadow edge crosses a facet the error is at most that facet's contribution, so meshes
 //! should be finer where parts shadow each other.
 
-use std::f64::consts::PI;
 use std::time::Instant;
 
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::eval::{sigma, Evaluator};
-use crate::mesh::v3;
-use crate::scene::{Aspect, Mode, Scene};
+use crate::eval::Evaluator;
+use crate::queries::{aspect_queries, QueryBatch};
+use crate::scene::{Mode, Scene};
 
 /// What `brdf scene lrcs --json` prints and `brdf.scene_lrcs(...).to_json()` returns: the
 /// scene, its materials and σ at every aspect.
@@ -84,77 +83,6 @@ impl<'a> LrcsReport<'a> {
     }
 }
 
-/// The queries one material receives at one aspect, as slices ([`crate::eval::eval_batch`]).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Batch {
-    /// `cos theta_i` per facet seen.
-    pub cos_theta_i: Vec<f64>,
-    /// `cos theta_r`.
-    pub cos_theta_r: Vec<f64>,
-    /// `cos phi`.
-    pub cos_phi: Vec<f64>,
-    /// `4 pi cos(theta_i) cos(theta_r) A`, m² sr: the facet's σ per unit BRDF.
-    pub weight: Vec<f64>,
-    /// Facet index (0-based, mesh order).
-    pub facet: Vec<u32>,
-}
-
-impl Batch {
-    /// Queries in the batch.
-    pub fn len(&self) -> usize {
-        self.weight.len()
-    }
-
-    /// No queries.
-    pub fn is_empty(&self) -> bool {
-        self.weight.is_empty()
-    }
-}
-
-/// The queries of one aspect, one [`Batch`] per material (scene order). `stack` is scratch
-/// space for the occlusion rays.
-pub fn queries(scene: &Scene, aspect: &Aspect, stack: &mut Vec<usize>) -> Vec<Batch> {
-    let v = aspect.receiver();
-    let s = aspect.source(scene.sensor.mode);
-    let mono = scene.sensor.mode == Mode::Monostatic;
-    let mut out = vec![Batch::default(); scene.materials.len()];
-    for (k, f) in scene.mesh.facets.iter().enumerate() {
-        let n = f.normal;
-        let (mu_i, mu_r) = (v3::dot(n, s), v3::dot(n, v));
-        if !(mu_i > 0.0 && mu_r > 0.0) {
-            continue;
-        }
-        if scene.occluder.blocked(f.centroid, v, k, stack) {
-            continue;
-        }
-        if !mono && scene.occluder.blocked(f.centroid, s, k, stack) {
-            continue;
-        }
-        let cos_phi = if mono { 1.0 } else { cos_phi(n, s, v, mu_i, mu_r) };
-        let b = &mut out[scene.facet_material[k] as usize];
-        b.cos_theta_i.push(mu_i);
-        b.cos_theta_r.push(mu_r);
-        b.cos_phi.push(cos_phi);
-        b.weight.push(4.0 * PI * mu_i * mu_r * f.area);
-        b.facet.push(k as u32);
-    }
-    out
-}
-
-/// `cos phi` between the projections of `s` and `v` on the plane with normal `n`; 1 where
-/// either projection vanishes (a direction along the normal, where `phi` does not matter).
-/// Symmetric in `s` and `v`, operation by operation, so swapping source and receiver gives
-/// the same bits.
-fn cos_phi(n: [f64; 3], s: [f64; 3], v: [f64; 3], mu_i: f64, mu_r: f64) -> f64 {
-    let st = v3::sub(s, v3::scale(n, mu_i));
-    let vt = v3::sub(v, v3::scale(n, mu_r));
-    let (ss, vv) = (v3::dot(st, st), v3::dot(vt, vt));
-    if ss <= 1e-30 || vv <= 1e-30 {
-        return 1.0;
-    }
-    (v3::dot(st, vt) / (ss * vv).sqrt()).clamp(-1.0, 1.0)
-}
-
 /// σ over a sweep.
 #[derive(Clone, Debug, Serialize)]
 pub struct Lrcs {
@@ -199,11 +127,11 @@ pub fn lrcs_with(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + Syn
         .map_init(
             || (Vec::new(), Vec::new()),
             |(stack, scratch), a| {
-                let batches = queries(scene, a, stack);
+                let batches = aspect_queries(scene, a, stack);
                 let by_material: Vec<f64> = batches
                     .iter()
                     .zip(models)
-                    .map(|(b, m)| sigma(m, b, scratch))
+                    .map(|(b, m)| b.sigma(m, scratch))
                     .collect();
                 progress();
                 AspectSigma {
@@ -211,7 +139,7 @@ pub fn lrcs_with(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + Syn
                     elevation: a.elevation_deg,
                     lrcs: by_material.iter().sum(),
                     by_material,
-                    facets_seen: batches.iter().map(Batch::len).sum(),
+                    facets_seen: batches.iter().map(QueryBatch::len).sum(),
                 }
             },
         )
@@ -220,53 +148,4 @@ pub fn lrcs_with(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + Syn
         aspects,
         seconds: started.elapsed().as_secs_f64(),
     }
-}
-
-/// Every query the scene makes: per aspect, one [`Batch`] per material.
-#[derive(Clone, Debug)]
-pub struct Domain {
-    /// Aspects in sweep order.
-    pub aspects: Vec<Aspect>,
-    /// `batches[a][m]`: the queries of material `m` at aspect `a`.
-    pub batches: Vec<Vec<Batch>>,
-}
-
-impl Domain {
-    /// Number of queries in all.
-    pub fn len(&self) -> usize {
-        self.batches.iter().flatten().map(Batch::len).sum()
-    }
-
-    /// No queries at all (nothing seen at any aspect).
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// σ of each material at each aspect, `[aspect][material]`, m².
-    pub fn sigma(&self, models: &[Evaluator]) -> Vec<Vec<f64>> {
-        self.batches
-            .par_iter()
-            .map_init(Vec::new, |scratch, per| {
-                per.iter()
-                    .zip(models)
-                    .map(|(b, m)| sigma(m, b, scratch))
-                    .collect()
-            })
-            .collect()
-    }
-}
-
-/// Collects the queries of every aspect (in parallel; `progress` once per aspect). Memory:
-/// 36 bytes per query.
-pub fn domain(scene: &Scene, progress: &(dyn Fn() + Sync)) -> Domain {
-    let aspects = scene.aspects();
-    let batches = aspects
-        .par_iter()
-        .map_init(Vec::new, |stack, a| {
-            let b = queries(scene, a, stack);
-            progress();
-            b
-        })
-        .collect();
-    Domain { aspects, batches }
 }

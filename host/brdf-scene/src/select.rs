@@ -1,10 +1,10 @@
 //! "No more model than the scene needs": per material, the cheapest representation on the
 //! device whose σ stays within a budget of the exact model's σ at every aspect.
 //!
-//! Candidates are those of `brdf select` with the same device costs
-//! (`brdf_core::cost`): the model ladder exact in f32 (Lambert, Minnaert, five-parameter,
-//! six-parameter, six-cos2) and the six-parameter model's lookup tables of 64, 256 and 1024
-//! nodes. The material's own model keeps its parameters (rounded to f32, as flashed); the
+//! Candidates are the rungs of `brdf select` ([`crate::ladder`]) with the same device costs
+//! and the same eligibility rule (physical models only unless `allow_nonphysical`): the model
+//! ladder exact in f32 (Lambert, Minnaert, five-parameter, six-parameter, six-cos2) and the
+//! six-parameter model's lookup tables of 64, 256 and 1024 nodes. The material's own model keeps its parameters (rounded to f32, as flashed); the
 //! other models of the ladder are fitted to the material's exact values at the scene's own
 //! queries (relative residuals, each query weighted by its share of its aspect's σ: a
 //! systematic sample of at most [`SelectOptions::fit_points`] queries drawn with probability
@@ -14,42 +14,50 @@
 //! f32), against the exact f64 σ of the same material's facets: the worst relative error
 //! over the aspects that see the material must not exceed the budget. Holding every
 //! material's share to the budget holds the whole scene's σ to it too (all shares are
-//! non-negative), which the report checks. The chosen set is written as one blob, materials
-//! in scene order; when tables would overflow the blob's 4,096 bytes, the material whose
-//! next-cheapest alternative costs the fewest extra instructions gives up its table first.
+//! non-negative), which the report checks. The chosen set is written as one blob
+//! (`brdf_fit::pack::encode`), materials in scene order; when tables would overflow the
+//! blob's 4,096 bytes, the material whose next-cheapest eligible alternative costs the fewest
+//! extra instructions gives up its table first.
 
-use brdf_core::cost::{exact_instructions, TABLE_INSTRUCTIONS};
-use brdf_core::table::{table_len, SixTable, TABLE_SIZES};
-use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
+use brdf_core::{ModelKind, MAX_PARAMS};
 use brdf_fit::{fit, FitOptions, Point, Problem, Residual};
-use brdf_wire::blob::{encoded_len, Blob, Material, MAX_BLOB_LEN, MAX_MATERIALS};
+use brdf_wire::blob::{encoded_len, Material, MAX_BLOB_LEN, MAX_MATERIALS};
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::eval::{eval_batch, Evaluator};
-use crate::lrcs::Domain;
+use crate::ladder::{choose, eligible, rungs, Rung};
+use crate::queries::SceneQueries;
 use crate::scene::Scene;
 
 /// Settings of a selection.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SelectOptions {
-    /// Largest relative σ error at any aspect, e.g. 0.01.
+    /// Largest relative σ error at any aspect, e.g. 0.02.
     pub budget: f64,
-    /// Seed of the fits.
-    pub seed: u64,
+    /// The search settings of the ladder fits (seed, chains, agreement, hops, annealing).
+    pub fit: FitOptions,
     /// Most queries a ladder fit uses.
     pub fit_points: usize,
     /// Sequence number of the blob.
     pub sequence: u32,
+    /// Also choose rungs that are not reciprocal or unbounded at grazing
+    /// ([`crate::ladder::eligible`]).
+    pub allow_nonphysical: bool,
 }
+
+/// The default budget of every selection (`brdf select`, `brdf select --scene`, Python's
+/// `brdf.select` and `brdf.select_scene`): 2%.
+pub const DEFAULT_BUDGET: f64 = 0.02;
 
 impl Default for SelectOptions {
     fn default() -> Self {
         SelectOptions {
-            budget: 0.01,
-            seed: 1,
+            budget: DEFAULT_BUDGET,
+            fit: FitOptions::default(),
             fit_points: 2000,
             sequence: 1,
+            allow_nonphysical: false,
         }
     }
 }
@@ -57,20 +65,9 @@ impl Default for SelectOptions {
 /// One representation a material could be flashed as, with its σ error on the scene.
 #[derive(Clone, Debug, Serialize)]
 pub struct Candidate {
-    /// `six exact`, `lambert fitted`, `six table 256`, ...
-    pub name: String,
-    /// Model.
-    pub model: &'static str,
-    /// Table nodes, if tabulated.
-    pub nodes: Option<usize>,
-    /// Parameters as flashed (f32, shown in f64), paper order.
-    pub params: Vec<f64>,
-    /// Cortex-M4F instructions per lookup from cosines (`brdf_core::cost`).
-    pub device_instructions: u32,
-    /// Bytes of this material in a blob (model id, parameters, tables).
-    pub bytes: usize,
-    /// A blob of this material alone fits a flash slot.
-    pub fits_blob: bool,
+    /// The representation (name, model, parameters, cost, bytes, physicality).
+    #[serde(flatten)]
+    pub rung: Rung,
     /// Largest `|sigma - sigma_exact| / sigma_exact` of this material's share over the
     /// aspects that see it.
     pub worst_sigma_error: f64,
@@ -80,12 +77,9 @@ pub struct Candidate {
     pub rms_sigma_error: f64,
     /// Within the budget.
     pub within_budget: bool,
-    #[serde(skip)]
-    material: Material,
-    #[serde(skip)]
-    table: Option<Vec<u8>>,
-    #[serde(skip)]
-    eval: Evaluator,
+    /// May be chosen ([`crate::ladder::eligible`]: fits a slot and, unless non-physical
+    /// models are allowed, physical).
+    pub eligible: bool,
 }
 
 /// The choice for one material.
@@ -105,6 +99,8 @@ pub struct MaterialChoice {
     pub candidates: Vec<Candidate>,
     /// Index into `candidates` of the one written.
     pub chosen: Option<usize>,
+    /// Why it was chosen, or why nothing was ([`crate::ladder::choose`]).
+    pub reason: String,
     /// Remarks (fits that failed, a material never seen).
     pub notes: Vec<String>,
 }
@@ -116,6 +112,8 @@ pub struct SceneSelection {
     pub scene: String,
     /// The budget.
     pub budget: f64,
+    /// Non-physical rungs could be chosen.
+    pub allow_nonphysical: bool,
     /// Aspects.
     pub aspects: usize,
     /// Queries in all.
@@ -163,22 +161,24 @@ impl SceneSelection {
                 "representation", "worst sigma err", "at (az, el) deg", "M4F instr", "bytes"
             )?;
             for c in &m.candidates {
+                let r = &c.rung;
+                let mark = if !r.fits_blob {
+                    "  (over a slot)".to_owned()
+                } else if !c.eligible {
+                    format!("  ({}; not chosen without --allow-nonphysical)", r.caveat())
+                } else if !c.within_budget {
+                    "  over budget".to_owned()
+                } else {
+                    String::new()
+                };
                 writeln!(
                     out,
-                    "  {:<22} {:>15} {:>18} {:>10} {:>7}{}{}",
-                    c.name,
+                    "  {:<22} {:>15} {:>18} {:>10} {:>7}{mark}",
+                    r.name,
                     format!("{:.2e}", c.worst_sigma_error),
                     c.worst_at.map_or("-".to_owned(), |[a, e]| format!("({a}, {e})")),
-                    c.device_instructions,
-                    c.bytes,
-                    if c.fits_blob { "" } else { "  (over a slot)" },
-                    if c.within_budget && c.fits_blob {
-                        ""
-                    } else if c.fits_blob {
-                        "  over budget"
-                    } else {
-                        ""
-                    }
+                    r.device_instructions,
+                    r.bytes,
                 )?;
             }
             for n in &m.notes {
@@ -190,10 +190,10 @@ impl SceneSelection {
                     writeln!(
                         out,
                         "  chosen: {} ({} instructions per lookup, worst sigma error {:.2e})",
-                        c.name, c.device_instructions, c.worst_sigma_error
+                        c.rung.name, c.rung.device_instructions, c.worst_sigma_error
                     )?;
                 }
-                None => writeln!(out, "  no representation meets the budget")?,
+                None => writeln!(out, "  no representation meets the budget: {}", m.reason)?,
             }
         }
         writeln!(out)?;
@@ -209,27 +209,15 @@ impl SceneSelection {
     }
 }
 
-/// A candidate before it is judged.
-struct Draft {
-    name: String,
-    kind: ModelKind,
-    nodes: Option<usize>,
-    material: Material,
-    table: Option<Vec<u8>>,
-    eval: Evaluator,
-}
-
-/// The material the device holds for f64 parameters ([`Material::from_params`]) and its f32
-/// model, or why not.
-fn device_material(kind: ModelKind, p: &[f64; MAX_PARAMS]) -> Result<(Material, AnyModel<f32>), String> {
-    let m = Material::from_params(kind, p).map_err(|e| e.to_string())?;
-    let model = m.model().map_err(|e| e.to_string())?;
-    Ok((m, model))
-}
-
 /// A systematic sample of material `m`'s queries, each drawn with probability proportional to
 /// its share of its aspect's σ, as fitting points (exact value; weight = times drawn).
-fn fit_sample(domain: &Domain, m: usize, exact: &Evaluator, sigma: &[Vec<f64>], n: usize) -> Vec<Point> {
+fn fit_sample(
+    domain: &SceneQueries,
+    m: usize,
+    exact: &Evaluator,
+    sigma: &[Vec<f64>],
+    n: usize,
+) -> Vec<Point> {
     let mut all: Vec<(usize, usize, f64, f64)> = Vec::new(); // aspect, query, share, f
     let mut f = Vec::new();
     for (a, per) in domain.batches.iter().enumerate() {
@@ -278,22 +266,21 @@ fn fit_sample(domain: &Domain, m: usize, exact: &Evaluator, sigma: &[Vec<f64>], 
     out
 }
 
-/// The candidates of material `m`.
+/// The rungs of material `m`: its own model with its own parameters (as flashed), every
+/// other model of the ladder fitted to `points`, each with its tables where it has them.
 fn drafts(
     scene: &Scene,
     m: usize,
     points: &[Point],
     opts: &SelectOptions,
     notes: &mut Vec<String>,
-) -> Vec<Draft> {
+) -> Vec<Rung> {
     let own = &scene.materials[m].model;
     let own_kind = own.kind();
-    let own_params = own.to_params();
     let mut out = Vec::new();
-    let mut six: Option<(String, [f64; MAX_PARAMS])> = None;
     for kind in ModelKind::LADDER {
-        let (label, params) = if kind == own_kind {
-            (format!("{} exact", kind.name()), own_params)
+        let (label, params): (String, [f64; MAX_PARAMS]) = if kind == own_kind {
+            (kind.name().to_owned(), own.to_params())
         } else if points.len() < kind.param_count() + 1 {
             if !points.is_empty() {
                 notes.push(format!("{}: too few queries to fit", kind.name()));
@@ -301,66 +288,19 @@ fn drafts(
             continue;
         } else {
             let problem = Problem::new(kind, Residual::Relative, points);
-            let o = fit(
-                &problem,
-                &FitOptions {
-                    seed: opts.seed,
-                    ..FitOptions::default()
-                },
-            );
-            (format!("{} fitted", kind.name()), o.params)
+            (format!("{} fitted", kind.name()), fit(&problem, &opts.fit).params)
         };
-        match device_material(kind, &params) {
-            Ok((material, model)) => {
-                if kind == ModelKind::Six {
-                    six = Some((label.trim_end_matches(" exact").to_owned(), params));
-                }
-                out.push(Draft {
-                    name: label,
-                    kind,
-                    nodes: None,
-                    material,
-                    table: None,
-                    eval: Evaluator::Device(model),
-                });
-            }
-            Err(e) => notes.push(format!("{label}: not representable on the device: {e}")),
-        }
-    }
-    if let Some((label, params)) = six {
-        for nodes in TABLE_SIZES {
-            let Ok((mut material, _)) = device_material(ModelKind::Six, &params) else {
-                continue;
-            };
-            let mut bytes = vec![0u8; table_len(nodes)];
-            if let Err(e) = material.tabulate(nodes, &mut bytes) {
-                notes.push(format!("{label} table {nodes}: {e}"));
-                continue;
-            }
-            let Some(p) = material.six_params() else { continue };
-            let consts = match SixTable::new(p, &bytes) {
-                Ok(t) => t.consts(),
-                Err(e) => {
-                    notes.push(format!("{label} table {nodes}: {e}"));
-                    continue;
-                }
-            };
-            out.push(Draft {
-                name: format!("{label} table {nodes}"),
-                kind: ModelKind::Six,
-                nodes: Some(nodes),
-                material,
-                table: Some(bytes.clone()),
-                eval: Evaluator::Table { consts, bytes },
-            });
+        match rungs(&label, kind, &params) {
+            Ok(r) => out.extend(r),
+            Err(e) => notes.push(e),
         }
     }
     out
 }
 
 /// Chooses, per material of `scene`, the cheapest representation within `opts.budget` over
-/// the queries of `domain` (from [`crate::lrcs::domain`]), and encodes the chosen set.
-pub fn select(scene: &Scene, domain: &Domain, opts: &SelectOptions) -> SceneSelection {
+/// the queries of `domain` (from [`crate::queries::collect_queries`]), and encodes the chosen set.
+pub fn select(scene: &Scene, domain: &SceneQueries, opts: &SelectOptions) -> SceneSelection {
     let exact: Vec<Evaluator> = scene
         .materials
         .iter()
@@ -382,16 +322,13 @@ pub fn select(scene: &Scene, domain: &Domain, opts: &SelectOptions) -> SceneSele
             .batches
             .par_iter()
             .map_init(Vec::new, |scratch, per| {
-                drafts
-                    .iter()
-                    .map(|d| crate::eval::sigma(&d.eval, &per[m], scratch))
-                    .collect()
+                drafts.iter().map(|d| per[m].sigma(&d.eval, scratch)).collect()
             })
             .collect();
         let mut candidates: Vec<Candidate> = drafts
             .into_iter()
             .enumerate()
-            .map(|(c, d)| {
+            .map(|(c, rung)| {
                 let (mut worst, mut at, mut sum2) = (0.0f64, None, 0.0);
                 for &a in &seen {
                     let e = (cand_sigma[a][c] - sigma[a][m]).abs() / sigma[a][m];
@@ -402,21 +339,7 @@ pub fn select(scene: &Scene, domain: &Domain, opts: &SelectOptions) -> SceneSele
                         at = Some([domain.aspects[a].azimuth_deg, domain.aspects[a].elevation_deg]);
                     }
                 }
-                let bytes = d.material.encoded_len();
                 Candidate {
-                    name: d.name,
-                    model: d.kind.name(),
-                    nodes: d.nodes,
-                    params: d.material.params[..d.kind.param_count()]
-                        .iter()
-                        .map(|&p| f64::from(p))
-                        .collect(),
-                    device_instructions: match d.nodes {
-                        Some(_) => TABLE_INSTRUCTIONS,
-                        None => exact_instructions(d.kind),
-                    },
-                    bytes,
-                    fits_blob: encoded_len(&[d.material]) <= MAX_BLOB_LEN,
                     worst_sigma_error: worst,
                     worst_at: at,
                     rms_sigma_error: if seen.is_empty() {
@@ -425,18 +348,25 @@ pub fn select(scene: &Scene, domain: &Domain, opts: &SelectOptions) -> SceneSele
                         (sum2 / seen.len() as f64).sqrt()
                     },
                     within_budget: worst <= opts.budget,
-                    material: d.material,
-                    table: d.table,
-                    eval: d.eval,
+                    eligible: eligible(&rung, opts.allow_nonphysical),
+                    rung,
                 }
             })
             .collect();
         candidates.sort_by(|a, b| {
-            (a.device_instructions, a.bytes)
-                .cmp(&(b.device_instructions, b.bytes))
+            (a.rung.device_instructions, a.rung.bytes)
+                .cmp(&(b.rung.device_instructions, b.rung.bytes))
                 .then(a.worst_sigma_error.total_cmp(&b.worst_sigma_error))
         });
-        let chosen = candidates.iter().position(|c| c.within_budget && c.fits_blob);
+        let rungs_sorted: Vec<&Rung> = candidates.iter().map(|c| &c.rung).collect();
+        let errors: Vec<f64> = candidates.iter().map(|c| c.worst_sigma_error).collect();
+        let choice = choose(
+            &rungs_sorted,
+            &errors,
+            "worst relative sigma error over the aspects",
+            opts.budget,
+            opts.allow_nonphysical,
+        );
         materials.push(MaterialChoice {
             index: m,
             part: scene.material_label(m),
@@ -444,7 +374,8 @@ pub fn select(scene: &Scene, domain: &Domain, opts: &SelectOptions) -> SceneSele
             queries,
             aspects_seen: seen.len(),
             candidates,
-            chosen,
+            chosen: choice.best,
+            reason: choice.reason,
             notes,
         });
     }
@@ -461,7 +392,7 @@ pub fn select(scene: &Scene, domain: &Domain, opts: &SelectOptions) -> SceneSele
                 .iter()
                 .map(|mc| {
                     let c = &mc.candidates[mc.chosen.unwrap_or(0)];
-                    crate::eval::sigma(&c.eval, &per[mc.index], &mut scratch)
+                    per[mc.index].sigma(&c.rung.eval, &mut scratch)
                 })
                 .sum();
             worst = worst.max((got - total).abs() / total);
@@ -473,6 +404,7 @@ pub fn select(scene: &Scene, domain: &Domain, opts: &SelectOptions) -> SceneSele
     SceneSelection {
         scene: scene.file.display().to_string(),
         budget: opts.budget,
+        allow_nonphysical: opts.allow_nonphysical,
         aspects: domain.aspects.len(),
         queries: domain.len(),
         materials,
@@ -483,7 +415,8 @@ pub fn select(scene: &Scene, domain: &Domain, opts: &SelectOptions) -> SceneSele
     }
 }
 
-/// Encodes the chosen set; if it overflows a slot, trades tables for smaller candidates.
+/// Encodes the chosen set (`brdf_fit::pack::encode`); if it overflows a slot, trades
+/// tables for smaller eligible candidates within the budget.
 fn assemble(materials: &mut [MaterialChoice], sequence: u32) -> (Option<Vec<u8>>, Option<String>) {
     if let Some(m) = materials.iter().find(|m| m.chosen.is_none()) {
         return (
@@ -501,20 +434,17 @@ fn assemble(materials: &mut [MaterialChoice], sequence: u32) -> (Option<Vec<u8>>
         );
     }
     loop {
-        let chosen: Vec<Material> = materials
-            .iter()
-            .map(|m| m.candidates[m.chosen.unwrap_or(0)].material)
-            .collect();
-        if encoded_len(&chosen) <= MAX_BLOB_LEN {
+        let set: Vec<Material> = materials.iter().map(|m| chosen_rung(m).material).collect();
+        if encoded_len(&set) <= MAX_BLOB_LEN {
             break;
         }
-        // The cheapest swap (fewest extra instructions) to a smaller candidate within budget.
+        // The cheapest swap (fewest extra instructions) to a smaller choosable candidate.
         let mut best: Option<(usize, usize, u32)> = None;
         for (mi, m) in materials.iter().enumerate() {
-            let cur = &m.candidates[m.chosen.unwrap_or(0)];
+            let cur = chosen_rung(m);
             for (ci, c) in m.candidates.iter().enumerate() {
-                if c.within_budget && c.fits_blob && c.bytes < cur.bytes {
-                    let extra = c.device_instructions.saturating_sub(cur.device_instructions);
+                if c.within_budget && c.eligible && c.rung.bytes < cur.bytes {
+                    let extra = c.rung.device_instructions.saturating_sub(cur.device_instructions);
                     if best.is_none_or(|b| extra < b.2) {
                         best = Some((mi, ci, extra));
                     }
@@ -528,29 +458,23 @@ fn assemble(materials: &mut [MaterialChoice], sequence: u32) -> (Option<Vec<u8>>
                     None,
                     Some(format!(
                         "the chosen representations need {} bytes, more than a slot's {MAX_BLOB_LEN}, and no smaller one meets the budget",
-                        encoded_len(&chosen)
+                        encoded_len(&set)
                     )),
                 )
             }
         }
     }
-    let mut list = heapless::Vec::<Material, MAX_MATERIALS>::new();
-    let mut tables: Vec<Option<&[u8]>> = Vec::new();
-    for m in materials.iter() {
-        let c = &m.candidates[m.chosen.unwrap_or(0)];
-        let _ = list.push(c.material);
-        tables.push(c.table.as_deref());
-    }
-    let blob = Blob {
-        sequence,
-        materials: list,
-    };
-    let mut buf = vec![0u8; MAX_BLOB_LEN];
-    match blob.encode_with_tables(&tables, &mut buf) {
-        Ok(n) => {
-            buf.truncate(n);
-            (Some(buf), None)
-        }
+    let rungs: Vec<&Rung> = materials.iter().map(chosen_rung).collect();
+    let set: Vec<Material> = rungs.iter().map(|r| r.material).collect();
+    let tables: Vec<Option<Vec<u8>>> = rungs.iter().map(|r| r.table.clone()).collect();
+    match brdf_fit::pack::encode(&set, &tables, sequence) {
+        Ok(packed) => (Some(packed.bytes), None),
         Err(e) => (None, Some(format!("cannot encode the blob: {e}"))),
     }
+}
+
+/// The rung chosen for `m` (the first candidate when none is: only called once every
+/// material has a choice).
+fn chosen_rung(m: &MaterialChoice) -> &Rung {
+    &m.candidates[m.chosen.unwrap_or(0)].rung
 }

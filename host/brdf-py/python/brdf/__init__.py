@@ -573,17 +573,24 @@ class SceneSelection:
         return f"SceneSelection({self.report['scene']!r}, chosen: {self.chosen})"
 
 
-def select_scene(scene, *, budget: float = 0.02, seed: int = 1, sequence: int = 1) -> SceneSelection:
+def select_scene(
+    scene, *, budget: float = 0.02, seed: int = 1, sequence: int = 1, allow_nonphysical: bool = False
+) -> SceneSelection:
     """Per material of the scene file ``scene``, the cheapest device representation whose
     sigma stays within ``budget`` (a fraction: 0.01 is 1%) of the exact model's at every
-    aspect that sees it, as ``brdf select --scene``; ``seed`` seeds the ladder's fits and
-    ``sequence`` is the blob's sequence number. Raises ValueError with the command's message
-    when the scene cannot be used.
+    aspect that sees it, as ``brdf select --scene``; ``seed`` seeds the ladder's fits,
+    ``sequence`` is the blob's sequence number and ``allow_nonphysical`` also lets models that
+    are not reciprocal or unbounded at grazing be chosen (``--allow-nonphysical``). Raises
+    ValueError with the command's message when the scene cannot be used.
     """
+    if not isinstance(allow_nonphysical, bool):
+        raise TypeError(f"allow_nonphysical must be True or False, not {allow_nonphysical!r}")
     sequence = operator.index(sequence)
     if not 0 <= sequence <= 0xFFFFFFFF:
         raise ValueError(f"sequence {sequence}: outside 0..=4294967295")
     seed = operator.index(seed)
     if not 0 <= seed <= 0xFFFFFFFFFFFFFFFF:
         raise ValueError(f"seed {seed}: outside 0..=18446744073709551615")
-    return SceneSelection(*_brdf.select_scene(os.fspath(scene), float(budget), seed, sequence))
+    return SceneSelection(
+        *_brdf.select_scene(os.fspath(scene), float(budget), seed, sequence, allow_nonphysical)
+    )

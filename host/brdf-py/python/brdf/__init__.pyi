@@ -142,4 +142,5 @@ def select_scene(
     budget: float = 0.02,
     seed: int = 1,
     sequence: int = 1,
+    allow_nonphysical: bool = False,
 ) -> SceneSelection: ...

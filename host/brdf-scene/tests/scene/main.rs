@@ -5,3 +5,4 @@
 
 mod analytic;
 mod scene_file;
+mod select;

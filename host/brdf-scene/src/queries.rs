@@ -1,29 +1,163 @@
-//! The scene's queries as a file: `brdf scene domain` writes one row per (aspect, facet
-//! seen) with the facet's local angles and the weight its BRDF value carries in σ;
-//! `brdf check --directions` reads it back to test a device on exactly those directions.
+//! The BRDF queries a scene makes, the domain each material's representation is judged
+//! over: per aspect of the sweep and per material, the facets seen by source and receiver
+//! with their cosines and the weight each BRDF value carries in σ ([`QueryBatch`],
+//! [`SceneQueries`]); and the same queries as a file: `brdf scene domain` writes one row per
+//! (aspect, facet seen) with the facet's local angles and its weight; `brdf check
+//! --directions` reads such a file back ([`read_directions`]) to test a device on exactly
+//! those directions.
 //!
-//! Columns: `azimuth,elevation` (the aspect, degrees), `material` (0-based, scene order: the
-//! material's index in the blob `brdf select --scene` writes), `part`, `facet` (1-based, mesh
-//! order), `theta_i,theta_r,phi` (degrees, canonical convention; `phi` in [0, 180], the
+//! File columns: `azimuth,elevation` (the aspect, degrees), `material` (0-based, scene order:
+//! the material's index in the blob `brdf select --scene` writes), `part`, `facet` (1-based,
+//! mesh order), `theta_i,theta_r,phi` (degrees, canonical convention; `phi` in [0, 180], the
 //! models being even in `phi`), `weight` (`4 pi cos(theta_i) cos(theta_r) A`, m² sr, so that
 //! σ at an aspect is the sum of `weight * brdf` over its rows).
 
+use std::f64::consts::PI;
 use std::io::Write;
 use std::path::Path;
 
+use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::lrcs::Domain;
-use crate::scene::Scene;
+use crate::eval::{eval_batch, Evaluator};
+use crate::mesh::v3;
+use crate::scene::{Aspect, Mode, Scene};
+
+/// The queries one material receives at one aspect, as slices ([`crate::eval::eval_batch`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct QueryBatch {
+    /// `cos theta_i` per facet seen.
+    pub cos_theta_i: Vec<f64>,
+    /// `cos theta_r`.
+    pub cos_theta_r: Vec<f64>,
+    /// `cos phi`.
+    pub cos_phi: Vec<f64>,
+    /// `4 pi cos(theta_i) cos(theta_r) A`, m² sr: the facet's σ per unit BRDF.
+    pub weight: Vec<f64>,
+    /// Facet index (0-based, mesh order).
+    pub facet: Vec<u32>,
+}
+
+impl QueryBatch {
+    /// Queries in the batch.
+    pub fn len(&self) -> usize {
+        self.weight.len()
+    }
+
+    /// No queries.
+    pub fn is_empty(&self) -> bool {
+        self.weight.is_empty()
+    }
+
+    /// `sum_k weight[k] f_r(k)` through `e`: the batch's share of σ, m². `scratch` is reused
+    /// between calls.
+    pub fn sigma(&self, e: &Evaluator, scratch: &mut Vec<f64>) -> f64 {
+        scratch.clear();
+        scratch.resize(self.len(), 0.0);
+        eval_batch(e, &self.cos_theta_i, &self.cos_theta_r, &self.cos_phi, scratch);
+        self.weight.iter().zip(scratch.iter()).map(|(w, f)| w * f).sum()
+    }
+}
+
+/// The queries of one aspect, one [`QueryBatch`] per material (scene order). `stack` is scratch
+/// space for the occlusion rays.
+pub fn aspect_queries(scene: &Scene, aspect: &Aspect, stack: &mut Vec<usize>) -> Vec<QueryBatch> {
+    let v = aspect.receiver();
+    let s = aspect.source(scene.sensor.mode);
+    let mono = scene.sensor.mode == Mode::Monostatic;
+    let mut out = vec![QueryBatch::default(); scene.materials.len()];
+    for (k, f) in scene.mesh.facets.iter().enumerate() {
+        let n = f.normal;
+        let (mu_i, mu_r) = (v3::dot(n, s), v3::dot(n, v));
+        if !(mu_i > 0.0 && mu_r > 0.0) {
+            continue;
+        }
+        if scene.occluder.blocked(f.centroid, v, k, stack) {
+            continue;
+        }
+        if !mono && scene.occluder.blocked(f.centroid, s, k, stack) {
+            continue;
+        }
+        let cos_phi = if mono { 1.0 } else { cos_phi(n, s, v, mu_i, mu_r) };
+        let b = &mut out[scene.facet_material[k] as usize];
+        b.cos_theta_i.push(mu_i);
+        b.cos_theta_r.push(mu_r);
+        b.cos_phi.push(cos_phi);
+        b.weight.push(4.0 * PI * mu_i * mu_r * f.area);
+        b.facet.push(k as u32);
+    }
+    out
+}
+
+/// `cos phi` between the projections of `s` and `v` on the plane with normal `n`; 1 where
+/// either projection vanishes (a direction along the normal, where `phi` does not matter).
+/// Symmetric in `s` and `v`, operation by operation, so swapping source and receiver gives
+/// the same bits.
+fn cos_phi(n: [f64; 3], s: [f64; 3], v: [f64; 3], mu_i: f64, mu_r: f64) -> f64 {
+    let st = v3::sub(s, v3::scale(n, mu_i));
+    let vt = v3::sub(v, v3::scale(n, mu_r));
+    let (ss, vv) = (v3::dot(st, st), v3::dot(vt, vt));
+    if ss <= 1e-30 || vv <= 1e-30 {
+        return 1.0;
+    }
+    (v3::dot(st, vt) / (ss * vv).sqrt()).clamp(-1.0, 1.0)
+}
+
+/// Every query the scene makes, the domain a representation of its materials is judged over:
+/// per aspect, one [`QueryBatch`] per material.
+#[derive(Clone, Debug)]
+pub struct SceneQueries {
+    /// Aspects in sweep order.
+    pub aspects: Vec<Aspect>,
+    /// `batches[a][m]`: the queries of material `m` at aspect `a`.
+    pub batches: Vec<Vec<QueryBatch>>,
+}
+
+impl SceneQueries {
+    /// Number of queries in all.
+    pub fn len(&self) -> usize {
+        self.batches.iter().flatten().map(QueryBatch::len).sum()
+    }
+
+    /// No queries at all (nothing seen at any aspect).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// σ of each material at each aspect, `[aspect][material]`, m².
+    pub fn sigma(&self, models: &[Evaluator]) -> Vec<Vec<f64>> {
+        self.batches
+            .par_iter()
+            .map_init(Vec::new, |scratch, per| {
+                per.iter().zip(models).map(|(b, m)| b.sigma(m, scratch)).collect()
+            })
+            .collect()
+    }
+}
+
+/// Collects the queries of every aspect (in parallel; `progress` once per aspect). Memory:
+/// 36 bytes per query.
+pub fn collect_queries(scene: &Scene, progress: &(dyn Fn() + Sync)) -> SceneQueries {
+    let aspects = scene.aspects();
+    let batches = aspects
+        .par_iter()
+        .map_init(Vec::new, |stack, a| {
+            let b = aspect_queries(scene, a, stack);
+            progress();
+            b
+        })
+        .collect();
+    SceneQueries { aspects, batches }
+}
 
 /// Degrees of an angle whose cosine is `c` (clamped to [-1, 1]).
 fn deg(c: f64) -> f64 {
     c.clamp(-1.0, 1.0).acos().to_degrees()
 }
 
-/// One row of the domain file: one query of one aspect (see the module documentation).
+/// One row of the queries file: one query of one aspect (see the module documentation).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DomainRow<'a> {
+pub struct QueryRow<'a> {
     /// Aspect azimuth, degrees.
     pub azimuth: f64,
     /// Aspect elevation, degrees.
@@ -44,18 +178,18 @@ pub struct DomainRow<'a> {
     pub weight: f64,
 }
 
-/// Every query of `domain` as rows, in file order (aspect, then material, then facet); what
+/// Every query of `queries` as rows, in file order (aspect, then material, then facet); what
 /// [`write_csv`] writes and `brdf.scene_domain` returns.
-pub fn rows<'a>(scene: &'a Scene, domain: &'a Domain) -> impl Iterator<Item = DomainRow<'a>> + 'a {
-    domain
+pub fn rows<'a>(scene: &'a Scene, queries: &'a SceneQueries) -> impl Iterator<Item = QueryRow<'a>> + 'a {
+    queries
         .aspects
         .iter()
-        .zip(&domain.batches)
+        .zip(&queries.batches)
         .flat_map(move |(a, per)| {
             per.iter().enumerate().flat_map(move |(m, b)| {
                 (0..b.len()).map(move |k| {
                     let facet = b.facet[k] as usize;
-                    DomainRow {
+                    QueryRow {
                         azimuth: a.azimuth_deg,
                         elevation: a.elevation_deg,
                         material: m,
@@ -71,8 +205,8 @@ pub fn rows<'a>(scene: &'a Scene, domain: &'a Domain) -> impl Iterator<Item = Do
         })
 }
 
-/// Writes the domain as CSV (shortest round-trip decimal for every number).
-pub fn write_csv<W: Write>(scene: &Scene, domain: &Domain, out: W) -> Result<(), csv::Error> {
+/// Writes the queries as CSV (shortest round-trip decimal for every number).
+pub fn write_csv<W: Write>(scene: &Scene, queries: &SceneQueries, out: W) -> Result<(), csv::Error> {
     let mut w = csv::Writer::from_writer(out);
     w.write_record([
         "azimuth",
@@ -85,7 +219,7 @@ pub fn write_csv<W: Write>(scene: &Scene, domain: &Domain, out: W) -> Result<(),
         "phi",
         "weight",
     ])?;
-    for r in rows(scene, domain) {
+    for r in rows(scene, queries) {
         w.write_record([
             r.azimuth.to_string(),
             r.elevation.to_string(),
