@@ -36,6 +36,7 @@
 //! |---|---|---|
 //! | crate root | the models ([`SixParam`], [`FiveParam`], [`Minnaert`], [`Lambert`], [`SixParamCos2`]), [`AnyModel`] and [`ModelKind`], the [`Brdf`] and [`Model`] traits, [`Geometry`], [`Float`] | you evaluate one material at one direction pair (exact, `f32` or `f64`) |
 //! | [`models`] | one file per model with its parameter struct; [`TABLE1`], the paper's three materials ([`table1_f32`] for a row in `f32`) | you need a model's parameter names, order or derived terms, or the paper's reference materials |
+//! | [`names`] | the [`names::Named`] vocabulary: one spelling per model (and, in `brdf-fit`, residual, loss, format, channel, engine) and the "expected one of" message | you parse a name from a user, a file or Python |
 //! | [`ranges`] | the valid range of every parameter, used by every constructor | you validate parameters coming from outside (files, frames, fits) |
 //! | [`tolerance`] | every promised accuracy, with its reason | a test or a check compares two values |
 //! | [`checks`] | reciprocity, the energy bound, albedo by quadrature | you judge whether a parameter set is physical |
@@ -135,6 +136,7 @@ mod float;
 mod geometry;
 mod model;
 pub mod models;
+pub mod names;
 pub mod ranges;
 pub mod table;
 pub mod tolerance;

@@ -116,13 +116,6 @@ pub enum ModelKind {
     Lambert,
 }
 
-impl core::fmt::Display for ModelKind {
-    /// [`ModelKind::name`] (width and alignment flags apply).
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.pad(self.name())
-    }
-}
-
 impl ModelKind {
     /// Every member, simplest last.
     pub const ALL: [ModelKind; 5] = [
@@ -154,11 +147,6 @@ impl ModelKind {
         }
     }
 
-    /// Looks a member up by [`ModelKind::name`].
-    pub fn from_name(name: &str) -> Option<ModelKind> {
-        Self::ALL.iter().copied().find(|k| k.name() == name)
-    }
-
     /// Parameter names in the paper's order.
     pub const fn param_names(self) -> &'static [&'static str] {
         match self {
@@ -179,6 +167,16 @@ impl ModelKind {
         !matches!(self, ModelKind::Five)
     }
 }
+
+impl crate::names::Named for ModelKind {
+    const WHAT: &'static str = "model";
+    const ALL: &'static [ModelKind] = &ModelKind::ALL;
+    fn name(self) -> &'static str {
+        ModelKind::name(self)
+    }
+}
+
+crate::named_str!(ModelKind);
 
 /// Any model of the family, chosen at run time.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -26,14 +26,9 @@ pub fn parse_direction(at: &str, texts: [&str; 3]) -> Result<[f64; 3]> {
         let v: f64 = text
             .parse()
             .map_err(|_| anyhow::anyhow!("{at}: column {name}: `{text}` is not a number"))?;
-        if !v.is_finite() {
-            bail!("{at}: column {name}: `{text}` is not finite");
-        }
-        if k < 2 && !(0.0..=90.0).contains(&v) {
-            bail!("{at}: column {name}: zenith {text} deg is outside [0, 90]");
-        }
         deg[k] = v;
     }
+    brdf_fit::params::check_eval_degrees(deg).map_err(|e| anyhow::anyhow!("{at}: {e}"))?;
     Ok(deg)
 }
 

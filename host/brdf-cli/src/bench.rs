@@ -125,7 +125,7 @@ fn stand_in(kind: ModelKind, points: &[Point]) -> Result<AnyModel<f32>> {
         name: "six-parameter model".into(),
         points: points.to_vec(),
     };
-    let r = brdf_fit::fit_all(&brdf_fit::FitSettings::new(kind), &[d])
+    let r = brdf_fit::fit_all(&brdf_fit::FitSettings::new(kind), &[d])?
         .pop()
         .ok_or_else(|| anyhow!("no fit"))?;
     let p: Vec<f32> = r.params.0.iter().map(|(_, v)| *v as f32).collect();

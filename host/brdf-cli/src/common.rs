@@ -3,57 +3,14 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
+use brdf_core::names::{Named, UnknownName};
 use brdf_core::ModelKind;
-use brdf_fit::anneal::AnnealOptions;
-use brdf_fit::{load_csv, Dataset, FitOptions, FitSettings, LoadOptions, Loss, LossKind, Residual};
-use clap::{Args, ValueEnum};
+use brdf_fit::import::{Channel, Format};
+use brdf_fit::request::{Limit, AGREE, ANNEAL_EVALS, CHAINS, DEFAULT_LOSS_SCALE, HOPS};
+use brdf_fit::{load_csv, Dataset, FitOptions, FitRequest, FitSettings, LoadOptions, LossKind, Residual};
+use clap::Args;
 
-use crate::formats::{import_reporting, ChannelArg, FormatArg};
-
-/// Residual form on the command line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ResidualArg {
-    /// (f - y) / y (default).
-    Relative,
-    /// f - y in 1/sr.
-    Absolute,
-    /// ln f - ln y.
-    Log,
-}
-
-impl From<ResidualArg> for Residual {
-    fn from(r: ResidualArg) -> Self {
-        match r {
-            ResidualArg::Relative => Residual::Relative,
-            ResidualArg::Absolute => Residual::Absolute,
-            ResidualArg::Log => Residual::Log,
-        }
-    }
-}
-
-/// Robust loss on the command line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum LossArg {
-    /// Least squares.
-    Linear,
-    /// Quadratic within the scale, linear beyond.
-    Huber,
-    /// Smooth Huber: 2 (sqrt(1 + z) - 1).
-    SoftL1,
-    /// ln(1 + z): far outliers barely count.
-    Cauchy,
-}
-
-impl From<LossArg> for LossKind {
-    fn from(l: LossArg) -> Self {
-        match l {
-            LossArg::Linear => LossKind::Linear,
-            LossArg::Huber => LossKind::Huber,
-            LossArg::SoftL1 => LossKind::SoftL1,
-            LossArg::Cauchy => LossKind::Cauchy,
-        }
-    }
-}
+use crate::formats::import_reporting;
 
 /// Options of the fitting engine.
 #[derive(Clone, Debug, Args)]
@@ -61,30 +18,31 @@ pub struct EngineArgs {
     /// Seed of the run (annealing chains); the same seed gives the same result.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Residual form.
-    #[arg(long, value_enum, default_value_t = ResidualArg::Relative)]
-    pub residual: ResidualArg,
+    /// Residual form: relative ((f - y) / y), absolute (f - y in 1/sr) or log (ln f - ln y).
+    #[arg(long, value_parser = named::<Residual>, default_value_t = Residual::Relative)]
+    pub residual: Residual,
     /// Most annealing chains, each polished by Levenberg-Marquardt (1 to 64).
-    #[arg(long, default_value_t = FitOptions::default().chains, value_parser = count(1, 64))]
-    pub chains: usize,
+    #[arg(long, default_value_t = FitOptions::default().chains as u64, value_parser = limit(CHAINS))]
+    pub chains: u64,
     /// Independent searches (chains or basin hops) that must reach the best cost before
     /// the fit is called converged; at least this many chains run (1 to 64).
-    #[arg(long, default_value_t = FitOptions::default().agree, value_parser = count(1, 64))]
-    pub agree: usize,
+    #[arg(long, default_value_t = FitOptions::default().agree as u64, value_parser = limit(AGREE))]
+    pub agree: u64,
     /// Basin-hopping moves from the best point that must all fail to improve it before the
     /// fit is called converged (0 to 64). More hops and agreeing searches catch more local
     /// optima on noisy data from few incidences, at more time (see the README).
-    #[arg(long, default_value_t = FitOptions::default().hops, value_parser = count(0, 64))]
-    pub hops: usize,
+    #[arg(long, default_value_t = FitOptions::default().hops as u64, value_parser = limit(HOPS))]
+    pub hops: u64,
     /// Cost evaluations per annealing chain (1 to 100,000,000).
-    #[arg(long, default_value_t = brdf_fit::anneal::AnnealOptions::default().evals, value_parser = count(1, 100_000_000))]
-    pub anneal_evals: usize,
+    #[arg(long, default_value_t = brdf_fit::anneal::AnnealOptions::default().evals as u64,
+          value_parser = limit(ANNEAL_EVALS))]
+    pub anneal_evals: u64,
     /// Robust loss (as scipy's least_squares): linear (least squares), huber, soft-l1 or
     /// cauchy. Residuals beyond --loss-scale count less than squared.
-    #[arg(long, value_enum, default_value_t = LossArg::Linear)]
-    pub loss: LossArg,
+    #[arg(long, value_parser = named::<LossKind>, default_value_t = LossKind::Linear)]
+    pub loss: LossKind,
     /// Scale C of the robust loss, in the residual's units (0.1 = a 10% relative error).
-    #[arg(long, value_parser = parse_positive, default_value = "0.1")]
+    #[arg(long, value_parser = parse_positive, default_value_t = DEFAULT_LOSS_SCALE)]
     pub loss_scale: f64,
     /// Let the six-parameter diffuse term brighten towards grazing: search c down to -0.99
     /// (Minnaert's k - 1) instead of 0. The kb + kd energy bound then no longer applies;
@@ -94,13 +52,13 @@ pub struct EngineArgs {
     /// Skip invalid rows (each is listed on standard error) instead of stopping.
     #[arg(long)]
     pub skip_invalid: bool,
-    /// Read the files in this format (converted on the fly, rejects listed) instead of the
-    /// canonical CSV.
-    #[arg(long, value_enum)]
-    pub format: Option<FormatArg>,
-    /// Colour channel for `--format cornell`.
-    #[arg(long, value_enum, ignore_case = true, default_value_t = ChannelArg::R)]
-    pub channel: ChannelArg,
+    /// Read the files in this format (cornell, nist, merl-inplane; converted on the fly,
+    /// rejects listed) instead of the canonical CSV.
+    #[arg(long, value_parser = named::<Format>)]
+    pub format: Option<Format>,
+    /// Colour channel for `--format cornell` (r, g, b; either case).
+    #[arg(long, value_parser = named::<Channel>, default_value_t = Channel::R)]
+    pub channel: Channel,
 }
 
 impl EngineArgs {
@@ -114,50 +72,38 @@ impl EngineArgs {
         <Only as clap::Parser>::parse_from(["brdf"]).engine
     }
 
-    /// Name of the residual form.
-    pub fn residual_name(&self) -> &'static str {
-        Residual::from(self.residual).name()
-    }
-
-    pub fn fit_options(&self) -> FitOptions {
-        FitOptions {
+    /// The options as the library takes them, for `kind` with the full engine.
+    pub fn request(&self, kind: ModelKind) -> FitRequest {
+        FitRequest {
+            model: kind,
             seed: self.seed,
+            residual: self.residual,
             chains: self.chains,
             agree: self.agree,
-            min_chains: self.agree,
             hops: self.hops,
-            anneal: AnnealOptions {
-                evals: self.anneal_evals,
-                ..AnnealOptions::default()
-            },
-            ..FitOptions::default()
+            anneal_evals: self.anneal_evals,
+            loss: self.loss,
+            loss_scale: self.loss_scale,
+            brightening: self.brightening,
+            ..FitRequest::new(kind)
         }
     }
 
     /// Everything that defines a fit of `kind` with these options (full engine).
-    pub fn settings(&self, kind: ModelKind) -> FitSettings {
-        FitSettings {
-            residual: self.residual.into(),
-            loss: Loss {
-                kind: self.loss.into(),
-                scale: self.loss_scale,
-            },
-            brightening: self.brightening,
-            options: self.fit_options(),
-            ..FitSettings::new(kind)
-        }
+    pub fn settings(&self, kind: ModelKind) -> Result<FitSettings> {
+        Ok(FitSettings::from_options(&self.request(kind))?)
     }
 
     /// Loads every file; lists skipped rows on standard error.
     pub fn load(&self, files: &[PathBuf]) -> Result<Vec<Dataset>> {
         let opts = LoadOptions {
             skip_invalid: self.skip_invalid,
-            allow_zero_brdf: self.residual == ResidualArg::Absolute,
+            allow_zero_brdf: self.residual == Residual::Absolute,
         };
         let mut out = Vec::new();
         if let Some(format) = self.format {
             for f in files {
-                out.extend(import_reporting(f, format.into(), self.channel.into())?.datasets);
+                out.extend(import_reporting(f, format, self.channel)?.datasets);
             }
             return Ok(out);
         }
@@ -172,6 +118,24 @@ impl EngineArgs {
             out.extend(loaded.datasets);
         }
         Ok(out)
+    }
+}
+
+/// A clap value parser for a name of the libraries' vocabulary ([`Named`]): the library's
+/// `FromStr`, so the message is the one Python and scene files give.
+pub fn named<T: std::str::FromStr<Err = UnknownName> + Named>(text: &str) -> Result<T, String> {
+    text.parse::<T>().map_err(|e| e.to_string())
+}
+
+/// A clap value parser for a whole-number option of the library ([`Limit`]): its range and
+/// its message.
+pub fn limit(l: Limit) -> impl Fn(&str) -> Result<u64, String> + Clone + Send + Sync + 'static {
+    move |text: &str| {
+        let v: u64 = text
+            .trim()
+            .parse()
+            .map_err(|_| format!("`{text}` is not a whole number"))?;
+        l.check(v).map_err(|e| e.to_string())
     }
 }
 

@@ -108,12 +108,10 @@ impl EvalCmd {
             }
             if let Some(i) = values.iter().position(|f| !f.is_finite()) {
                 bail!(
-                    "{}: line {}: the model is not finite here ({}); {} diverges at this geometry \
-                     (five-parameter and Minnaert models grow without bound at grazing)",
+                    "{}: line {}: {}",
                     reader.file(),
                     chunk.line(i),
-                    values[i],
-                    self.model.name()
+                    brdf_fit::params::not_finite(values[i], self.model)
                 );
             }
             writer.write_chunk(&chunk, values.iter().map(|&v| text(v)))?;

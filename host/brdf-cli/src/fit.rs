@@ -3,14 +3,14 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{anyhow, bail, Context, Result};
-use brdf_core::anneal::check_directions;
-use brdf_core::{Geometry, ModelKind};
+use anyhow::{bail, Context, Result};
+use brdf_core::ModelKind;
 use brdf_fit::report::FitReport;
-use brdf_fit::Engine;
+use brdf_fit::request::{EngineKind, BUDGET_EVALS};
+use brdf_fit::{FitError, FitRequest, FitSettings};
 use clap::Args;
 
-use crate::common::{parse_shard, EngineArgs};
+use crate::common::{limit, named, parse_shard, EngineArgs};
 use crate::params::parse_kind;
 
 /// Fit a model to measured data: one joint fit across all incidence angles of each dataset.
@@ -32,28 +32,19 @@ pub struct FitCmd {
     output: Option<PathBuf>,
     /// Engine: `full` (annealing + Levenberg-Marquardt in f64) or `embedded` (the on-sensor
     /// f32 annealer of brdf-core, fixed memory and budget, run on the host).
-    #[arg(long = "engine", value_enum, default_value_t = EngineKind::Full)]
+    #[arg(long = "engine", value_parser = named::<EngineKind>, default_value_t = EngineKind::Full)]
     engine_kind: EngineKind,
     /// Evaluation budget of the embedded engine (65 to 10,000,000: above its 64-point
     /// screen).
-    #[arg(long, default_value_t = brdf_fit::embedded::DEFAULT_BUDGET,
-          value_parser = clap::value_parser!(u32).range(65..=10_000_000))]
-    budget_evals: u32,
+    #[arg(long, default_value_t = u64::from(brdf_fit::embedded::DEFAULT_BUDGET),
+          value_parser = limit(BUDGET_EVALS))]
+    budget_evals: u64,
     /// Fit only datasets i with i % N == K (0-based K), for job arrays across machines.
     #[arg(long, value_parser = parse_shard)]
     shard: Option<(usize, usize)>,
     /// Data files.
     #[arg(required = true)]
     data: Vec<PathBuf>,
-}
-
-/// Which fitting engine.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum EngineKind {
-    /// Host engine: annealing chains polished by Levenberg-Marquardt, f64.
-    Full,
-    /// The on-sensor f32 annealer of brdf-core (relative residuals only).
-    Embedded,
 }
 
 impl FitCmd {
@@ -70,23 +61,11 @@ impl FitCmd {
                 bail!("shard {k}/{n} selects no dataset");
             }
         }
-        for d in &datasets {
-            // The rule the device's FIT applies too: one distinct direction per parameter.
-            let geometries = d
-                .points
-                .iter()
-                .map(|p| Geometry::<f64>::from_angles(p.theta_i, p.theta_r, p.phi));
-            check_directions(self.model, geometries).map_err(|e| anyhow!("{}: {e}", d.name))?;
-        }
-        let mut settings = self.engine.settings(self.model);
-        if self.engine_kind == EngineKind::Embedded {
-            if self.engine.residual != crate::common::ResidualArg::Relative {
-                bail!("the embedded engine fits relative residuals only");
-            }
-            settings.engine = Engine::Embedded {
-                budget: self.budget_evals,
-            };
-        }
+        let settings = FitSettings::from_options(&FitRequest {
+            engine: self.engine_kind,
+            budget_evals: self.budget_evals,
+            ..self.engine.request(self.model)
+        })?;
         let mut csv = match &self.output {
             Some(path) => {
                 Some(ResultsCsv::create(path).with_context(|| format!("cannot write {}", path.display()))?)
@@ -97,31 +76,30 @@ impl FitCmd {
         let stdout = std::io::stdout();
         let many = datasets.len() > 1;
         let mut failure: Option<anyhow::Error> = None;
-        let mut write_one =
-            |i: usize, r: &Result<FitReport, brdf_fit::embedded::EmbeddedError>| -> Result<()> {
-                bar.inc(1);
-                let r = match r {
-                    Ok(r) => r,
-                    Err(e) => bail!("{e}"),
-                };
-                if let (Some(w), Some(path)) = (csv.as_mut(), &self.output) {
-                    w.row(r)
-                        .with_context(|| format!("cannot write {}", path.display()))?;
-                }
-                let mut out = stdout.lock();
-                if self.json {
-                    let text = serde_json::to_string_pretty(r)?;
-                    match (many, i) {
-                        (false, _) => writeln!(out, "{text}")?,
-                        (true, 0) => write!(out, "[\n{text}")?,
-                        (true, _) => write!(out, ",\n{text}")?,
-                    }
-                } else {
-                    write_text(&mut out, r)?;
-                }
-                out.flush()?;
-                Ok(())
+        let mut write_one = |i: usize, r: &Result<FitReport, FitError>| -> Result<()> {
+            bar.inc(1);
+            let r = match r {
+                Ok(r) => r,
+                Err(e) => bail!("{e}"),
             };
+            if let (Some(w), Some(path)) = (csv.as_mut(), &self.output) {
+                w.row(r)
+                    .with_context(|| format!("cannot write {}", path.display()))?;
+            }
+            let mut out = stdout.lock();
+            if self.json {
+                let text = serde_json::to_string_pretty(r)?;
+                match (many, i) {
+                    (false, _) => writeln!(out, "{text}")?,
+                    (true, 0) => write!(out, "[\n{text}")?,
+                    (true, _) => write!(out, ",\n{text}")?,
+                }
+            } else {
+                write_text(&mut out, r)?;
+            }
+            out.flush()?;
+            Ok(())
+        };
         brdf_fit::fit_streamed(&settings, &datasets, |i, r| {
             if failure.is_none() {
                 if let Err(e) = write_one(i, r) {
@@ -233,7 +211,7 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
     let loss = if r.loss.is_linear() {
         String::new()
     } else {
-        format!(", {} loss at scale {}", r.loss.kind.name(), r.loss.scale)
+        format!(", {} loss at scale {}", r.loss.kind, r.loss.scale)
     };
     writeln!(
         out,
@@ -246,7 +224,7 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
             ""
         },
         r.n,
-        r.residual.name(),
+        r.residual,
         r.seed,
         r.seconds * 1e3
     )?;

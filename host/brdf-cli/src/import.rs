@@ -6,29 +6,32 @@ use anyhow::{Context, Result};
 use brdf_fit::import::write_canonical;
 use clap::Args;
 
-use crate::formats::{import_reporting, ChannelArg, FormatArg};
+use brdf_fit::import::{Channel, Format};
+
+use crate::common::named;
+use crate::formats::import_reporting;
 
 /// Convert a measurement file to the canonical CSV (theta_i,theta_r,phi,brdf in degrees,
 /// phi = 180 on the mirror side; plus `wavelength` for multi-wavelength files). Rejected rows
 /// (negative or zero BRDF, zenith >= 90 deg) are listed on standard error with their lines.
 #[derive(Debug, Args)]
 pub struct ImportCmd {
-    /// Source format.
-    #[arg(value_enum)]
-    format: FormatArg,
+    /// Source format: cornell, nist, merl-inplane.
+    #[arg(value_parser = named::<Format>)]
+    format: Format,
     /// Source file.
     input: PathBuf,
     /// Output CSV (standard output if omitted).
     #[arg(short = 'o', long)]
     output: Option<PathBuf>,
-    /// Colour channel (cornell only).
-    #[arg(long, value_enum, ignore_case = true, default_value_t = ChannelArg::R)]
-    channel: ChannelArg,
+    /// Colour channel (cornell only): r, g, b, either case.
+    #[arg(long, value_parser = named::<Channel>, default_value_t = Channel::R)]
+    channel: Channel,
 }
 
 impl ImportCmd {
     pub fn run(self) -> Result<()> {
-        let imp = import_reporting(&self.input, self.format.into(), self.channel.into())?;
+        let imp = import_reporting(&self.input, self.format, self.channel)?;
         match &self.output {
             Some(path) => {
                 let f = std::fs::File::create(path)

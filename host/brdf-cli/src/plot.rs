@@ -59,7 +59,7 @@ pub fn fit_models(
 ) -> Result<Vec<(FitReport, Fitted)>> {
     let mut out = Vec::new();
     for &m in models {
-        let r = brdf_fit::fit_all(&engine.settings(m), std::slice::from_ref(data))
+        let r = brdf_fit::fit_all(&engine.settings(m)?, std::slice::from_ref(data))?
             .pop()
             .context("one report")?;
         let f = legend(&r)?;

@@ -8,6 +8,9 @@ use anyhow::{anyhow, bail, Context, Result};
 use brdf_scene::represent::{one_dataset, select_data, DataDomain};
 use clap::Args;
 
+use brdf_core::ModelKind;
+use brdf_fit::FitSettings;
+
 use crate::common::{parse_fraction, write_blob, EngineArgs};
 
 /// Fit the model ladder to a dataset over the angular domain a scene uses, name the simplest
@@ -73,9 +76,10 @@ impl SelectCmd {
             eprintln!("{note}");
         }
         let domain = &kept.domain;
+        let base = self.engine.settings(ModelKind::Six)?;
         let s = select_data(
             &kept,
-            &|k| self.engine.settings(k),
+            &|kind| FitSettings { kind, ..base },
             self.budget,
             self.allow_nonphysical,
         )
@@ -196,7 +200,7 @@ impl SelectCmd {
         bar.finish_and_clear();
         let opts = SelectOptions {
             budget: self.budget,
-            fit: self.engine.fit_options(),
+            fit: self.engine.settings(ModelKind::Six)?.options,
             sequence: self.sequence,
             allow_nonphysical: self.allow_nonphysical,
             ..SelectOptions::default()

@@ -4,13 +4,33 @@
 
 use std::sync::mpsc;
 
-use brdf_core::ModelKind;
+use brdf_core::anneal::{check_directions, AnnealError};
+use brdf_core::{Geometry, ModelKind};
 use rayon::prelude::*;
+use thiserror::Error;
 
 use crate::embedded::{fit_embedded, EmbeddedError};
 use crate::problem::{Loss, Problem, Residual};
 use crate::report::{report, FitReport};
 use crate::{fit, Dataset, FitOptions};
+
+/// Why a dataset was not fitted.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum FitError {
+    /// Fewer distinct directions than the model has parameters: the rule every fit applies,
+    /// on the device and on the host ([`check_directions`]).
+    #[error("{dataset}: {source}")]
+    Directions {
+        /// Dataset name.
+        dataset: String,
+        /// The rule's error.
+        source: AnnealError,
+    },
+    /// The embedded engine could not run.
+    #[error(transparent)]
+    Embedded(#[from] EmbeddedError),
+}
 
 /// Which fitting engine.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -61,8 +81,17 @@ impl FitSettings {
             .with_brightening(self.brightening)
     }
 
-    /// Fits one dataset and builds its report.
-    pub fn fit(&self, d: &Dataset) -> Result<FitReport, EmbeddedError> {
+    /// Fits one dataset and builds its report; refuses data with fewer distinct directions
+    /// than the model has parameters.
+    pub fn fit(&self, d: &Dataset) -> Result<FitReport, FitError> {
+        let geometries = d
+            .points
+            .iter()
+            .map(|p| Geometry::<f64>::from_angles(p.theta_i, p.theta_r, p.phi));
+        check_directions(self.kind, geometries).map_err(|source| FitError::Directions {
+            dataset: d.name.clone(),
+            source,
+        })?;
         let problem = self.problem(d);
         let outcome = match self.engine {
             Engine::Full => fit(&problem, &self.options),
@@ -77,10 +106,10 @@ impl FitSettings {
 pub fn fit_streamed(
     settings: &FitSettings,
     datasets: &[Dataset],
-    mut each: impl FnMut(usize, &Result<FitReport, EmbeddedError>),
-) -> Vec<Result<FitReport, EmbeddedError>> {
+    mut each: impl FnMut(usize, &Result<FitReport, FitError>),
+) -> Vec<Result<FitReport, FitError>> {
     let (tx, rx) = mpsc::channel();
-    let mut done: Vec<Option<Result<FitReport, EmbeddedError>>> = (0..datasets.len()).map(|_| None).collect();
+    let mut done: Vec<Option<Result<FitReport, FitError>>> = (0..datasets.len()).map(|_| None).collect();
     let mut next = 0;
     std::thread::scope(|scope| {
         scope.spawn(move || {
@@ -102,14 +131,12 @@ pub fn fit_streamed(
         .collect()
 }
 
-/// Fits every dataset with the full engine (which cannot fail), in input order.
-pub fn fit_all(settings: &FitSettings, datasets: &[Dataset]) -> Vec<FitReport> {
+/// Fits every dataset with the full engine, in input order; the first dataset the
+/// distinct-direction rule refuses is the error.
+pub fn fit_all(settings: &FitSettings, datasets: &[Dataset]) -> Result<Vec<FitReport>, FitError> {
     let full = FitSettings {
         engine: Engine::Full,
         ..*settings
     };
-    fit_streamed(&full, datasets, |_, _| {})
-        .into_iter()
-        .map(|r| r.expect("the full engine does not fail"))
-        .collect()
+    fit_streamed(&full, datasets, |_, _| {}).into_iter().collect()
 }

@@ -173,16 +173,102 @@ pub enum DataError {
     },
 }
 
-/// A row-level problem, before the file name is attached.
-struct RowError {
-    column: &'static str,
-    kind: RowErrorKind,
+/// A row-level problem, before a file and line are attached: `column theta_i: 95 is outside
+/// [0, 90) degrees`. The Python package reports it at an array index.
+#[derive(Clone, Debug, PartialEq, Error)]
+#[error("column {column}: {kind}")]
+pub struct RowError {
+    /// The column.
+    pub column: &'static str,
+    /// What is wrong with its value.
+    pub kind: RowErrorKind,
 }
 
-enum RowErrorKind {
+/// What is wrong with one value.
+#[derive(Clone, Debug, PartialEq, Error)]
+pub enum RowErrorKind {
+    /// The text is not a number.
+    #[error("`{0}` is not a number")]
     NotANumber(String),
+    /// The value (as written) is NaN or infinite.
+    #[error("`{0}` is not finite")]
     NotFinite(String),
+    /// The value lies outside the range named.
+    #[error("{shown} is outside {1}", shown = brdf_core::Compact(*.0))]
     OutOfRange(f64, &'static str),
+}
+
+/// One measurement in degrees as read (a CSV row, a row of Python's arrays), before
+/// [`Point::from_degrees`] validates it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RowDegrees {
+    /// Incidence zenith, degrees.
+    pub theta_i: f64,
+    /// Viewing zenith, degrees.
+    pub theta_r: f64,
+    /// Relative azimuth, degrees.
+    pub phi: f64,
+    /// BRDF, 1/sr.
+    pub brdf: f64,
+    /// Standard deviation of `brdf`, if given.
+    pub sigma: Option<f64>,
+    /// Weight, if given.
+    pub weight: Option<f64>,
+}
+
+impl Point {
+    /// Validates a row as `brdf fit` does: every value finite, zeniths in [0, 90) degrees,
+    /// `brdf > 0` (`>= 0` with `allow_zero_brdf`, for absolute residuals), `sigma` and
+    /// `weight` above 0; `line` is where it came from.
+    pub fn from_degrees(r: RowDegrees, allow_zero_brdf: bool, line: u64) -> Result<Point, RowError> {
+        let finite = |v: f64, column| {
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(RowError {
+                    column,
+                    kind: RowErrorKind::NotFinite(v.to_string()),
+                })
+            }
+        };
+        let zenith = |v: f64, column| {
+            in_range(
+                finite(v, column)?,
+                (0.0..90.0).contains(&v),
+                column,
+                "[0, 90) degrees",
+            )
+        };
+        let theta_i = zenith(r.theta_i, "theta_i")?;
+        let theta_r = zenith(r.theta_r, "theta_r")?;
+        let phi = finite(r.phi, "phi")?;
+        let brdf = finite(r.brdf, "brdf")?;
+        let brdf = if allow_zero_brdf {
+            in_range(brdf, brdf >= 0.0, "brdf", ">= 0")?
+        } else {
+            in_range(
+                brdf,
+                brdf > 0.0,
+                "brdf",
+                "> 0 (relative and log residuals divide by it)",
+            )?
+        };
+        let positive = |v: Option<f64>, column| -> Result<Option<f64>, RowError> {
+            match v {
+                Some(v) => Ok(Some(in_range(finite(v, column)?, v > 0.0, column, "> 0")?)),
+                None => Ok(None),
+            }
+        };
+        Ok(Point {
+            theta_i: theta_i.to_radians(),
+            theta_r: theta_r.to_radians(),
+            phi: phi.to_radians(),
+            brdf,
+            sigma: positive(r.sigma, "sigma")?,
+            weight: positive(r.weight, "weight")?,
+            line,
+        })
+    }
 }
 
 impl RowError {
@@ -313,16 +399,10 @@ fn parse_row(
     opts: LoadOptions,
     line: u64,
 ) -> Result<Point, RowError> {
-    let zenith = |idx, column| {
-        let v = number(record, idx, column)?;
-        in_range(v, (0.0..90.0).contains(&v), column, "[0, 90) degrees")
-    };
-    let theta_i = zenith(cols.theta_i, "theta_i")?;
+    // Numbers first (their messages quote the text), then the one validation of a row.
+    let theta_i = number(record, cols.theta_i, "theta_i")?;
     let (theta_r, phi) = match cols.view {
-        View::Full { theta_r, phi } => {
-            let tr = zenith(theta_r, "theta_r")?;
-            (tr, number(record, phi, "phi")?)
-        }
+        View::Full { theta_r, phi } => (number(record, theta_r, "theta_r")?, number(record, phi, "phi")?),
         View::InPlane { theta_s } => {
             let ts = number(record, theta_s, "theta_s")?;
             let ts = in_range(ts, ts > -90.0 && ts < 90.0, "theta_s", "(-90, 90) degrees")?;
@@ -334,39 +414,16 @@ fn parse_row(
         }
     };
     let brdf = number(record, cols.brdf, "brdf")?;
-    let brdf = if opts.allow_zero_brdf {
-        in_range(brdf, brdf >= 0.0, "brdf", ">= 0")?
-    } else {
-        in_range(
-            brdf,
-            brdf > 0.0,
-            "brdf",
-            "> 0 (relative and log residuals divide by it)",
-        )?
-    };
-    let sigma = match cols.sigma {
-        Some(i) => {
-            let s = number(record, i, "sigma")?;
-            Some(in_range(s, s > 0.0, "sigma", "> 0")?)
-        }
-        None => None,
-    };
-    let weight = match cols.weight {
-        Some(i) => {
-            let w = number(record, i, "weight")?;
-            Some(in_range(w, w > 0.0, "weight", "> 0")?)
-        }
-        None => None,
-    };
-    Ok(Point {
-        theta_i: theta_i.to_radians(),
-        theta_r: theta_r.to_radians(),
-        phi: phi.to_radians(),
+    let optional = |idx: Option<usize>, column| idx.map(|i| number(record, i, column)).transpose();
+    let row = RowDegrees {
+        theta_i,
+        theta_r,
+        phi,
         brdf,
-        sigma,
-        weight,
-        line,
-    })
+        sigma: optional(cols.sigma, "sigma")?,
+        weight: optional(cols.weight, "weight")?,
+    };
+    Point::from_degrees(row, opts.allow_zero_brdf, line)
 }
 
 /// Reads and validates one file. Without `skip_invalid` the first bad row is an error; with

@@ -14,6 +14,8 @@
 
 use std::path::Path;
 
+use brdf_core::names::Named;
+
 use crate::data::{DataError, Dataset, Point, Skipped};
 
 /// Supported source formats.
@@ -27,23 +29,24 @@ pub enum Format {
     MerlInPlane,
 }
 
-impl Format {
-    /// Name on the command line.
-    pub fn name(self) -> &'static str {
+impl Named for Format {
+    const WHAT: &'static str = "format";
+    const ALL: &'static [Format] = &[Format::Cornell, Format::Nist, Format::MerlInPlane];
+    /// Name on the command line and in Python.
+    fn name(self) -> &'static str {
         match self {
             Format::Cornell => "cornell",
             Format::Nist => "nist",
             Format::MerlInPlane => "merl-inplane",
         }
     }
-
-    /// Looks a format up by [`Format::name`].
-    pub fn from_name(name: &str) -> Option<Format> {
-        [Format::Cornell, Format::Nist, Format::MerlInPlane]
-            .into_iter()
-            .find(|f| f.name() == name)
+    /// The name, or with `_` for `-` (`merl_inplane`).
+    fn matches(self, given: &str) -> bool {
+        given == self.name() || given.replace('_', "-") == self.name()
     }
 }
+
+brdf_core::named_str!(Format);
 
 /// Colour channel of the Cornell RGB files.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -65,6 +68,25 @@ impl Channel {
         }
     }
 }
+
+impl Named for Channel {
+    const WHAT: &'static str = "channel";
+    const ALL: &'static [Channel] = &[Channel::R, Channel::G, Channel::B];
+    /// Name on the command line and in Python.
+    fn name(self) -> &'static str {
+        match self {
+            Channel::R => "r",
+            Channel::G => "g",
+            Channel::B => "b",
+        }
+    }
+    /// The name in either case (`R` is the file's column name).
+    fn matches(self, given: &str) -> bool {
+        given.eq_ignore_ascii_case(self.name())
+    }
+}
+
+brdf_core::named_str!(Channel);
 
 /// What an import produced.
 #[derive(Clone, Debug, PartialEq)]

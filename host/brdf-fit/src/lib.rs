@@ -26,9 +26,11 @@ pub mod pack;
 pub mod params;
 pub mod problem;
 pub mod report;
+pub mod request;
 pub mod synth;
 
-pub use batch::{fit_all, fit_streamed, Engine, FitSettings};
-pub use data::{load_csv, DataError, Dataset, LoadOptions, Loaded, Point, Skipped};
+pub use batch::{fit_all, fit_streamed, Engine, FitError, FitSettings};
+pub use data::{load_csv, DataError, Dataset, LoadOptions, Loaded, Point, RowDegrees, RowError, Skipped};
 pub use fit::{fit, FitOptions, FitOutcome};
 pub use problem::{Loss, LossKind, Problem, Residual};
+pub use request::{EngineKind, FitRequest, OptionError};

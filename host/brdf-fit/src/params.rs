@@ -1,7 +1,7 @@
 //! Parameter lists as people write them: `kb=0.2545,kr=21.8031,...` (`brdf eval --params`,
 //! the `params` of a scene file's material).
 
-use brdf_core::{ModelKind, MAX_PARAMS};
+use brdf_core::{AnyModel, Float, ModelKind, MAX_PARAMS};
 use thiserror::Error;
 
 /// Why a parameter list was refused.
@@ -98,4 +98,42 @@ mod tests {
         assert!(err("rho0=0.3,k=0.5,k=0.6").contains("given twice"));
         assert!(err("rho0").contains("name=value"));
     }
+}
+
+/// The model `kind` in precision `T` from f64 parameters in the paper's order, each rounded
+/// once to `T`: how `brdf eval`, the Python package and scene files build a model. The error
+/// names the model and the parameter.
+pub fn build<T: Float>(kind: ModelKind, params: &[f64; MAX_PARAMS]) -> Result<AnyModel<T>, String> {
+    let mut v = [T::ZERO; MAX_PARAMS];
+    for (dst, src) in v.iter_mut().zip(params) {
+        *dst = T::from_f64(*src);
+    }
+    AnyModel::new(kind, &v[..kind.param_count()])
+        .map_err(|e| format!("invalid parameters for model {}: {e}", kind.name()))
+}
+
+/// Why an evaluation returned `value`, not finite, for `kind`: the message `brdf eval` and
+/// the Python package give at the row or index where it happens.
+pub fn not_finite(value: impl std::fmt::Display, kind: ModelKind) -> String {
+    format!(
+        "the model is not finite here ({value}); {} diverges at this geometry \
+         (five-parameter and Minnaert models grow without bound at grazing)",
+        kind.name()
+    )
+}
+
+/// Checks one direction of `brdf eval` in degrees (`theta_i`, `theta_r`, `phi`): finite, and
+/// zeniths in [0, 90] (90 is the horizon, where the models are defined; fitting data stops
+/// below it, [`crate::data::Point::from_degrees`]). The error names the column.
+pub fn check_eval_degrees(deg: [f64; 3]) -> Result<(), String> {
+    const NAMES: [&str; 3] = ["theta_i", "theta_r", "phi"];
+    for (k, (&v, name)) in deg.iter().zip(NAMES).enumerate() {
+        if !v.is_finite() {
+            return Err(format!("column {name}: `{v}` is not finite"));
+        }
+        if k < 2 && !(0.0..=90.0).contains(&v) {
+            return Err(format!("column {name}: zenith {v} deg is outside [0, 90]"));
+        }
+    }
+    Ok(())
 }

@@ -1,5 +1,6 @@
 //! One least-squares problem: a dataset, a model, a residual form, and the parameter box.
 
+use brdf_core::names::Named;
 use brdf_core::{ModelKind, MAX_PARAMS};
 use serde::{Deserialize, Serialize};
 
@@ -22,9 +23,11 @@ pub enum Residual {
     Log,
 }
 
-impl Residual {
-    /// Name used on the command line and in results.
-    pub fn name(self) -> &'static str {
+impl Named for Residual {
+    const WHAT: &'static str = "residual";
+    const ALL: &'static [Residual] = &[Residual::Relative, Residual::Absolute, Residual::Log];
+    /// Name on the command line, in Python and in results.
+    fn name(self) -> &'static str {
         match self {
             Residual::Relative => "relative",
             Residual::Absolute => "absolute",
@@ -32,6 +35,8 @@ impl Residual {
         }
     }
 }
+
+brdf_core::named_str!(Residual);
 
 /// Robust loss applied to the residuals, as scipy's `least_squares` defines them: the cost
 /// is `0.5 * sum C^2 rho(r_i^2 / C^2)` with `C` the loss scale (`f_scale`).
@@ -49,9 +54,16 @@ pub enum LossKind {
     Cauchy,
 }
 
-impl LossKind {
-    /// Name on the command line and in results.
-    pub fn name(self) -> &'static str {
+impl Named for LossKind {
+    const WHAT: &'static str = "loss";
+    const ALL: &'static [LossKind] = &[
+        LossKind::Linear,
+        LossKind::Huber,
+        LossKind::SoftL1,
+        LossKind::Cauchy,
+    ];
+    /// Name on the command line, in Python and in results.
+    fn name(self) -> &'static str {
         match self {
             LossKind::Linear => "linear",
             LossKind::Huber => "huber",
@@ -59,7 +71,13 @@ impl LossKind {
             LossKind::Cauchy => "cauchy",
         }
     }
+    /// The name, or with `_` for `-` (`soft_l1`, scipy's spelling).
+    fn matches(self, given: &str) -> bool {
+        given == self.name() || given.replace('_', "-") == self.name()
+    }
 }
+
+brdf_core::named_str!(LossKind);
 
 /// A loss and its scale `C` (in the residual's units: a relative error for relative
 /// residuals, so `C = 0.1` lets residuals beyond 10% count less than squared).

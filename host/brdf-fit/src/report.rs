@@ -74,10 +74,7 @@ pub mod model_name {
     /// Reads a name, naming the known ones when it is not one of them.
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ModelKind, D::Error> {
         let name = String::deserialize(d)?;
-        ModelKind::from_name(&name).ok_or_else(|| {
-            let known: Vec<&str> = ModelKind::ALL.iter().map(|k| k.name()).collect();
-            serde::de::Error::custom(format!("unknown model `{name}` (known: {})", known.join(", ")))
-        })
+        name.parse::<ModelKind>().map_err(serde::de::Error::custom)
     }
 }
 

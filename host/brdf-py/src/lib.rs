@@ -8,13 +8,13 @@
 
 #![warn(missing_docs)]
 
-use brdf_core::anneal::check_directions;
 use brdf_core::batch::par::{self, Inputs};
 use brdf_core::batch::{Batch, BatchError};
-use brdf_core::{AnyModel, Brdf, Float, Geometry, ModelKind, MAX_PARAMS};
+use brdf_core::names::UnknownName;
+use brdf_core::{AnyModel, Brdf, Float, ModelKind};
 use brdf_fit::import::{import, Channel, Format};
 use brdf_fit::{
-    load_csv, Dataset, Engine, FitOptions, FitSettings, LoadOptions, Loss, LossKind, Point, Residual,
+    load_csv, Dataset, FitOptions, FitRequest, FitSettings, LoadOptions, Point, Residual, RowDegrees,
 };
 use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
 use pyo3::create_exception;
@@ -46,27 +46,28 @@ impl From<Failure> for PyErr {
     }
 }
 
+/// Parses a name of the libraries' vocabulary as the CLI does (the same message).
+fn parse<T: std::str::FromStr<Err = UnknownName>>(name: &str) -> PyResult<T> {
+    name.parse::<T>()
+        .map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
 /// Parses a model name as `brdf --model` does.
 fn parse_kind(name: &str) -> Result<ModelKind, Failure> {
-    ModelKind::from_name(name).ok_or_else(|| {
-        let names: Vec<&str> = ModelKind::ALL.iter().map(|k| k.name()).collect();
-        Failure::General(format!(
-            "unknown model `{name}` (expected one of: {})",
-            names.join(", ")
-        ))
-    })
+    name.parse::<ModelKind>()
+        .map_err(|e| Failure::General(e.to_string()))
+}
+
+/// [`parse_kind`] for functions that raise `ValueError` directly.
+fn kind_of(name: &str) -> PyResult<ModelKind> {
+    Ok(parse_kind(name)?)
 }
 
 /// The model `kind` with `params` (`kb=...,kr=...`) in precision `T`, each parameter
 /// rounded once to `T`, as `brdf eval` builds it.
 fn build<T: Float>(kind: ModelKind, params: &str) -> Result<AnyModel<T>, Failure> {
     let p = brdf_fit::params::parse_params(kind, params).map_err(|e| Failure::General(e.to_string()))?;
-    let mut v = [T::ZERO; MAX_PARAMS];
-    for (dst, src) in v.iter_mut().zip(&p) {
-        *dst = T::from_f64(*src);
-    }
-    AnyModel::new(kind, &v[..kind.param_count()])
-        .map_err(|e| Failure::General(format!("invalid parameters for model {}: {e}", kind.name())))
+    brdf_fit::params::build(kind, &p).map_err(Failure::General)
 }
 
 /// A contiguous view of a 1-d float64 array (the Python half makes them contiguous).
@@ -79,15 +80,7 @@ fn slice<'a>(a: &'a PyReadonlyArray1<'_, f64>, name: &str) -> PyResult<&'a [f64]
 fn finite<T: Float>(values: &[T], kind: ModelKind) -> Result<(), Failure> {
     match values.iter().position(|f| !f.is_finite()) {
         None => Ok(()),
-        Some(i) => Err(Failure::At(
-            i,
-            format!(
-                "the model is not finite here ({}); {} diverges at this geometry \
-                 (five-parameter and Minnaert models grow without bound at grazing)",
-                values[i],
-                kind.name()
-            ),
-        )),
+        Some(i) => Err(Failure::At(i, brdf_fit::params::not_finite(values[i], kind))),
     }
 }
 
@@ -98,26 +91,11 @@ fn batch_failure(e: BatchError) -> Failure {
     }
 }
 
-/// Validates angles in degrees as `brdf eval` validates its CSV rows: finite, zeniths in
-/// [0, 90].
+/// Validates angles in degrees as `brdf eval` validates its CSV rows.
 fn check_degrees(cols: [&[f64]; 3]) -> Result<(), Failure> {
-    const NAMES: [&str; 3] = ["theta_i", "theta_r", "phi"];
     for i in 0..cols[0].len() {
-        for k in 0..3 {
-            let v = cols[k][i];
-            if !v.is_finite() {
-                return Err(Failure::At(
-                    i,
-                    format!("column {}: `{v}` is not finite", NAMES[k]),
-                ));
-            }
-            if k < 2 && !(0.0..=90.0).contains(&v) {
-                return Err(Failure::At(
-                    i,
-                    format!("column {}: zenith {v} deg is outside [0, 90]", NAMES[k]),
-                ));
-            }
-        }
+        brdf_fit::params::check_eval_degrees([cols[0][i], cols[1][i], cols[2][i]])
+            .map_err(|e| Failure::At(i, e))?;
     }
     Ok(())
 }
@@ -281,72 +259,6 @@ fn eval_columns<'py>(
     }
 }
 
-/// Validates one array row as `brdf fit` validates a CSV row (degrees, `brdf > 0` unless
-/// absolute residuals); `line` is the 1-based row number.
-#[allow(clippy::too_many_arguments)]
-fn point(
-    i: usize,
-    deg: [f64; 3],
-    brdf: f64,
-    sigma: Option<f64>,
-    weight: Option<f64>,
-    allow_zero: bool,
-) -> Result<Point, Failure> {
-    let bad = |m: String| Failure::At(i, m);
-    for (v, name) in [
-        (deg[0], "theta_i"),
-        (deg[1], "theta_r"),
-        (deg[2], "phi"),
-        (brdf, "brdf"),
-    ] {
-        if !v.is_finite() {
-            return Err(bad(format!("column {name}: `{v}` is not finite")));
-        }
-    }
-    for (v, name) in [(deg[0], "theta_i"), (deg[1], "theta_r")] {
-        if !(0.0..90.0).contains(&v) {
-            return Err(bad(format!(
-                "column {name}: {} is outside [0, 90) degrees",
-                brdf_core::Compact(v)
-            )));
-        }
-    }
-    let ok = if allow_zero { brdf >= 0.0 } else { brdf > 0.0 };
-    if !ok {
-        let range = if allow_zero {
-            ">= 0"
-        } else {
-            "> 0 (relative and log residuals divide by it)"
-        };
-        return Err(bad(format!(
-            "column brdf: {} is outside {range}",
-            brdf_core::Compact(brdf)
-        )));
-    }
-    for (v, name) in [(sigma, "sigma"), (weight, "weight")] {
-        if let Some(v) = v {
-            if !v.is_finite() {
-                return Err(bad(format!("column {name}: `{v}` is not finite")));
-            }
-            if v <= 0.0 {
-                return Err(bad(format!(
-                    "column {name}: {} is outside > 0",
-                    brdf_core::Compact(v)
-                )));
-            }
-        }
-    }
-    Ok(Point {
-        theta_i: deg[0].to_radians(),
-        theta_r: deg[1].to_radians(),
-        phi: deg[2].to_radians(),
-        brdf,
-        sigma,
-        weight,
-        line: i as u64 + 1,
-    })
-}
-
 /// Fit settings as `brdf fit` builds them from its options.
 #[pyclass(module = "brdf._brdf", frozen)]
 #[derive(Clone, Debug)]
@@ -368,125 +280,37 @@ impl Settings {
         seed: u64,
         residual: &str,
         engine: &str,
-        chains: Option<usize>,
-        agree: Option<usize>,
-        hops: Option<usize>,
-        anneal_evals: Option<usize>,
+        chains: Option<u64>,
+        agree: Option<u64>,
+        hops: Option<u64>,
+        anneal_evals: Option<u64>,
         loss: &str,
         loss_scale: f64,
         brightening: bool,
-        budget_evals: Option<u32>,
+        budget_evals: Option<u64>,
         skip_invalid: bool,
         format: Option<&str>,
         channel: &str,
     ) -> PyResult<Self> {
-        let kind = parse_kind(model)?;
-        let residual = match residual {
-            "relative" => Residual::Relative,
-            "absolute" => Residual::Absolute,
-            "log" => Residual::Log,
-            o => {
-                return Err(PyValueError::new_err(format!(
-                    "unknown residual `{o}` (expected relative, absolute, log)"
-                )))
-            }
-        };
-        let loss_kind = match loss {
-            "linear" => LossKind::Linear,
-            "huber" => LossKind::Huber,
-            "soft-l1" | "soft_l1" => LossKind::SoftL1,
-            "cauchy" => LossKind::Cauchy,
-            o => {
-                return Err(PyValueError::new_err(format!(
-                    "unknown loss `{o}` (expected linear, huber, soft-l1, cauchy)"
-                )))
-            }
-        };
-        if !(loss_scale.is_finite() && loss_scale > 0.0) {
-            return Err(PyValueError::new_err(format!(
-                "loss_scale {loss_scale} is not a finite number greater than 0"
-            )));
-        }
-        let range = |name: &str, v: Option<usize>, lo: usize, hi: usize, default: usize| -> PyResult<usize> {
-            let v = v.unwrap_or(default);
-            if !(lo..=hi).contains(&v) {
-                return Err(PyValueError::new_err(format!("{name} {v} is not in {lo}..={hi}")));
-            }
-            Ok(v)
-        };
-        let d = FitOptions::default();
-        let agree = range("agree", agree, 1, 64, d.agree)?;
-        let options = FitOptions {
+        let d = FitRequest::new(kind_of(model)?);
+        let request = FitRequest {
             seed,
-            chains: range("chains", chains, 1, 64, d.chains)?,
-            agree,
-            min_chains: agree,
-            hops: range("hops", hops, 0, 64, d.hops)?,
-            anneal: brdf_fit::anneal::AnnealOptions {
-                evals: range(
-                    "anneal_evals",
-                    anneal_evals,
-                    1,
-                    100_000_000,
-                    brdf_fit::anneal::AnnealOptions::default().evals,
-                )?,
-                ..brdf_fit::anneal::AnnealOptions::default()
-            },
+            residual: parse(residual)?,
+            engine: parse(engine)?,
+            chains: chains.unwrap_or(d.chains),
+            agree: agree.unwrap_or(d.agree),
+            hops: hops.unwrap_or(d.hops),
+            anneal_evals: anneal_evals.unwrap_or(d.anneal_evals),
+            loss: parse(loss)?,
+            loss_scale,
+            brightening,
+            budget_evals: budget_evals.unwrap_or(d.budget_evals),
             ..d
         };
-        let mut settings = FitSettings {
-            residual,
-            loss: Loss {
-                kind: loss_kind,
-                scale: loss_scale,
-            },
-            brightening,
-            options,
-            ..FitSettings::new(kind)
-        };
-        match engine {
-            "full" => {}
-            "embedded" => {
-                if residual != Residual::Relative {
-                    return Err(PyValueError::new_err(
-                        "the embedded engine fits relative residuals only",
-                    ));
-                }
-                let budget = budget_evals.unwrap_or(brdf_fit::embedded::DEFAULT_BUDGET);
-                if !(65..=10_000_000).contains(&budget) {
-                    return Err(PyValueError::new_err(format!(
-                        "budget_evals {budget} is not in 65..=10000000"
-                    )));
-                }
-                settings.engine = Engine::Embedded { budget };
-            }
-            o => {
-                return Err(PyValueError::new_err(format!(
-                    "unknown engine `{o}` (expected full or embedded)"
-                )))
-            }
-        }
-        let format = match format {
-            None => None,
-            Some("cornell") => Some(Format::Cornell),
-            Some("nist") => Some(Format::Nist),
-            Some("merl-inplane") | Some("merl_inplane") => Some(Format::MerlInPlane),
-            Some(o) => {
-                return Err(PyValueError::new_err(format!(
-                    "unknown format `{o}` (expected cornell, nist, merl-inplane)"
-                )))
-            }
-        };
-        let channel = match channel.to_ascii_lowercase().as_str() {
-            "r" => Channel::R,
-            "g" => Channel::G,
-            "b" => Channel::B,
-            o => {
-                return Err(PyValueError::new_err(format!(
-                    "unknown channel `{o}` (expected r, g, b)"
-                )))
-            }
-        };
+        let settings =
+            FitSettings::from_options(&request).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let format = format.map(parse::<Format>).transpose()?;
+        let channel = parse::<Channel>(channel)?;
         Ok(Settings {
             settings,
             skip_invalid,
@@ -498,14 +322,6 @@ impl Settings {
 
 /// Fits every dataset; returns each report as `brdf fit --json` prints one.
 fn fit_datasets(py: Python<'_>, s: &Settings, datasets: Vec<Dataset>) -> PyResult<Vec<String>> {
-    let kind = s.settings.kind;
-    for d in &datasets {
-        let geometries = d
-            .points
-            .iter()
-            .map(|p| Geometry::<f64>::from_angles(p.theta_i, p.theta_r, p.phi));
-        check_directions(kind, geometries).map_err(|e| PyValueError::new_err(format!("{}: {e}", d.name)))?;
-    }
     let settings = s.settings;
     py.detach(move || {
         brdf_fit::fit_streamed(&settings, &datasets, |_, _| {})
@@ -656,14 +472,16 @@ fn dataset(name: String, columns: Columns<'_, '_>) -> PyResult<Dataset> {
     let wt = weight.map(|a| slice(a, "weight")).transpose()?;
     let points = (0..n)
         .map(|i| {
-            point(
-                i,
-                [ti[i], tr[i], ph[i]],
-                f[i],
-                sg.map(|s| s[i]),
-                wt.map(|w| w[i]),
-                allow_zero,
-            )
+            let row = RowDegrees {
+                theta_i: ti[i],
+                theta_r: tr[i],
+                phi: ph[i],
+                brdf: f[i],
+                sigma: sg.map(|s| s[i]),
+                weight: wt.map(|w| w[i]),
+            };
+            // `line` is the 1-based row number, as a CSV file's data rows would count.
+            Point::from_degrees(row, allow_zero, i as u64 + 1).map_err(|e| Failure::At(i, e.to_string()))
         })
         .collect::<Result<Vec<Point>, Failure>>()?;
     Ok(Dataset { name, points })

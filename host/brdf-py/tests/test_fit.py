@@ -144,8 +144,31 @@ def test_options_map_to_the_cli_flags(cli, root, flags, kwargs):
     assert strip_seconds(brdf.fit(str(path), **kwargs).to_json()) == strip_seconds(want)
 
 
-def test_the_embedded_engine_refuses_other_residuals(cli, root):
-    p = cli("fit", "--engine", "embedded", "--residual", "log", root / KHAKI, check=False)
+@pytest.mark.parametrize(
+    "flags,kwargs",
+    [
+        # The embedded engine refuses what it would ignore.
+        (["--engine", "embedded", "--residual", "log"], {"engine": "embedded", "residual": "log"}),
+        (["--engine", "embedded", "--loss", "cauchy"], {"engine": "embedded", "loss": "cauchy"}),
+        (["--engine", "embedded", "--brightening"], {"engine": "embedded", "brightening": True}),
+        # Names outside the vocabulary, with the "expected one of" list.
+        (["--model", "sixx"], {"model": "sixx"}),
+        (["--residual", "rel"], {"residual": "rel"}),
+        (["--loss", "l2"], {"loss": "l2"}),
+        (["--engine", "fast"], {"engine": "fast"}),
+        (["--format", "astm"], {"format": "astm"}),
+        (["--channel", "x"], {"channel": "x"}),
+        # Ranges, at the first value outside each end.
+        (["--chains", "0"], {"chains": 0}),
+        (["--agree", "65"], {"agree": 65}),
+        (["--hops", "65"], {"hops": 65}),
+        (["--anneal-evals", "0"], {"anneal_evals": 0}),
+        (["--engine", "embedded", "--budget-evals", "64"], {"engine": "embedded", "budget_evals": 64}),
+    ],
+)
+def test_bad_options_carry_the_cli_message(cli, root, flags, kwargs):
+    p = cli("fit", *flags, root / KHAKI, check=False)
+    assert p.returncode != 0
     with pytest.raises(ValueError) as e:
-        brdf.fit(str(root / KHAKI), engine="embedded", residual="log")
-    assert str(e.value) in p.stderr
+        brdf.fit(str(root / KHAKI), **kwargs)
+    assert str(e.value) in p.stderr, (str(e.value), p.stderr)

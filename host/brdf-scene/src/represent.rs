@@ -211,10 +211,12 @@ pub fn select_data(
             domain.points.len(),
         ));
     }
-    let candidates: Vec<FitReport> = ModelKind::LADDER
-        .iter()
-        .flat_map(|&k| brdf_fit::fit_all(&settings(k), std::slice::from_ref(domain)))
-        .collect();
+    let mut candidates: Vec<FitReport> = Vec::new();
+    for &k in ModelKind::LADDER.iter() {
+        candidates.extend(
+            brdf_fit::fit_all(&settings(k), std::slice::from_ref(domain)).map_err(|e| e.to_string())?,
+        );
+    }
     let reprs = representations(&candidates, domain)?;
     let all: Vec<&Rung> = reprs.iter().map(|r| &r.rung).collect();
     let errors: Vec<f64> = reprs.iter().map(|r| r.rms_rel).collect();

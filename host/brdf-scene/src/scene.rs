@@ -521,13 +521,7 @@ fn resolve_material(
         Some(i) => return Err(field(i.span(), "index", format!("{} is negative", i.get_ref()))),
     };
     let build = |kind: ModelKind, p: &[f64; MAX_PARAMS], span: Range<usize>, key: &'static str| {
-        AnyModel::new(kind, &p[..kind.param_count()]).map_err(|err| {
-            field(
-                span,
-                key,
-                format!("invalid parameters for model {}: {err}", kind.name()),
-            )
-        })
+        brdf_fit::params::build(kind, p).map_err(|err| field(span, key, err))
     };
     if e.model.is_some() || e.params.is_some() {
         if let Some(i) = &e.index {
@@ -540,18 +534,10 @@ fn resolve_material(
                 format!("part `{}`: model and params go together", e.part.get_ref()),
             ));
         };
-        let kind = ModelKind::from_name(model.get_ref()).ok_or_else(|| {
-            let names: Vec<&str> = ModelKind::ALL.iter().map(|k| k.name()).collect();
-            field(
-                model.span(),
-                "model",
-                format!(
-                    "unknown model `{}` (expected one of: {})",
-                    model.get_ref(),
-                    names.join(", ")
-                ),
-            )
-        })?;
+        let kind = model
+            .get_ref()
+            .parse::<ModelKind>()
+            .map_err(|err| field(model.span(), "model", err.to_string()))?;
         let p = brdf_fit::params::parse_params(kind, params.get_ref())
             .map_err(|err| field(params.span(), "params", err.to_string()))?;
         return Ok((build(kind, &p, params.span(), "params")?, Source::Params));

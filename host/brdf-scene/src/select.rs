@@ -19,7 +19,8 @@
 //! blob's 4,096 bytes, the material whose next-cheapest eligible alternative costs the fewest
 //! extra instructions gives up its table first.
 
-use brdf_core::{ModelKind, MAX_PARAMS};
+use brdf_core::anneal::check_directions;
+use brdf_core::{Geometry, ModelKind, MAX_PARAMS};
 use brdf_fit::{fit, FitOptions, Point, Problem, Residual};
 use brdf_wire::blob::{encoded_len, Material, MAX_BLOB_LEN, MAX_MATERIALS};
 use rayon::prelude::*;
@@ -285,6 +286,15 @@ fn drafts(
             if !points.is_empty() {
                 notes.push(format!("{}: too few queries to fit", kind.name()));
             }
+            continue;
+        } else if let Err(e) = check_directions(
+            kind,
+            points
+                .iter()
+                .map(|p| Geometry::<f64>::from_angles(p.theta_i, p.theta_r, p.phi)),
+        ) {
+            // The rule every fit applies (`brdf_fit::FitSettings::fit`).
+            notes.push(format!("{}: not fitted: {e}", kind.name()));
             continue;
         } else {
             let problem = Problem::new(kind, Residual::Relative, points);

@@ -377,3 +377,33 @@ fn angular_limits_keep_points_at_the_limit_and_say_what_they_drop() {
         "{said}"
     );
 }
+
+#[test]
+fn every_fitting_command_refuses_repeated_directions() {
+    // Eight readings of one direction pair (and its mirror-azimuth twin): enough rows for
+    // `select`, one direction for the models' two or more parameters.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("one-direction.csv");
+    let mut text = String::from("theta_i,theta_r,phi,brdf\n");
+    for k in 0..8 {
+        let phi = if k % 2 == 0 { 30 } else { -30 };
+        text.push_str(&format!("20,35,{phi},{}\n", 0.1 + 0.001 * k as f64));
+    }
+    std::fs::write(&path, text).unwrap();
+    let p = path.to_str().unwrap();
+    let png = dir.path().join("p.png");
+    for args in [
+        vec!["fit", p],
+        vec!["fit", p, "--model", "minnaert"],
+        vec!["select", p],
+        vec!["plot", "in-plane", p, "-o", png.to_str().unwrap()],
+    ] {
+        let out = brdf(&args);
+        assert!(!out.status.success(), "{args:?} fitted one direction");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("1 distinct direction(s) cannot determine"),
+            "{args:?}: {err}"
+        );
+    }
+}

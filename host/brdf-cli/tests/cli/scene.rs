@@ -212,3 +212,34 @@ fn check_runs_the_device_on_exactly_the_scenes_directions() {
     assert_eq!(judged.len(), 3, "one judged region per material");
     assert!(judged.iter().all(|l| l.ends_with("ok")));
 }
+
+#[test]
+fn select_scene_refuses_what_it_cannot_apply_and_honours_allow_nonphysical() {
+    // Options about reading or weighing data, and angular limits, do not apply to a scene's
+    // queries: refused before any work, naming the flag.
+    let path = scene();
+    for extra in [
+        &["--max-theta", "40"][..],
+        &["--max-theta-i", "40"],
+        &["--residual", "log"],
+        &["--loss", "huber"],
+        &["--brightening"],
+        &["--channel", "g"],
+    ] {
+        let mut args = vec!["select", "--scene", path.as_str()];
+        args.extend_from_slice(extra);
+        let out = brdf(&args);
+        assert!(!out.status.success(), "{extra:?} accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(extra[0]), "{extra:?}: {err}");
+    }
+    let json: serde_json::Value = serde_json::from_str(&ok(&brdf(&[
+        "select",
+        "--scene",
+        &scene(),
+        "--allow-nonphysical",
+        "--json",
+    ])))
+    .unwrap();
+    assert_eq!(json["allow_nonphysical"], true);
+}

@@ -24,7 +24,9 @@ fn khaki() -> Dataset {
 }
 
 fn fit(d: &Dataset) -> FitReport {
-    brdf_fit::fit_all(&FitSettings::new(ModelKind::Six), std::slice::from_ref(d)).remove(0)
+    brdf_fit::fit_all(&FitSettings::new(ModelKind::Six), std::slice::from_ref(d))
+        .unwrap()
+        .remove(0)
 }
 
 fn close(a: f64, b: f64) -> bool {

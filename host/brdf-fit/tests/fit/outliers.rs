@@ -54,7 +54,7 @@ const CAUCHY: Loss = Loss {
 fn fit(d: &Dataset, loss: Loss) -> FitReport {
     let mut s = FitSettings::new(ModelKind::Six);
     s.loss = loss;
-    brdf_fit::fit_all(&s, std::slice::from_ref(d)).remove(0)
+    brdf_fit::fit_all(&s, std::slice::from_ref(d)).unwrap().remove(0)
 }
 
 /// RMS relative difference between two fitted models over the points of `d`.

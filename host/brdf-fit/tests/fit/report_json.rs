@@ -12,7 +12,7 @@ fn khaki_fits() -> Vec<FitReport> {
     let d = load_csv(&path, LoadOptions::default()).unwrap().datasets;
     [ModelKind::Six, ModelKind::Minnaert]
         .iter()
-        .flat_map(|&k| brdf_fit::fit_all(&FitSettings::new(k), &d))
+        .flat_map(|&k| brdf_fit::fit_all(&FitSettings::new(k), &d).unwrap())
         .collect()
 }
 

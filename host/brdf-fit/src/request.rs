@@ -1,0 +1,346 @@
+//! A fit as a user asks for it — by the names and numbers the CLI, the Python package and
+//! scene files take — checked in one place into [`FitSettings`]: every range, every
+//! combination an engine cannot honour, with one message each, whoever asked.
+
+use std::ops::RangeInclusive;
+
+use brdf_core::names::Named;
+use brdf_core::ModelKind;
+use thiserror::Error;
+
+use crate::anneal::AnnealOptions;
+use crate::batch::{Engine, FitSettings};
+use crate::embedded::DEFAULT_BUDGET;
+use crate::problem::{Loss, LossKind, Residual};
+use crate::FitOptions;
+
+/// Which fitting engine, by name (`full`, `embedded`); [`Engine`] adds the embedded budget.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum EngineKind {
+    /// Annealing chains polished by Levenberg–Marquardt, f64.
+    #[default]
+    Full,
+    /// The on-sensor f32 annealer of brdf-core (relative residuals, least squares).
+    Embedded,
+}
+
+impl Named for EngineKind {
+    const WHAT: &'static str = "engine";
+    const ALL: &'static [EngineKind] = &[EngineKind::Full, EngineKind::Embedded];
+    fn name(self) -> &'static str {
+        match self {
+            EngineKind::Full => "full",
+            EngineKind::Embedded => "embedded",
+        }
+    }
+}
+
+brdf_core::named_str!(EngineKind);
+
+/// A whole-number option and its valid range.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Limit {
+    /// The option's name (as Python spells it; the CLI adds `--` and hyphens).
+    pub name: &'static str,
+    /// Valid values.
+    pub range: RangeInclusive<u64>,
+}
+
+impl Limit {
+    /// `value` if it lies in the range, else the error naming the option and the range.
+    pub fn check(&self, value: u64) -> Result<u64, OptionError> {
+        if self.range.contains(&value) {
+            Ok(value)
+        } else {
+            Err(OptionError::OutOfRange {
+                name: self.name,
+                value,
+                lo: *self.range.start(),
+                hi: *self.range.end(),
+            })
+        }
+    }
+}
+
+/// Annealing chains, each polished (at least one; 64 already finds every optimum of the
+/// bundled and held-out data, see the README).
+pub const CHAINS: Limit = Limit {
+    name: "chains",
+    range: 1..=64,
+};
+/// Independent searches that must agree before a fit is called converged.
+pub const AGREE: Limit = Limit {
+    name: "agree",
+    range: 1..=64,
+};
+/// Basin-hopping moves that must all fail to improve the best point.
+pub const HOPS: Limit = Limit {
+    name: "hops",
+    range: 0..=64,
+};
+/// Cost evaluations per annealing chain (at least one; at most 1e8 keeps one fit under
+/// minutes).
+pub const ANNEAL_EVALS: Limit = Limit {
+    name: "anneal_evals",
+    range: 1..=100_000_000,
+};
+/// Evaluation budget of the embedded engine: above its 64-point screen, at most 1e7.
+pub const BUDGET_EVALS: Limit = Limit {
+    name: "budget_evals",
+    range: 65..=10_000_000,
+};
+
+/// Why options cannot make a fit.
+#[derive(Clone, Debug, PartialEq, Error)]
+#[non_exhaustive]
+pub enum OptionError {
+    /// A whole-number option outside its range.
+    #[error("{name} {value} is not in {lo}..={hi}")]
+    OutOfRange {
+        /// The option.
+        name: &'static str,
+        /// The value given.
+        value: u64,
+        /// Smallest valid value.
+        lo: u64,
+        /// Largest valid value.
+        hi: u64,
+    },
+    /// The robust loss's scale is not a finite number above zero.
+    #[error("loss_scale {0} is not a finite number greater than 0")]
+    LossScale(f64),
+    /// The embedded engine minimises relative least squares only.
+    #[error(
+        "the embedded engine fits relative residuals with the linear loss and no brightening; {0} is set"
+    )]
+    Embedded(String),
+}
+
+/// Every option of a fit by its user-facing name, defaults as [`FitRequest::new`] gives them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitRequest {
+    /// The model.
+    pub model: ModelKind,
+    /// Seed of the search.
+    pub seed: u64,
+    /// Residual form.
+    pub residual: Residual,
+    /// Engine.
+    pub engine: EngineKind,
+    /// [`CHAINS`].
+    pub chains: u64,
+    /// [`AGREE`].
+    pub agree: u64,
+    /// [`HOPS`].
+    pub hops: u64,
+    /// [`ANNEAL_EVALS`].
+    pub anneal_evals: u64,
+    /// Robust loss.
+    pub loss: LossKind,
+    /// Its scale, in the residual's units.
+    pub loss_scale: f64,
+    /// Six-parameter `c` searched below 0.
+    pub brightening: bool,
+    /// [`BUDGET_EVALS`] (embedded engine only).
+    pub budget_evals: u64,
+}
+
+/// Default scale of a robust loss: a 10% relative error.
+pub const DEFAULT_LOSS_SCALE: f64 = 0.1;
+
+impl FitRequest {
+    /// The defaults for `model`: those of [`FitOptions::default`] and [`FitSettings::new`].
+    pub fn new(model: ModelKind) -> Self {
+        let d = FitOptions::default();
+        FitRequest {
+            model,
+            seed: d.seed,
+            residual: Residual::default(),
+            engine: EngineKind::Full,
+            chains: d.chains as u64,
+            agree: d.agree as u64,
+            hops: d.hops as u64,
+            anneal_evals: d.anneal.evals as u64,
+            loss: LossKind::default(),
+            loss_scale: DEFAULT_LOSS_SCALE,
+            brightening: false,
+            budget_evals: u64::from(DEFAULT_BUDGET),
+        }
+    }
+}
+
+impl FitSettings {
+    /// Checks every option of `r` and builds the settings, or says which option is wrong.
+    pub fn from_options(r: &FitRequest) -> Result<FitSettings, OptionError> {
+        let chains = CHAINS.check(r.chains)? as usize;
+        let agree = AGREE.check(r.agree)? as usize;
+        let hops = HOPS.check(r.hops)? as usize;
+        let evals = ANNEAL_EVALS.check(r.anneal_evals)? as usize;
+        if !(r.loss_scale.is_finite() && r.loss_scale > 0.0) {
+            return Err(OptionError::LossScale(r.loss_scale));
+        }
+        let engine = match r.engine {
+            EngineKind::Full => Engine::Full,
+            EngineKind::Embedded => {
+                let set = [
+                    (
+                        r.residual != Residual::Relative,
+                        format!("residual {}", r.residual),
+                    ),
+                    (r.loss != LossKind::Linear, format!("loss {}", r.loss)),
+                    (r.brightening, "brightening".to_owned()),
+                ];
+                if let Some((_, what)) = set.into_iter().find(|(bad, _)| *bad) {
+                    return Err(OptionError::Embedded(what));
+                }
+                let budget = BUDGET_EVALS.check(r.budget_evals)?;
+                Engine::Embedded {
+                    // At most 1e7: fits a u32.
+                    budget: budget as u32,
+                }
+            }
+        };
+        Ok(FitSettings {
+            kind: r.model,
+            residual: r.residual,
+            loss: Loss {
+                kind: r.loss,
+                scale: r.loss_scale,
+            },
+            brightening: r.brightening,
+            options: FitOptions {
+                seed: r.seed,
+                chains,
+                agree,
+                min_chains: agree,
+                hops,
+                anneal: AnnealOptions {
+                    evals,
+                    ..AnnealOptions::default()
+                },
+                ..FitOptions::default()
+            },
+            engine,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_defaults_are_the_default_settings() {
+        for &k in ModelKind::ALL.iter() {
+            let s = FitSettings::from_options(&FitRequest::new(k)).unwrap();
+            let d = FitSettings::new(k);
+            assert_eq!(s.options, d.options);
+            assert_eq!(
+                (s.kind, s.residual, s.engine, s.brightening),
+                (d.kind, d.residual, d.engine, d.brightening)
+            );
+            assert_eq!(s.loss.kind, LossKind::Linear);
+        }
+    }
+
+    #[test]
+    fn each_range_is_checked_at_both_ends() {
+        for limit in [CHAINS, AGREE, HOPS, ANNEAL_EVALS, BUDGET_EVALS] {
+            let set = |v: u64| {
+                let mut r = FitRequest::new(ModelKind::Six);
+                r.engine = EngineKind::Embedded;
+                match limit.name {
+                    "chains" => r.chains = v,
+                    "agree" => r.agree = v,
+                    "hops" => r.hops = v,
+                    "anneal_evals" => r.anneal_evals = v,
+                    _ => r.budget_evals = v,
+                }
+                FitSettings::from_options(&r)
+            };
+            let (lo, hi) = (*limit.range.start(), *limit.range.end());
+            assert!(set(lo).is_ok() && set(hi).is_ok(), "{}", limit.name);
+            for bad in [lo.checked_sub(1), Some(hi + 1)].into_iter().flatten() {
+                let e = set(bad).unwrap_err();
+                assert_eq!(
+                    e.to_string(),
+                    format!("{} {bad} is not in {lo}..={hi}", limit.name)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_embedded_engine_refuses_what_it_would_ignore() {
+        let base = FitRequest {
+            engine: EngineKind::Embedded,
+            ..FitRequest::new(ModelKind::Six)
+        };
+        assert!(FitSettings::from_options(&base).is_ok());
+        for (r, what) in [
+            (
+                FitRequest {
+                    residual: Residual::Log,
+                    ..base.clone()
+                },
+                "residual log",
+            ),
+            (
+                FitRequest {
+                    loss: LossKind::Huber,
+                    ..base.clone()
+                },
+                "loss huber",
+            ),
+            (
+                FitRequest {
+                    brightening: true,
+                    ..base.clone()
+                },
+                "brightening",
+            ),
+        ] {
+            let e = FitSettings::from_options(&r).unwrap_err().to_string();
+            assert!(e.ends_with(&format!("; {what} is set")), "{e}");
+        }
+    }
+
+    #[test]
+    fn a_loss_scale_must_be_positive_and_finite() {
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let r = FitRequest {
+                loss_scale: bad,
+                ..FitRequest::new(ModelKind::Lambert)
+            };
+            let e = FitSettings::from_options(&r).unwrap_err();
+            assert!(
+                matches!(e, OptionError::LossScale(v) if v.to_bits() == bad.to_bits()),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn names_parse_with_their_documented_spellings() {
+        assert_eq!("soft_l1".parse::<LossKind>().unwrap(), LossKind::SoftL1);
+        assert_eq!(
+            "merl_inplane".parse::<crate::import::Format>().unwrap(),
+            crate::import::Format::MerlInPlane
+        );
+        assert_eq!(
+            "G".parse::<crate::import::Channel>().unwrap(),
+            crate::import::Channel::G
+        );
+        assert_eq!(
+            "ful".parse::<EngineKind>().unwrap_err().to_string(),
+            "unknown engine `ful` (expected one of: full, embedded)"
+        );
+        assert_eq!(
+            "l2".parse::<LossKind>().unwrap_err().to_string(),
+            "unknown loss `l2` (expected one of: linear, huber, soft-l1, cauchy)"
+        );
+        for r in <Residual as Named>::ALL {
+            assert_eq!(r.to_string().parse::<Residual>().unwrap(), *r);
+        }
+    }
+}
