@@ -83,23 +83,6 @@ pub fn parse_params(kind: ModelKind, text: &str) -> Result<[f64; MAX_PARAMS], Pa
     Ok(out)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn parses_in_any_order_and_rejects_bad_lists() {
-        let p = parse_params(ModelKind::Minnaert, "k=0.5, rho0=0.3").unwrap();
-        assert_eq!(&p[..2], &[0.3, 0.5]);
-        let err = |t: &str| parse_params(ModelKind::Minnaert, t).unwrap_err().to_string();
-        assert!(err("rho0=0.3").contains("missing parameter k"));
-        assert!(err("rho0=0.3,k=0.5,kb=1").contains("unknown parameter `kb`"));
-        assert!(err("rho0=0.3,k=x").contains("`x` is not a number"));
-        assert!(err("rho0=0.3,k=0.5,k=0.6").contains("given twice"));
-        assert!(err("rho0").contains("name=value"));
-    }
-}
-
 /// The model `kind` in precision `T` from f64 parameters in the paper's order, each rounded
 /// once to `T`: how `brdf eval`, the Python package and scene files build a model. The error
 /// names the model and the parameter.
@@ -132,8 +115,28 @@ pub fn check_eval_degrees(deg: [f64; 3]) -> Result<(), String> {
             return Err(format!("column {name}: `{v}` is not finite"));
         }
         if k < 2 && !(0.0..=90.0).contains(&v) {
-            return Err(format!("column {name}: zenith {v} deg is outside [0, 90]"));
+            return Err(format!(
+                "column {name}: zenith {} deg is outside [0, 90]",
+                brdf_core::Compact(v)
+            ));
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_in_any_order_and_rejects_bad_lists() {
+        let p = parse_params(ModelKind::Minnaert, "k=0.5, rho0=0.3").unwrap();
+        assert_eq!(&p[..2], &[0.3, 0.5]);
+        let err = |t: &str| parse_params(ModelKind::Minnaert, t).unwrap_err().to_string();
+        assert!(err("rho0=0.3").contains("missing parameter k"));
+        assert!(err("rho0=0.3,k=0.5,kb=1").contains("unknown parameter `kb`"));
+        assert!(err("rho0=0.3,k=x").contains("`x` is not a number"));
+        assert!(err("rho0=0.3,k=0.5,k=0.6").contains("given twice"));
+        assert!(err("rho0").contains("name=value"));
+    }
 }

@@ -1,0 +1,79 @@
+//! The energy check of a fit: albedo by quadrature at the measured incidences and the
+//! `kb + kd <= 1` bound.
+
+use super::*;
+
+/// Quadrature albedo at one measured incidence.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IncidenceAlbedo {
+    /// Incidence zenith, degrees.
+    #[serde(deserialize_with = "f64_or_null")]
+    pub theta_i: f64,
+    /// Directional-hemispherical reflectance (default rule, accurate to
+    /// `brdf_core::tolerance::ALBEDO_DEFAULT_REL`).
+    #[serde(deserialize_with = "f64_or_null")]
+    pub albedo: f64,
+}
+
+/// The energy check of a fitted model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Energy {
+    /// Analytic sufficient bound (`kb + kd` for the six-parameter model), if the model has one.
+    pub bound: Option<f64>,
+    /// The bound is at most 1.
+    pub bound_conserves: bool,
+    /// Albedo at each measured incidence.
+    pub albedo: Vec<IncidenceAlbedo>,
+    /// Every albedo is at most 1.
+    pub albedo_conserves: bool,
+}
+
+/// Energy check of `model` at the incidences (radians) of a dataset.
+pub fn energy(model: &AnyModel<f64>, incidences: &[f64]) -> Energy {
+    let bound = model.energy_bound();
+    let batch = Batch::new(model);
+    let albedo: Vec<IncidenceAlbedo> = incidences
+        .par_iter()
+        .map(|&ti| IncidenceAlbedo {
+            theta_i: degrees(ti),
+            albedo: albedo_batch(&batch, ti, AlbedoRule::DEFAULT),
+        })
+        .collect();
+    Energy {
+        bound,
+        bound_conserves: matches!(bound, Some(b) if b <= 1.0),
+        albedo_conserves: albedo.iter().all(|a| a.albedo <= 1.0),
+        albedo,
+    }
+}
+
+/// Energy check of a fitted parameter vector (paper order and signs), which may hold linear
+/// weights above their ranges (see [`FitReport::outside_ranges`]). The bound and every albedo
+/// are linear in the weights, so the check runs on the weights scaled into range and
+/// scales the results back.
+pub fn energy_of(kind: ModelKind, params: &[f64], incidences: &[f64]) -> Energy {
+    let ranges = kind.ranges();
+    let linear: Vec<usize> = (0..params.len())
+        .filter(|i| !crate::problem::nonlinear_indices(kind).contains(i))
+        .collect();
+    let scale = linear
+        .iter()
+        .map(|&i| params[i] / f64::from(ranges[i].max))
+        .fold(1.0_f64, f64::max);
+    let mut scaled = params.to_vec();
+    for &i in &linear {
+        // `min`: only the division's rounding can carry the largest weight past its bound.
+        scaled[i] = (scaled[i] / scale).min(f64::from(ranges[i].max));
+    }
+    let model = AnyModel::new(kind, &scaled).expect("the fitter's nonlinear box lies inside the ranges");
+    let mut e = energy(&model, incidences);
+    if scale > 1.0 {
+        e.bound = e.bound.map(|b| b * scale);
+        for a in &mut e.albedo {
+            a.albedo *= scale;
+        }
+        e.bound_conserves = matches!(e.bound, Some(b) if b <= 1.0);
+        e.albedo_conserves = e.albedo.iter().all(|a| a.albedo <= 1.0);
+    }
+    e
+}

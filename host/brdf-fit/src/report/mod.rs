@@ -1,0 +1,468 @@
+//! What a fit says: metrics (overall and per incidence), parameter uncertainty with plain
+//! flags on what the data do not determine, and the energy check.
+
+use brdf_core::batch::Batch;
+use brdf_core::checks::{albedo_batch, AlbedoRule};
+use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
+use rayon::prelude::*;
+use serde::de::{MapAccess, Visitor};
+use serde::ser::SerializeMap;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+use crate::data::Dataset;
+use crate::fit::{FitOptions, FitOutcome, SearchSummary};
+use crate::kernel::natural_per_internal;
+use crate::problem::{Loss, Problem, Residual};
+
+mod energy;
+mod influence;
+mod uncertainty;
+
+pub use energy::*;
+pub use influence::*;
+pub use uncertainty::*;
+
+/// A name-to-value map that keeps its order in JSON.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ordered<T>(pub Vec<(String, T)>);
+
+impl<T: Serialize> Serialize for Ordered<T> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(Some(self.0.len()))?;
+        for (k, v) in &self.0 {
+            m.serialize_entry(k, v)?;
+        }
+        m.end()
+    }
+}
+
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for Ordered<T> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct InOrder<T>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de>> Visitor<'de> for InOrder<T> {
+            type Value = Ordered<T>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("an object")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Ordered<T>, A::Error> {
+                let mut v = Vec::new();
+                while let Some(entry) = map.next_entry()? {
+                    v.push(entry);
+                }
+                Ok(Ordered(v))
+            }
+        }
+        d.deserialize_map(InOrder(std::marker::PhantomData))
+    }
+}
+
+impl<T> Ordered<T> {
+    /// The value named `name`.
+    pub fn get(&self, name: &str) -> Option<&T> {
+        self.0.iter().find(|(n, _)| n == name).map(|(_, v)| v)
+    }
+}
+
+/// JSON has no NaN or infinity: serde_json writes them as `null`, and this reads `null` back
+/// as NaN (a metric of data with zeros, say), so that every report written can be read.
+pub(crate) fn f64_or_null<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+/// A [`ModelKind`] as its name (`"six"`, `"lambert"`, ...), as the CLI spells it.
+pub mod model_name {
+    use brdf_core::ModelKind;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Writes the name.
+    pub fn serialize<S: Serializer>(kind: &ModelKind, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(kind.name())
+    }
+
+    /// Reads a name, naming the known ones when it is not one of them.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ModelKind, D::Error> {
+        let name = String::deserialize(d)?;
+        name.parse::<ModelKind>().map_err(serde::de::Error::custom)
+    }
+}
+
+/// Goodness of fit, unweighted, on the BRDF values.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Metrics {
+    /// Root-mean-square error, 1/sr.
+    #[serde(deserialize_with = "f64_or_null")]
+    pub rmse: f64,
+    /// Mean squared error, 1/sr^2.
+    #[serde(deserialize_with = "f64_or_null")]
+    pub mse: f64,
+    /// Root-mean-square relative error `(f - y) / y`.
+    #[serde(deserialize_with = "f64_or_null")]
+    pub rms_rel: f64,
+    /// Largest `|f - y| / y`.
+    #[serde(deserialize_with = "f64_or_null")]
+    pub max_rel: f64,
+    /// Root-mean-square of `ln f - ln y`.
+    #[serde(deserialize_with = "f64_or_null")]
+    pub log_rmse: f64,
+}
+
+/// Metrics of model values `f` against measurements `y`.
+pub fn metrics(f: &[f64], y: &[f64]) -> Metrics {
+    let n = f.len().max(1) as f64;
+    let (mut se, mut sr, mut mr, mut sl) = (0.0, 0.0, 0.0_f64, 0.0);
+    for (&f, &y) in f.iter().zip(y) {
+        se += (f - y) * (f - y);
+        let rel = (f - y) / y;
+        sr += rel * rel;
+        mr = mr.max(rel.abs());
+        let l = if f > 0.0 { f.ln() - y.ln() } else { f64::INFINITY };
+        sl += l * l;
+    }
+    Metrics {
+        rmse: (se / n).sqrt(),
+        mse: se / n,
+        rms_rel: (sr / n).sqrt(),
+        max_rel: mr,
+        log_rmse: (sl / n).sqrt(),
+    }
+}
+
+/// Radians to degrees, rounded to 1e-9 so that 30 prints as 30.
+pub(crate) fn degrees(rad: f64) -> f64 {
+    (rad.to_degrees() * 1e9).round() / 1e9
+}
+
+/// [`IncidenceMetrics`] as written, read without `#[serde(flatten)]`: serde buffers flattened
+/// fields, and a buffered number does not read back as `f64` when serde_json's
+/// `arbitrary_precision` feature is on anywhere in the build.
+#[derive(Deserialize)]
+struct FlatIncidenceMetrics {
+    #[serde(deserialize_with = "f64_or_null")]
+    theta_i: f64,
+    n: usize,
+    #[serde(deserialize_with = "f64_or_null")]
+    rmse: f64,
+    #[serde(deserialize_with = "f64_or_null")]
+    mse: f64,
+    #[serde(deserialize_with = "f64_or_null")]
+    rms_rel: f64,
+    #[serde(deserialize_with = "f64_or_null")]
+    max_rel: f64,
+    #[serde(deserialize_with = "f64_or_null")]
+    log_rmse: f64,
+}
+
+impl From<FlatIncidenceMetrics> for IncidenceMetrics {
+    fn from(f: FlatIncidenceMetrics) -> Self {
+        IncidenceMetrics {
+            theta_i: f.theta_i,
+            n: f.n,
+            metrics: Metrics {
+                rmse: f.rmse,
+                mse: f.mse,
+                rms_rel: f.rms_rel,
+                max_rel: f.max_rel,
+                log_rmse: f.log_rmse,
+            },
+        }
+    }
+}
+
+/// Metrics of the points at one incidence angle.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(from = "FlatIncidenceMetrics")]
+pub struct IncidenceMetrics {
+    /// Incidence zenith, degrees.
+    #[serde(deserialize_with = "f64_or_null")]
+    pub theta_i: f64,
+    /// Points at this incidence.
+    pub n: usize,
+    /// Their metrics.
+    #[serde(flatten)]
+    pub metrics: Metrics,
+}
+
+/// Everything `brdf fit --json` prints for one dataset.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitReport {
+    /// Dataset name (file, and group if any).
+    pub dataset: String,
+    /// The model (written as its name).
+    #[serde(with = "model_name")]
+    pub model: ModelKind,
+    /// Fitted parameters, paper names and order (`b` negative, as in the paper).
+    pub params: Ordered<f64>,
+    /// Goodness of fit over all points.
+    pub metrics: Metrics,
+    /// The same per incidence angle.
+    pub per_incidence: Vec<IncidenceMetrics>,
+    /// Number of points.
+    pub n: usize,
+    /// Number of parameters.
+    pub k: usize,
+    /// Akaike information criterion `n ln(RSS/n) + 2k` on the fitted residuals.
+    #[serde(deserialize_with = "f64_or_null")]
+    pub aic: f64,
+    /// Bayesian information criterion `n ln(RSS/n) + k ln n`.
+    #[serde(deserialize_with = "f64_or_null")]
+    pub bic: f64,
+    /// Wall time of the fit, seconds.
+    #[serde(deserialize_with = "f64_or_null")]
+    pub seconds: f64,
+    /// Residual form.
+    pub residual: Residual,
+    /// Seed of the run.
+    pub seed: u64,
+    /// `0.5 * sum r^2` at the optimum.
+    #[serde(deserialize_with = "f64_or_null")]
+    pub cost: f64,
+    /// Passes over the data.
+    pub evals: usize,
+    /// The global search met every convergence test (see `brdf_fit::fit`); when false,
+    /// `search.not_converged` says why.
+    pub converged: bool,
+    /// How the global search went.
+    pub search: SearchSummary,
+    /// Robust loss of the fit.
+    pub loss: Loss,
+    /// The six-parameter `c` was searched below 0 (`--brightening`).
+    pub brightening: bool,
+    /// The points whose removal changes the fit most.
+    pub influence: Influence,
+    /// Parameter uncertainty and undetermined-parameter flags.
+    pub uncertainty: Uncertainty,
+    /// Energy check.
+    pub energy: Energy,
+    /// Parameters outside the model's valid ranges (`brdf_core::ranges`), each as
+    /// `"kb = 12000 is not in [0, 10000]"`. The fitter bounds the linear weights only below
+    /// (a bound above would make the fit depend on the data's units), so an uncalibrated
+    /// dataset can fit weights no device accepts: such a fit cannot be packed.
+    pub outside_ranges: Vec<String>,
+}
+
+/// Why a fit result could not be read back.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// Not JSON, or not shaped like `brdf fit --json` output.
+    #[error("{origin}: line {line}, column {column}: {message}")]
+    Json {
+        /// File, and fit index in an array (`fits.json: fit 2`).
+        origin: String,
+        /// Line in the file (1-based).
+        line: usize,
+        /// Column in that line (1-based).
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A parameter of the model is missing.
+    #[error("{origin}: no parameter `{name}` for the {model} model")]
+    MissingParam {
+        /// File and fit index.
+        origin: String,
+        /// The parameter.
+        name: &'static str,
+        /// The model.
+        model: &'static str,
+    },
+}
+
+impl ReadError {
+    /// A serde_json error in `part`, a slice of `text` (positions made absolute in `text`).
+    fn json(origin: String, text: &str, part: &str, e: &serde_json::Error) -> ReadError {
+        let offset = (part.as_ptr() as usize)
+            .saturating_sub(text.as_ptr() as usize)
+            .min(text.len());
+        let before = &text[..offset];
+        let lines_before = before.matches('\n').count();
+        let line_start_col = before.len() - before.rfind('\n').map_or(0, |k| k + 1);
+        let (line, column) = match e.line() {
+            0 => (lines_before + 1, line_start_col + 1),
+            1 => (lines_before + 1, line_start_col + e.column()),
+            l => (lines_before + l, e.column()),
+        };
+        let full = e.to_string();
+        let suffix = format!(" at line {} column {}", e.line(), e.column());
+        ReadError::Json {
+            origin,
+            line,
+            column,
+            message: full.strip_suffix(&suffix).unwrap_or(&full).to_owned(),
+        }
+    }
+}
+
+/// The part of a fit result a device or a scene needs: the model and its parameters. Reads
+/// whole `brdf fit --json` output (the other fields are skipped) as well as a hand-written
+/// `{"model": "six", "params": {"kb": 0.25, ...}}`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct FittedModel {
+    /// The model (written as its name).
+    #[serde(with = "model_name")]
+    pub model: ModelKind,
+    /// Parameters by name, paper order and signs (`b` negative).
+    pub params: Ordered<f64>,
+}
+
+/// The parameters of `kind` from a name-to-value map, in paper order (unused entries 0), or
+/// the name of one that is missing.
+fn params_in_order(kind: ModelKind, params: &Ordered<f64>) -> Result<[f64; MAX_PARAMS], &'static str> {
+    let mut p = [0.0; MAX_PARAMS];
+    for (v, name) in p.iter_mut().zip(kind.param_names()) {
+        *v = *params.get(name).ok_or(*name)?;
+    }
+    Ok(p)
+}
+
+/// One fit result, or an array of them, from `text`, each checked to name every parameter
+/// of its model.
+fn read_fits<T: serde::de::DeserializeOwned>(
+    text: &str,
+    origin: &str,
+    params: impl Fn(&T) -> (ModelKind, Result<[f64; MAX_PARAMS], &'static str>),
+) -> Result<Vec<T>, ReadError> {
+    let items: Vec<&serde_json::value::RawValue> = if text.trim_start().starts_with('[') {
+        serde_json::from_str(text).map_err(|e| ReadError::json(origin.to_owned(), text, text, &e))?
+    } else {
+        vec![serde_json::from_str(text).map_err(|e| ReadError::json(origin.to_owned(), text, text, &e))?]
+    };
+    let mut out = Vec::with_capacity(items.len());
+    for (i, item) in items.into_iter().enumerate() {
+        let origin = format!("{origin}: fit {i}");
+        let part = item.get();
+        let r: T = serde_json::from_str(part).map_err(|e| ReadError::json(origin.clone(), text, part, &e))?;
+        let (kind, p) = params(&r);
+        p.map_err(|name| ReadError::MissingParam {
+            origin,
+            name,
+            model: kind.name(),
+        })?;
+        out.push(r);
+    }
+    Ok(out)
+}
+
+impl FittedModel {
+    /// Reads one fit result or an array of them (see [`FitReport::from_json`]).
+    pub fn from_json(text: &str, origin: &str) -> Result<Vec<FittedModel>, ReadError> {
+        read_fits(text, origin, |r: &FittedModel| (r.model, r.params_array()))
+    }
+
+    /// The parameters in paper order (unused entries 0), or the name of one that is missing.
+    pub fn params_array(&self) -> Result<[f64; MAX_PARAMS], &'static str> {
+        params_in_order(self.model, &self.params)
+    }
+
+    /// The model in f64, refused naming the parameter when one is missing or outside its
+    /// range.
+    pub fn model(&self) -> Result<AnyModel<f64>, brdf_core::ParamError> {
+        let p = self.params_array().unwrap_or([f64::NAN; MAX_PARAMS]);
+        AnyModel::new(self.model, &p[..self.model.param_count()])
+    }
+}
+
+impl FitReport {
+    /// Reads `brdf fit --json` output: one report, or an array of them (a batch fit).
+    /// `origin` names the source in errors (`fits.json: fit 2: line 40, column 12: ...`).
+    pub fn from_json(text: &str, origin: &str) -> Result<Vec<FitReport>, ReadError> {
+        read_fits(text, origin, |r: &FitReport| (r.model, r.params_array()))
+    }
+
+    /// The model and parameters alone.
+    pub fn fitted(&self) -> FittedModel {
+        FittedModel {
+            model: self.model,
+            params: self.params.clone(),
+        }
+    }
+
+    /// The parameters in paper order (unused entries 0), or the name of one that is missing.
+    pub fn params_array(&self) -> Result<[f64; MAX_PARAMS], &'static str> {
+        params_in_order(self.model, &self.params)
+    }
+
+    /// The fitted model in f64 (refused, naming the parameter, when a parameter is outside
+    /// its range: see [`FitReport::outside_ranges`]).
+    pub fn model(&self) -> Result<AnyModel<f64>, brdf_core::ParamError> {
+        self.fitted().model()
+    }
+
+    /// Names of the parameters flagged as not determined by the data, in paper order.
+    pub fn undetermined(&self) -> Vec<&str> {
+        self.uncertainty
+            .params
+            .0
+            .iter()
+            .filter(|(_, u)| !u.determined)
+            .map(|(n, _)| n.as_str())
+            .collect()
+    }
+}
+
+/// Builds the report of a finished fit.
+pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: &FitOptions) -> FitReport {
+    let kind: ModelKind = outcome.kind;
+    let values = problem.values(&outcome.q);
+    let y: Vec<f64> = dataset.points.iter().map(|p| p.brdf).collect();
+    let incidences = dataset.incidences();
+    let per_incidence = incidences
+        .iter()
+        .map(|&ti| {
+            let (f, yy): (Vec<f64>, Vec<f64>) = dataset
+                .points
+                .iter()
+                .zip(&values)
+                .filter(|(p, _)| (p.theta_i - ti).abs() < 1e-9)
+                .map(|(p, &f)| (f, p.brdf))
+                .unzip();
+            IncidenceMetrics {
+                theta_i: degrees(ti),
+                n: f.len(),
+                metrics: metrics(&f, &yy),
+            }
+        })
+        .collect();
+    let n = problem.len();
+    let k = kind.param_count();
+    let rss = 2.0 * outcome.cost;
+    let nf = n as f64;
+    let ll = nf * (rss / nf).max(1e-300).ln();
+    let params = &outcome.params[..k];
+    let outside_ranges: Vec<String> = kind
+        .ranges()
+        .iter()
+        .zip(params)
+        .filter(|(r, &v)| !r.contains(v))
+        .map(|(r, v)| format!("{} = {v} is not {}", r.name, r.text))
+        .collect();
+    FitReport {
+        dataset: dataset.name.clone(),
+        model: kind,
+        params: Ordered(
+            kind.param_names()
+                .iter()
+                .zip(&outcome.params)
+                .map(|(n, v)| ((*n).to_owned(), *v))
+                .collect(),
+        ),
+        metrics: metrics(&values, &y),
+        per_incidence,
+        n,
+        k,
+        aic: ll + 2.0 * k as f64,
+        bic: ll + k as f64 * nf.ln(),
+        seconds: outcome.seconds,
+        residual: problem.residual(),
+        seed: opts.seed,
+        cost: outcome.cost,
+        evals: outcome.evals,
+        converged: outcome.converged,
+        search: outcome.search.clone(),
+        loss: problem.loss(),
+        brightening: problem.brightening(),
+        influence: influence(dataset, problem, outcome, opts),
+        uncertainty: uncertainty(problem, outcome),
+        energy: energy_of(kind, params, &incidences),
+        outside_ranges,
+    }
+}

@@ -1,0 +1,186 @@
+//! `brdf.eval` and `brdf.albedo`: arrays through the batch path (f64) or the scalar f32 path, with `brdf eval`'s checks and messages.
+
+use super::*;
+
+/// The first non-finite value as the CLI reports it.
+pub(crate) fn finite<T: Float>(values: &[T], kind: ModelKind) -> Result<(), Failure> {
+    match values.iter().position(|f| !f.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(Failure::At(i, brdf_fit::params::not_finite(values[i], kind))),
+    }
+}
+
+pub(crate) fn batch_failure(e: BatchError) -> Failure {
+    match e {
+        BatchError::Domain { index, error } => Failure::At(index, error.to_string()),
+        other => Failure::General(other.to_string()),
+    }
+}
+
+/// Validates angles in degrees as `brdf eval` validates its CSV rows.
+pub(crate) fn check_degrees(cols: [&[f64]; 3]) -> Result<(), Failure> {
+    for i in 0..cols[0].len() {
+        brdf_fit::params::check_eval_degrees([cols[0][i], cols[1][i], cols[2][i]])
+            .map_err(|e| Failure::At(i, e))?;
+    }
+    Ok(())
+}
+
+/// Angles in degrees to radians in f64, rounded once to `T` (as `brdf eval`).
+pub(crate) fn radians<T: Float>(deg: &[f64]) -> Vec<T> {
+    deg.iter().map(|d| T::from_f64(d.to_radians())).collect()
+}
+
+/// `brdf eval` on arrays: f64 through the batch path, f32 through the scalar path (the
+/// firmware's arithmetic); on all cores when `parallel` (each value the same bit for bit).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn eval_angles<'py>(
+    py: Python<'py>,
+    model: &str,
+    params: &str,
+    theta_i: PyReadonlyArray1<'py, f64>,
+    theta_r: PyReadonlyArray1<'py, f64>,
+    phi: PyReadonlyArray1<'py, f64>,
+    precision: &str,
+    parallel: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    use rayon::prelude::*;
+    let kind = parse_kind(model)?;
+    let cols = [
+        slice(&theta_i, "theta_i")?,
+        slice(&theta_r, "theta_r")?,
+        slice(&phi, "phi")?,
+    ];
+    match precision {
+        "f64" => {
+            let m: AnyModel<f64> = build(kind, params)?;
+            let out = py.detach(|| -> Result<Vec<f64>, Failure> {
+                check_degrees(cols)?;
+                let [a, b, c] = cols.map(radians::<f64>);
+                let mut out = vec![0.0; a.len()];
+                par::eval(&Batch::new(&m), Inputs::Angles([&a, &b, &c]), &mut out, parallel)
+                    .map_err(batch_failure)?;
+                finite(&out, kind)?;
+                Ok(out)
+            })?;
+            Ok(PyArray1::from_vec(py, out).into_any())
+        }
+        "f32" => {
+            let m: AnyModel<f32> = build(kind, params)?;
+            let out = py.detach(|| -> Result<Vec<f32>, Failure> {
+                check_degrees(cols)?;
+                let [a, b, c] = cols.map(radians::<f32>);
+                let one = |i: usize| m.eval_angles(a[i], b[i], c[i]);
+                let out: Vec<f32> = if parallel {
+                    (0..a.len())
+                        .into_par_iter()
+                        .with_min_len(par::PAR_CHUNK)
+                        .map(one)
+                        .collect()
+                } else {
+                    (0..a.len()).map(one).collect()
+                };
+                finite(&out, kind)?;
+                Ok(out)
+            })?;
+            Ok(PyArray1::from_vec(py, out).into_any())
+        }
+        other => Err(PyValueError::new_err(format!(
+            "unknown precision `{other}` (expected f64 or f32)"
+        ))),
+    }
+}
+
+/// Directional-hemispherical reflectance at incidences `theta_i` (degrees) through the batch
+/// path, by `brdf_core::checks::albedo_batch` with `panels` panels (the fit report's energy
+/// check uses the default 8).
+#[pyfunction]
+pub(crate) fn albedo<'py>(
+    py: Python<'py>,
+    model: &str,
+    params: &str,
+    theta_i: PyReadonlyArray1<'py, f64>,
+    panels: u16,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    use brdf_core::checks::{albedo_batch, AlbedoRule};
+    let kind = parse_kind(model)?;
+    let m: AnyModel<f64> = build(kind, params)?;
+    if panels < 2 {
+        return Err(PyValueError::new_err(format!("panels {panels}: need at least 2")));
+    }
+    let ti = slice(&theta_i, "theta_i")?;
+    let out = py.detach(|| -> Result<Vec<f64>, Failure> {
+        for (i, &v) in ti.iter().enumerate() {
+            if !(v.is_finite() && (0.0..=90.0).contains(&v)) {
+                return Err(Failure::At(
+                    i,
+                    format!("theta_i: zenith {v} deg is outside [0, 90]"),
+                ));
+            }
+        }
+        let b = Batch::new(&m);
+        Ok(ti
+            .iter()
+            .map(|d| albedo_batch(&b, d.to_radians(), AlbedoRule { panels }))
+            .collect())
+    })?;
+    Ok(PyArray1::from_vec(py, out))
+}
+
+/// Evaluates cosines or vectors in precision `T` through the batch path (on all cores when
+/// `parallel`).
+pub(crate) fn eval_batch<T: Float + Send + Sync>(
+    kind: ModelKind,
+    params: &str,
+    inputs: &[&[f64]],
+    parallel: bool,
+) -> Result<Vec<T>, Failure> {
+    let m: AnyModel<T> = build(kind, params)?;
+    let cols: Vec<Vec<T>> = inputs
+        .iter()
+        .map(|c| c.iter().map(|&v| T::from_f64(v)).collect())
+        .collect();
+    let mut out = vec![T::ZERO; inputs[0].len()];
+    let what = if cols.len() == 3 {
+        Inputs::Cosines([&cols[0], &cols[1], &cols[2]])
+    } else {
+        Inputs::Vectors([&cols[0], &cols[1], &cols[2]], [&cols[3], &cols[4], &cols[5]])
+    };
+    par::eval(&Batch::new(&m), what, &mut out, parallel).map_err(batch_failure)?;
+    finite(&out, kind)?;
+    Ok(out)
+}
+
+/// `Batch::cosines` (3 arrays) or `Batch::vectors` (6 arrays: wi x, y, z, wr x, y, z).
+#[pyfunction]
+pub(crate) fn eval_columns<'py>(
+    py: Python<'py>,
+    model: &str,
+    params: &str,
+    columns: Vec<PyReadonlyArray1<'py, f64>>,
+    precision: &str,
+    parallel: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let kind = parse_kind(model)?;
+    if columns.len() != 3 && columns.len() != 6 {
+        return Err(PyValueError::new_err("internal: need 3 or 6 columns"));
+    }
+    let cols: Vec<&[f64]> = columns
+        .iter()
+        .map(|c| slice(c, "input"))
+        .collect::<PyResult<_>>()?;
+    match precision {
+        "f64" => {
+            let out = py.detach(|| eval_batch::<f64>(kind, params, &cols, parallel))?;
+            Ok(PyArray1::from_vec(py, out).into_any())
+        }
+        "f32" => {
+            let out = py.detach(|| eval_batch::<f32>(kind, params, &cols, parallel))?;
+            Ok(PyArray1::from_vec(py, out).into_any())
+        }
+        other => Err(PyValueError::new_err(format!(
+            "unknown precision `{other}` (expected f64 or f32)"
+        ))),
+    }
+}

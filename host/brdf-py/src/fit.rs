@@ -1,0 +1,245 @@
+//! `brdf.fit` and `brdf.read`: the fit settings as `brdf fit` builds them, datasets from files or arrays.
+
+use super::*;
+
+/// Fit settings as `brdf fit` builds them from its options.
+#[pyclass(module = "brdf._brdf", frozen)]
+#[derive(Clone, Debug)]
+pub(crate) struct Settings {
+    pub(crate) settings: FitSettings,
+    pub(crate) skip_invalid: bool,
+    pub(crate) format: Option<Format>,
+    pub(crate) channel: Channel,
+}
+
+#[pymethods]
+impl Settings {
+    #[new]
+    #[pyo3(signature = (model, seed, residual, engine, chains, agree, hops, anneal_evals,
+                        loss, loss_scale, brightening, budget_evals, skip_invalid, format, channel))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        model: &str,
+        seed: u64,
+        residual: &str,
+        engine: &str,
+        chains: Option<u64>,
+        agree: Option<u64>,
+        hops: Option<u64>,
+        anneal_evals: Option<u64>,
+        loss: &str,
+        loss_scale: f64,
+        brightening: bool,
+        budget_evals: Option<u64>,
+        skip_invalid: bool,
+        format: Option<&str>,
+        channel: &str,
+    ) -> PyResult<Self> {
+        let d = FitRequest::new(kind_of(model)?);
+        let request = FitRequest {
+            seed,
+            residual: parse(residual)?,
+            engine: parse(engine)?,
+            chains: chains.unwrap_or(d.chains),
+            agree: agree.unwrap_or(d.agree),
+            hops: hops.unwrap_or(d.hops),
+            anneal_evals: anneal_evals.unwrap_or(d.anneal_evals),
+            loss: parse(loss)?,
+            loss_scale,
+            brightening,
+            budget_evals: budget_evals.unwrap_or(d.budget_evals),
+            ..d
+        };
+        let settings =
+            FitSettings::from_options(&request).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let format = format.map(parse::<Format>).transpose()?;
+        let channel = parse::<Channel>(channel)?;
+        Ok(Settings {
+            settings,
+            skip_invalid,
+            format,
+            channel,
+        })
+    }
+}
+
+/// Fits every dataset; returns each report as `brdf fit --json` prints one.
+pub(crate) fn fit_datasets(py: Python<'_>, s: &Settings, datasets: Vec<Dataset>) -> PyResult<Vec<String>> {
+    let settings = s.settings;
+    py.detach(move || {
+        brdf_fit::fit_streamed(&settings, &datasets, |_, _| {})
+            .into_iter()
+            .map(|r| match r {
+                Ok(r) => serde_json::to_string_pretty(&r).map_err(|e| e.to_string()),
+                Err(e) => Err(e.to_string()),
+            })
+            .collect::<Result<Vec<String>, String>>()
+    })
+    .map_err(PyValueError::new_err)
+}
+
+/// Reads data files as `brdf fit [--format F] [--skip-invalid] FILES` does; returns the
+/// datasets and the messages the CLI prints on standard error.
+pub(crate) fn load(s: &Settings, paths: &[String]) -> PyResult<(Vec<Dataset>, Vec<String>)> {
+    let mut out = Vec::new();
+    let mut notes = Vec::new();
+    for f in paths {
+        let path = std::path::Path::new(f);
+        if let Some(format) = s.format {
+            let imp = import(path, format, s.channel)
+                .map_err(|e| PyValueError::new_err(format!("cannot import {f}: {e}")))?;
+            for r in &imp.rejects {
+                notes.push(format!("{f}: rejected line {}: {}", r.line, r.reason));
+            }
+            out.extend(imp.datasets);
+            continue;
+        }
+        let opts = LoadOptions {
+            skip_invalid: s.skip_invalid,
+            allow_zero_brdf: s.settings.residual == Residual::Absolute,
+        };
+        let loaded =
+            load_csv(path, opts).map_err(|e| PyValueError::new_err(format!("cannot use {f}: {e}")))?;
+        for sk in &loaded.skipped {
+            notes.push(format!("{f}: skipped line {}: {}", sk.line, sk.reason));
+        }
+        out.extend(loaded.datasets);
+    }
+    Ok((out, notes))
+}
+
+/// `brdf fit` on files: (reports as JSON text, rejected/skipped-row notes).
+#[pyfunction]
+pub(crate) fn fit_paths(
+    py: Python<'_>,
+    settings: &Settings,
+    paths: Vec<String>,
+) -> PyResult<(Vec<String>, Vec<String>)> {
+    let (datasets, notes) = load(settings, &paths)?;
+    Ok((fit_datasets(py, settings, datasets)?, notes))
+}
+
+/// Datasets of files, as `(name, theta_i, theta_r, phi, brdf, sigma, weight)` in degrees.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+pub(crate) fn read_paths(
+    settings: &Settings,
+    paths: Vec<String>,
+) -> PyResult<(
+    Vec<(
+        String,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<Option<f64>>,
+        Vec<Option<f64>>,
+    )>,
+    Vec<String>,
+)> {
+    let (datasets, notes) = load(settings, &paths)?;
+    let sets = datasets
+        .into_iter()
+        .map(|d| {
+            let p = &d.points;
+            (
+                d.name.clone(),
+                p.iter().map(|q| q.theta_i.to_degrees()).collect(),
+                p.iter().map(|q| q.theta_r.to_degrees()).collect(),
+                p.iter().map(|q| q.phi.to_degrees()).collect(),
+                p.iter().map(|q| q.brdf).collect(),
+                p.iter().map(|q| q.sigma).collect(),
+                p.iter().map(|q| q.weight).collect(),
+            )
+        })
+        .collect();
+    Ok((sets, notes))
+}
+
+/// `brdf fit` on one dataset given as arrays (degrees; `sigma`/`weight` optional).
+#[pyfunction]
+#[pyo3(signature = (settings, name, theta_i, theta_r, phi, brdf, sigma=None, weight=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn fit_arrays<'py>(
+    py: Python<'py>,
+    settings: &Settings,
+    name: String,
+    theta_i: PyReadonlyArray1<'py, f64>,
+    theta_r: PyReadonlyArray1<'py, f64>,
+    phi: PyReadonlyArray1<'py, f64>,
+    brdf: PyReadonlyArray1<'py, f64>,
+    sigma: Option<PyReadonlyArray1<'py, f64>>,
+    weight: Option<PyReadonlyArray1<'py, f64>>,
+) -> PyResult<String> {
+    let allow_zero = settings.settings.residual == Residual::Absolute;
+    let columns = (
+        &theta_i,
+        &theta_r,
+        &phi,
+        &brdf,
+        sigma.as_ref(),
+        weight.as_ref(),
+        allow_zero,
+    );
+    let mut reports = fit_datasets(py, settings, vec![dataset(name, columns)?])?;
+    Ok(reports.remove(0))
+}
+
+/// The six columns of an array dataset (degrees; `sigma`/`weight` optional).
+pub(crate) type Columns<'a, 'py> = (
+    &'a PyReadonlyArray1<'py, f64>,
+    &'a PyReadonlyArray1<'py, f64>,
+    &'a PyReadonlyArray1<'py, f64>,
+    &'a PyReadonlyArray1<'py, f64>,
+    Option<&'a PyReadonlyArray1<'py, f64>>,
+    Option<&'a PyReadonlyArray1<'py, f64>>,
+    bool,
+);
+
+/// A dataset from arrays, each row checked as `brdf fit` checks a CSV row (`allow_zero`: a
+/// BRDF of 0 is allowed, for absolute residuals).
+pub(crate) fn dataset(name: String, columns: Columns<'_, '_>) -> PyResult<Dataset> {
+    let (theta_i, theta_r, phi, brdf, sigma, weight, allow_zero) = columns;
+    if sigma.is_some() && weight.is_some() {
+        return Err(PyValueError::new_err("sigma and weight cannot be used together"));
+    }
+    let n = theta_i.len();
+    if n == 0 {
+        return Err(PyValueError::new_err("no data points"));
+    }
+    let ti = slice(theta_i, "theta_i")?;
+    let tr = slice(theta_r, "theta_r")?;
+    let ph = slice(phi, "phi")?;
+    let f = slice(brdf, "brdf")?;
+    let sg = sigma.map(|a| slice(a, "sigma")).transpose()?;
+    let wt = weight.map(|a| slice(a, "weight")).transpose()?;
+    let points = (0..n)
+        .map(|i| {
+            let row = RowDegrees {
+                theta_i: ti[i],
+                theta_r: tr[i],
+                phi: ph[i],
+                brdf: f[i],
+                sigma: sg.map(|s| s[i]),
+                weight: wt.map(|w| w[i]),
+            };
+            // `line` is the 1-based row number, as a CSV file's data rows would count.
+            Point::from_degrees(row, allow_zero, i as u64 + 1).map_err(|e| Failure::At(i, e.to_string()))
+        })
+        .collect::<Result<Vec<Point>, Failure>>()?;
+    Ok(Dataset { name, points })
+}
+
+/// What `select_path` and `select_arrays` return, as `pack` does: `((selection JSON,
+/// candidate reports as JSON, blob or None) or None, notes, error or None)`; the notes found
+/// before a failure are returned with it, as the CLI prints them before its error.
+pub(crate) type Selected<'py> = (
+    Option<(String, Vec<String>, Option<Bound<'py, PyBytes>>)>,
+    Vec<String>,
+    Option<String>,
+);
+
+/// `brdf.select`'s options after the data: `(budget, max_theta_i, max_theta_r,
+/// allow_nonphysical, sequence)`, as `brdf select --budget --max-theta-i --max-theta-r
+/// --allow-nonphysical --sequence`.
+pub(crate) type SelectArgs = (f64, f64, f64, bool, u32);

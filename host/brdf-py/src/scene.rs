@@ -1,0 +1,116 @@
+//! `brdf.scene_lrcs`, `brdf.scene_domain`, `brdf.select_scene`: the scene commands through the same library calls.
+
+use super::*;
+
+/// The scene at `path`, or the message `brdf scene` prints when it cannot be used.
+pub(crate) fn scene_at(path: &str) -> PyResult<brdf_scene::scene::Scene> {
+    brdf_scene::scene::Scene::open(std::path::Path::new(path))
+        .map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+/// σ per aspect, as `brdf scene lrcs` computes it.
+pub(crate) type SceneLrcs = (
+    String,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<Vec<f64>>,
+    Vec<usize>,
+    Vec<String>,
+);
+
+/// `brdf scene lrcs` through the same library calls (`brdf_scene::lrcs::lrcs`,
+/// `LrcsReport`): the JSON `--json` prints, then per aspect azimuth, elevation, σ, each
+/// material's share and the facets seen, then the materials' parts.
+#[pyfunction]
+pub(crate) fn scene_lrcs(py: Python<'_>, path: String) -> PyResult<SceneLrcs> {
+    use brdf_scene::lrcs::{lrcs, LrcsReport};
+    let scene = scene_at(&path)?;
+    py.detach(|| {
+        let result = lrcs(&scene, &|| {});
+        let text = serde_json::to_string_pretty(&LrcsReport::new(path, &scene, &result))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let a = &result.aspects;
+        Ok((
+            text,
+            a.iter().map(|x| x.azimuth).collect(),
+            a.iter().map(|x| x.elevation).collect(),
+            a.iter().map(|x| x.lrcs).collect(),
+            a.iter().map(|x| x.by_material.clone()).collect(),
+            a.iter().map(|x| x.facets_seen).collect(),
+            scene.materials.iter().map(|m| m.part.clone()).collect(),
+        ))
+    })
+}
+
+/// The scene's queries, as `brdf scene domain` writes them.
+pub(crate) type SceneDomain = (
+    Vec<f64>,
+    Vec<f64>,
+    Vec<usize>,
+    Vec<String>,
+    Vec<usize>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+);
+
+/// `brdf scene domain` through the same library calls (`brdf_scene::queries::collect_queries`,
+/// `brdf_scene::queries::rows`): its columns, in its row order.
+#[pyfunction]
+pub(crate) fn scene_domain(py: Python<'_>, path: String) -> PyResult<SceneDomain> {
+    let scene = scene_at(&path)?;
+    Ok(py.detach(|| {
+        let d = brdf_scene::queries::collect_queries(&scene, &|| {});
+        let mut c: SceneDomain = Default::default();
+        for r in brdf_scene::queries::rows(&scene, &d) {
+            c.0.push(r.azimuth);
+            c.1.push(r.elevation);
+            c.2.push(r.material);
+            c.3.push(r.part.to_owned());
+            c.4.push(r.facet);
+            c.5.push(r.theta_i);
+            c.6.push(r.theta_r);
+            c.7.push(r.phi);
+            c.8.push(r.weight);
+        }
+        c
+    }))
+}
+
+/// `brdf select --scene` through the same library calls (`brdf_scene::queries::collect_queries`,
+/// `brdf_scene::select::select`): the JSON `--json` prints, the blob `-o` writes (or None)
+/// and why there is none.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+pub(crate) fn select_scene<'py>(
+    py: Python<'py>,
+    path: String,
+    budget: f64,
+    seed: u64,
+    sequence: u32,
+    allow_nonphysical: bool,
+) -> PyResult<(String, Option<Bound<'py, PyBytes>>, Option<String>)> {
+    use brdf_scene::select::{select, SelectOptions};
+    check_budget(budget).map_err(PyValueError::new_err)?;
+    let scene = scene_at(&path)?;
+    let opts = SelectOptions {
+        budget,
+        fit: FitOptions {
+            seed,
+            ..FitOptions::default()
+        },
+        sequence,
+        allow_nonphysical,
+        ..SelectOptions::default()
+    };
+    let (text, blob, note) = py.detach(|| {
+        let domain = brdf_scene::queries::collect_queries(&scene, &|| {});
+        let s = select(&scene, &domain, &opts);
+        let text = serde_json::to_string_pretty(&s).map_err(|e| e.to_string());
+        (text, s.blob().map(<[u8]>::to_vec), s.blob_note.clone())
+    });
+    let text = text.map_err(PyValueError::new_err)?;
+    Ok((text, blob.map(|b| PyBytes::new(py, &b)), note))
+}
