@@ -21,8 +21,10 @@ use crate::common::{parse_fraction, write_blob, EngineArgs};
 /// a parameter blob for `brdf flash`.
 #[derive(Debug, Args)]
 pub struct SelectCmd {
-    /// Largest acceptable error, e.g. 2% or 0.02: the RMS relative error over the data's
-    /// domain; with --scene, the worst relative error of a material's σ at any aspect.
+    /// Largest acceptable error, e.g. 2% or 0.02: the held-out (5-fold cross-validated) RMS
+    /// relative error over the data's domain; with --scene, the worst relative error of a
+    /// material's σ at any aspect. When nothing meets it, the most accurate representation is
+    /// chosen (and written), and the output says so.
     #[arg(long, value_parser = parse_fraction, default_value_t = brdf_scene::select::DEFAULT_BUDGET)]
     budget: f64,
     /// Angular domain: only points with theta_i and theta_r at most this (degrees; not with
@@ -38,6 +40,10 @@ pub struct SelectCmd {
     /// Write the chosen representation as a parameter blob.
     #[arg(short = 'o', long)]
     output: Option<PathBuf>,
+    /// Write the fit the chosen representation comes from, as `brdf fit --json` prints it
+    /// (for `brdf pack`; add `--table N` there for a table rung). Not with --scene.
+    #[arg(long, value_name = "FILE.json", conflicts_with = "scene")]
+    chosen: Option<PathBuf>,
     /// Sequence number of the blob written with -o.
     #[arg(long, default_value_t = 1)]
     sequence: u32,
@@ -89,8 +95,22 @@ impl SelectCmd {
                 &brdf_fit::pack::encode(&[*m], std::slice::from_ref(table), self.sequence)?,
                 path,
             )?,
-            (Some(_), None) => bail!("no representation meets the budget; nothing written"),
+            (Some(_), None) => bail!("no representation could be chosen; nothing written: {}", s.reason),
             _ => {}
+        }
+        if let Some(path) = &self.chosen {
+            let Some(i) = s.chosen_fit else {
+                bail!(
+                    "no representation could be chosen; {} not written: {}",
+                    path.display(),
+                    s.reason
+                );
+            };
+            let text = serde_json::to_string_pretty(&s.candidates[i])?;
+            std::fs::write(path, text + "\n").with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        if s.chosen.is_some() && !s.within_budget {
+            eprintln!("warning: {}", s.reason);
         }
         let (reports, reprs, reason) = (&s.candidates, &s.representations, &s.reason);
         let stdout = std::io::stdout();
@@ -101,7 +121,7 @@ impl SelectCmd {
         }
         writeln!(
             out,
-            "{}: {} points with theta_i <= {max_i} deg, theta_r <= {max_r} deg; budget: RMS relative error <= {:.2}%",
+            "{}: {} points with theta_i <= {max_i} deg, theta_r <= {max_r} deg; budget: held-out RMS relative error <= {:.2}%",
             domain.name,
             domain.points.len(),
             100.0 * self.budget
@@ -134,14 +154,22 @@ impl SelectCmd {
         writeln!(out)?;
         writeln!(
             out,
-            "{:<16} {:>10} {:>10} {:>13} {:>12} {:>8} {:>7}  caveat",
-            "representation", "rms rel %", "max rel %", "table vs exact", "M4F instr", "host ns", "bytes"
+            "{:<16} {:>9} {:>10} {:>10} {:>13} {:>12} {:>8} {:>7}  caveat",
+            "representation",
+            "cv rms %",
+            "rms rel %",
+            "max rel %",
+            "table vs exact",
+            "M4F instr",
+            "host ns",
+            "bytes"
         )?;
         for r in reprs {
             writeln!(
                 out,
-                "{:<16} {:>10.3} {:>10.3} {:>13} {:>12} {:>8.1} {:>7}  {}{}",
+                "{:<16} {:>9} {:>10.3} {:>10.3} {:>13} {:>12} {:>8.1} {:>7}  {}{}",
                 r.rung.name,
+                r.cv_rms_rel.map_or("-".into(), |e| format!("{:.3}", 100.0 * e)),
                 100.0 * r.rms_rel,
                 100.0 * r.max_rel,
                 r.table_vs_exact.map_or("-".into(), |e| format!("{e:.1e}")),

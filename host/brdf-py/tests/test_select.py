@@ -71,9 +71,21 @@ def test_arrays_select_as_the_file(root):
 def test_nothing_within_the_budget(cli, root):
     s = brdf.select(str(root / KHAKI), budget=1e-5)
     want = json.loads(cli("select", root / KHAKI, "--json", "--budget", "1e-5").stdout)
-    assert s.chosen is None and want["chosen"] is None
-    assert s.blob is None
+    # The most accurate by held-out error is chosen, and said to miss the budget.
+    assert s.chosen == want["chosen"] and s.chosen is not None
+    assert not s.within_budget and not want["within_budget"]
+    best = min(
+        (
+            r for r in s.representations
+            if r["fits_blob"] and r["reciprocal"] and r["bounded"] and r["cv_rms_rel"] is not None
+        ),
+        key=lambda r: r["cv_rms_rel"],
+    )
+    assert s.chosen == best["name"]
+    assert s.blob is not None
+    assert s.chosen_fit is not None and s.chosen_fit.model == best["model"]
     assert s.reason == want["reason"] and s.reason.startswith("nothing meets the 0.00% budget")
+    assert s.reason.endswith(f"chosen as the most accurate: {s.chosen}")
 
 
 def test_errors_are_the_cli_messages(cli, root, tmp_path):

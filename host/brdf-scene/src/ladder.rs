@@ -153,6 +153,8 @@ pub fn eligible(r: &Rung, allow_nonphysical: bool) -> bool {
 pub struct Choice {
     /// The cheapest eligible rung within the budget.
     pub best: Option<usize>,
+    /// The eligible rung with the smallest error (whether or not it meets the budget).
+    pub closest: Option<usize>,
     /// Why it was chosen, or why nothing was.
     pub reason: String,
 }
@@ -172,6 +174,9 @@ pub fn choose(
     let best = (0..rungs.len())
         .filter(|&i| errors[i] <= budget && eligible(rungs[i], allow_nonphysical))
         .min_by(|&a, &b| key(a).partial_cmp(&key(b)).unwrap_or(std::cmp::Ordering::Equal));
+    let closest = (0..rungs.len())
+        .filter(|&i| eligible(rungs[i], allow_nonphysical))
+        .min_by(|&a, &b| errors[a].total_cmp(&errors[b]));
     let physical_note = if allow_nonphysical {
         ""
     } else {
@@ -186,9 +191,6 @@ pub fn choose(
             100.0 * budget,
         ),
         None => {
-            let closest = (0..rungs.len())
-                .filter(|&i| eligible(rungs[i], allow_nonphysical))
-                .min_by(|&a, &b| errors[a].total_cmp(&errors[b]));
             let excluded: Vec<String> = (0..rungs.len())
                 .filter(|&i| errors[i] <= budget && rungs[i].fits_blob && !rungs[i].physical())
                 .map(|i| format!("{} ({})", rungs[i].name, rungs[i].caveat()))
@@ -211,7 +213,11 @@ pub fn choose(
             why
         }
     };
-    Choice { best, reason }
+    Choice {
+        best,
+        closest,
+        reason,
+    }
 }
 
 #[cfg(test)]

@@ -24,8 +24,14 @@ pub struct Representation {
     pub rung: Rung,
     /// Host nanoseconds per f32 lookup from cosines, measured in this run.
     pub host_ns: f64,
-    /// RMS relative error against the data over the domain.
+    /// RMS relative error against the data over the domain (training error: the model was
+    /// fitted to these points).
     pub rms_rel: f64,
+    /// Held-out error: the RMS relative error at every point of the domain, each predicted by
+    /// the model refitted without its fold ([`CV_FOLDS`]-fold cross-validation). What
+    /// `brdf select` chooses by. `None` when some fold could not be refitted (fewer distinct
+    /// directions than parameters left, or parameters no device material takes).
+    pub cv_rms_rel: Option<f64>,
     /// Largest relative error against the data over the domain.
     pub max_rel: f64,
     /// Max relative error of the table against the exact model at the data points.
@@ -82,12 +88,118 @@ pub fn representations(reports: &[FitReport], domain: &Dataset) -> Result<Vec<Re
                 rung,
                 host_ns: ns,
                 rms_rel: rms,
+                cv_rms_rel: None,
                 max_rel: max,
                 table_vs_exact,
             });
         }
     }
     Ok(reprs)
+}
+
+/// Folds of the cross-validation `brdf select` judges representations by: every point is held
+/// out once, each model refitted on the other 80% (the split of the held-out comparisons in
+/// docs/model-comparison.md). Five refits per model: enough that each training set is most
+/// of the data, few enough that a selection costs about six fits per model.
+pub const CV_FOLDS: usize = 5;
+
+/// Seed of the fold assignment (fixed: the same data always give the same folds).
+const CV_SEED: u64 = 0x5eed_c0ff_ee00_0005;
+
+/// The fold of each of `n` points: a fixed pseudo-random order dealt round-robin, so the
+/// folds differ in size by at most one and do not follow the file's order (measurements are
+/// usually sorted by incidence, and a fold of one incidence would test extrapolation).
+pub fn cv_folds(n: usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by_key(|&i| brdf_core::accuracy::splitmix64(&mut (i as u64 ^ CV_SEED)));
+    let mut fold = vec![0; n];
+    for (rank, &i) in order.iter().enumerate() {
+        fold[i] = rank % CV_FOLDS;
+    }
+    fold
+}
+
+/// Sets `cv_rms_rel` of every representation: per fold and model of the ladder, the model
+/// refitted with `settings` on the points outside the fold, each of its rungs evaluated at the
+/// fold's points. A rung gets a value only when every point was predicted.
+fn cross_validate(
+    domain: &Dataset,
+    settings: &(dyn Fn(ModelKind) -> brdf_fit::FitSettings + Sync),
+    reprs: &mut [Representation],
+) {
+    use rayon::prelude::*;
+    let fold = cv_folds(domain.points.len());
+    let jobs: Vec<(usize, ModelKind)> = (0..CV_FOLDS)
+        .flat_map(|f| ModelKind::LADDER.into_iter().map(move |k| (f, k)))
+        .collect();
+    // Per job: (rung name, sum of squared relative errors, points) for every rung it built.
+    let sums: Vec<Vec<(String, f64, usize)>> = jobs
+        .par_iter()
+        .map(|&(f, kind)| {
+            let split = |held: bool| Dataset {
+                name: domain.name.clone(),
+                points: domain
+                    .points
+                    .iter()
+                    .zip(&fold)
+                    .filter(|(_, &g)| (g == f) == held)
+                    .map(|(p, _)| *p)
+                    .collect(),
+            };
+            let (train, test) = (split(false), split(true));
+            if test.points.is_empty() {
+                return Vec::new();
+            }
+            // `FitSettings::fit`, not `fit_all`: this runs on the thread pool already, and
+            // `fit_all` would wait on it for its own tasks.
+            let Ok(fit) = settings(kind).fit(&train) else {
+                return Vec::new();
+            };
+            let Ok(params) = fit.params_array() else {
+                return Vec::new();
+            };
+            let Ok(built) = rungs(kind.name(), kind, &params) else {
+                return Vec::new();
+            };
+            let col = |g: fn(&brdf_fit::Point) -> f64| -> Vec<f64> { test.points.iter().map(g).collect() };
+            let (ci, cr, cp) = (
+                col(|p| p.theta_i.cos()),
+                col(|p| p.theta_r.cos()),
+                col(|p| p.phi.cos()),
+            );
+            let mut values = vec![0.0; test.points.len()];
+            built
+                .into_iter()
+                .map(|rung| {
+                    eval_batch(&rung.eval, &ci, &cr, &cp, &mut values);
+                    let sum: f64 = values
+                        .iter()
+                        .zip(&test.points)
+                        .map(|(v, p)| {
+                            let e = (v - p.brdf) / p.brdf;
+                            if e.is_finite() {
+                                e * e
+                            } else {
+                                f64::INFINITY
+                            }
+                        })
+                        .sum();
+                    (rung.name, sum, test.points.len())
+                })
+                .collect()
+        })
+        .collect();
+    let n = domain.points.len();
+    for r in reprs.iter_mut() {
+        let (mut sum, mut count) = (0.0, 0);
+        for (name, s, c) in sums.iter().flatten() {
+            if *name == r.rung.name {
+                sum += s;
+                count += c;
+            }
+        }
+        r.cv_rms_rel = (count == n).then(|| (sum / n as f64).sqrt());
+    }
 }
 
 /// The one dataset of `origin` that `brdf select DATA` works on; an error naming `origin` when
@@ -181,8 +293,13 @@ pub struct DataSelection {
     /// Points in the domain.
     pub n: usize,
     pub allow_nonphysical: bool,
-    /// The representation chosen, if any meets the budget.
+    /// The representation chosen: the cheapest within the budget, or the most accurate when
+    /// none is; `None` only when none could be cross-validated or fits a slot.
     pub chosen: Option<String>,
+    /// Whether the chosen representation meets the budget.
+    pub within_budget: bool,
+    /// Index in `candidates` of the fit the chosen representation comes from (`--chosen`).
+    pub chosen_fit: Option<usize>,
     /// Why it was chosen, or why nothing was.
     pub reason: String,
     /// The ladder's fits, simplest first.
@@ -193,13 +310,15 @@ pub struct DataSelection {
     pub material: Option<(Material, Option<Vec<u8>>)>,
 }
 
-/// Fits every model of [`ModelKind::LADDER`] to the points `kept` with `settings(kind)`, measures every
-/// representation and chooses among them ([`choose`]). Fails with a message naming the
-/// dataset when the domain has fewer than 7 points (too few to compare models) or a fitted
-/// model cannot become a device material.
+/// Fits every model of [`ModelKind::LADDER`] to the points `kept` with `settings(kind)`,
+/// measures every representation against the data and by cross-validation, and chooses among
+/// them ([`choose`]) by the held-out error: the cheapest within the budget or, when none is,
+/// the most accurate (`within_budget` false, the reason says so). Fails with a message naming
+/// the dataset when the domain has fewer than 7 points (too few to compare models) or a
+/// fitted model cannot become a device material.
 pub fn select_data(
     kept: &DataDomain,
-    settings: &dyn Fn(ModelKind) -> brdf_fit::FitSettings,
+    settings: &(dyn Fn(ModelKind) -> brdf_fit::FitSettings + Sync),
     budget: f64,
     allow_nonphysical: bool,
 ) -> Result<DataSelection, String> {
@@ -217,17 +336,33 @@ pub fn select_data(
             brdf_fit::fit_all(&settings(k), std::slice::from_ref(domain)).map_err(|e| e.to_string())?,
         );
     }
-    let reprs = representations(&candidates, domain)?;
+    let mut reprs = representations(&candidates, domain)?;
+    cross_validate(domain, settings, &mut reprs);
     let all: Vec<&Rung> = reprs.iter().map(|r| &r.rung).collect();
-    let errors: Vec<f64> = reprs.iter().map(|r| r.rms_rel).collect();
-    let Choice { best, reason } = choose(
+    // A rung that could not be cross-validated is never within a budget nor the closest.
+    let errors: Vec<f64> = reprs
+        .iter()
+        .map(|r| r.cv_rms_rel.unwrap_or(f64::INFINITY))
+        .collect();
+    let Choice {
+        best,
+        closest,
+        reason,
+    } = choose(
         &all,
         &errors,
-        "RMS relative error over the domain",
+        &format!("held-out RMS relative error ({CV_FOLDS}-fold cross-validation)"),
         budget,
         allow_nonphysical,
     );
-    let material = best.map(|i| (reprs[i].rung.material, reprs[i].rung.table.clone()));
+    let within_budget = best.is_some();
+    let chosen = best.or(closest.filter(|&c| errors[c].is_finite()));
+    let reason = match (within_budget, chosen) {
+        (false, Some(c)) => format!("{reason}; chosen as the most accurate: {}", reprs[c].rung.name),
+        _ => reason,
+    };
+    let material = chosen.map(|i| (reprs[i].rung.material, reprs[i].rung.table.clone()));
+    let chosen_fit = chosen.and_then(|i| candidates.iter().position(|c| c.model == reprs[i].rung.kind));
     Ok(DataSelection {
         dataset: domain.name.clone(),
         budget,
@@ -235,10 +370,33 @@ pub fn select_data(
         max_theta_r,
         n: domain.points.len(),
         allow_nonphysical,
-        chosen: best.map(|i| reprs[i].rung.name.clone()),
+        chosen: chosen.map(|i| reprs[i].rung.name.clone()),
+        within_budget,
+        chosen_fit,
         reason,
         candidates,
         representations: reprs,
         material,
     })
+}
+
+#[cfg(test)]
+mod cv_tests {
+    use super::*;
+
+    #[test]
+    fn folds_are_balanced_fixed_and_not_in_file_order() {
+        for n in [7, 10, 213, 1000] {
+            let f = cv_folds(n);
+            assert_eq!(f, cv_folds(n), "the same points give the same folds");
+            let sizes: Vec<usize> = (0..CV_FOLDS)
+                .map(|k| f.iter().filter(|&&g| g == k).count())
+                .collect();
+            let (lo, hi) = (sizes.iter().min().unwrap(), sizes.iter().max().unwrap());
+            assert!(hi - lo <= 1, "{n}: {sizes:?}");
+            // A file sorted by incidence must not give a fold of consecutive rows.
+            let runs = f.windows(2).filter(|w| w[0] == w[1]).count();
+            assert!(runs < n / 2, "{n}: {runs} neighbours share a fold");
+        }
+    }
 }

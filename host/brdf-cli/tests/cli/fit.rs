@@ -294,10 +294,104 @@ fn select_names_the_cheapest_representation_and_writes_its_blob() {
     ]))
     .unwrap();
     assert_eq!(v["chosen"], "lambert exact");
-    // A budget nothing meets writes nothing and says so.
-    let none = brdf(&["select", &data, "--budget", "0.01%", "-o", blob.to_str().unwrap()]);
-    assert!(!none.status.success());
-    assert!(String::from_utf8_lossy(&none.stderr).contains("no representation meets the budget"));
+    // A budget nothing meets: the most accurate by held-out error is chosen and written, with
+    // a warning, exit 0; --chosen writes its fit as `brdf fit --json` does, which `pack` reads.
+    let chosen = dir.path().join("chosen.json");
+    let none = brdf(&[
+        "select",
+        &data,
+        "--budget",
+        "0.01%",
+        "-o",
+        blob.to_str().unwrap(),
+        "--chosen",
+        chosen.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(none.status.success(), "{}", String::from_utf8_lossy(&none.stderr));
+    let err = String::from_utf8_lossy(&none.stderr);
+    assert!(
+        err.contains("warning: nothing meets the 0.01% budget")
+            && err.contains("chosen as the most accurate"),
+        "{err}"
+    );
+    let v: serde_json::Value = serde_json::from_slice(&none.stdout).unwrap();
+    assert_eq!(v["within_budget"], false);
+    let cv = |r: &serde_json::Value| r["cv_rms_rel"].as_f64().unwrap_or(f64::INFINITY);
+    let reprs = v["representations"].as_array().unwrap();
+    let best = reprs
+        .iter()
+        .filter(|r| r["fits_blob"] == true && r["reciprocal"] == true && r["bounded"] == true)
+        .min_by(|a, b| cv(a).total_cmp(&cv(b)))
+        .unwrap();
+    assert_eq!(v["chosen"], best["name"]);
+    let fit: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&chosen).unwrap()).unwrap();
+    assert_eq!(fit["model"], best["model"]);
+    let i = v["chosen_fit"].as_u64().unwrap() as usize;
+    assert_eq!(fit, v["candidates"][i]);
+    let packed = dir.path().join("packed.bin");
+    ok(&["pack", chosen.to_str().unwrap(), "-o", packed.to_str().unwrap()]);
+}
+
+#[test]
+fn select_chooses_by_held_out_error_not_training_error() {
+    // Before: `brdf select` ranked by the error over the points each model was fitted to, so
+    // a richer model won by fitting the noise. Now a rung whose training error meets the
+    // budget but whose held-out error does not is never chosen.
+    let dir = tempfile::tempdir().unwrap();
+    let text = ok(&[
+        "synth",
+        "--model",
+        "minnaert",
+        "--params",
+        "rho0=0.6,k=0.9",
+        "--theta-i",
+        "0,30,50",
+        "--noise",
+        "3%",
+    ]);
+    let path = dir.path().join("m.csv");
+    std::fs::write(&path, text).unwrap();
+    let select = |budget: &str| -> serde_json::Value {
+        serde_json::from_str(&ok(&[
+            "select",
+            path.to_str().unwrap(),
+            "--budget",
+            budget,
+            "--json",
+            "--allow-nonphysical",
+        ]))
+        .unwrap()
+    };
+    let v = select("2%");
+    let reprs = v["representations"].as_array().unwrap();
+    for r in reprs {
+        let (train, held) = (r["rms_rel"].as_f64().unwrap(), r["cv_rms_rel"].as_f64());
+        let held = held.unwrap_or_else(|| panic!("{} was not cross-validated", r["name"]));
+        assert!(held.is_finite() && held > 0.0, "{r}");
+        // Held-out points were not fitted: on noisy data they are predicted worse.
+        assert!(held > train, "{}: held-out {held} <= training {train}", r["name"]);
+    }
+    // The budget between the cheapest rung's training and held-out errors.
+    let cheapest = reprs
+        .iter()
+        .min_by_key(|r| r["device_instructions"].as_u64().unwrap())
+        .unwrap();
+    let (train, held) = (
+        cheapest["rms_rel"].as_f64().unwrap(),
+        cheapest["cv_rms_rel"].as_f64().unwrap(),
+    );
+    let budget = format!("{}", 0.5 * (train + held));
+    let v = select(&budget);
+    assert_ne!(v["chosen"], cheapest["name"], "{}", v["reason"]);
+    assert!(
+        v["reason"]
+            .as_str()
+            .unwrap()
+            .contains("held-out RMS relative error"),
+        "{}",
+        v["reason"]
+    );
 }
 
 #[test]

@@ -304,10 +304,15 @@ class Selection:
     """What ``brdf select DATA --json`` reports: every model of the ladder fitted over the
     angular domain, every device representation of each (exact in f32, six-parameter tables
     of 64, 256 and 1024 nodes) with its error against the data, its Cortex-M4F instructions
-    per lookup, this host's ns (measured in the call) and its blob size, and the one chosen.
+    per lookup, this host's ns (measured in the call) and its blob size, its held-out error
+    (``cv_rms_rel``: 5-fold cross-validation) beside its training error (``rms_rel``), and the
+    one chosen by the held-out error.
 
-    Attributes: ``chosen`` (the representation's name, or None when none meets the budget),
-    ``reason`` (why), ``candidates`` (a :class:`FitResult` per model of the ladder),
+    Attributes: ``chosen`` (the representation's name: the cheapest within the budget, or the
+    most accurate when none is; None only when nothing could be cross-validated),
+    ``within_budget`` (whether it meets the budget), ``reason`` (why),
+    ``chosen_fit`` (the :class:`FitResult` it comes from, or None), ``candidates`` (a
+    :class:`FitResult` per model of the ladder),
     ``representations`` (a dict per representation), ``blob`` (the chosen representation as
     the parameter blob ``brdf select -o`` writes, or None), ``report`` (the whole JSON as a
     dict). ``to_json()`` is the text ``brdf select --json`` prints for the same input and
@@ -322,8 +327,12 @@ class Selection:
         self.budget: float = r["budget"]
         self.n: int = r["n"]
         self.chosen: Optional[str] = r["chosen"]
+        self.within_budget: bool = r["within_budget"]
         self.reason: str = r["reason"]
         self.candidates: List[FitResult] = [FitResult(c) for c in candidates]
+        self.chosen_fit: Optional[FitResult] = (
+            None if r["chosen_fit"] is None else self.candidates[r["chosen_fit"]]
+        )
         self.representations: List[Dict[str, Any]] = r["representations"]
         self.blob: Optional[bytes] = blob
 

@@ -77,8 +77,10 @@ class Selection:
     budget: float
     n: int
     chosen: Optional[str]
+    within_budget: bool
     reason: str
     candidates: List[FitResult]
+    chosen_fit: Optional[FitResult]
     representations: List[Dict[str, Any]]
     blob: Optional[bytes]
     def __init__(self, text: str, candidates: Sequence[str], blob: Optional[bytes]) -> None: ...
