@@ -3,7 +3,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use brdf_core::batch::{Batch, BatchError};
 use brdf_core::{AnyModel, Brdf, Float, ModelKind, MAX_PARAMS};
 use clap::{Args, ValueEnum};
@@ -13,15 +13,23 @@ use crate::params::{build, parse_kind, parse_params};
 
 /// Evaluate a model at every row of a CSV with columns `theta_i,theta_r,phi` (degrees,
 /// canonical convention: phi = 180 is the mirror direction). Writes the input columns plus
-/// the BRDF in 1/sr to standard output, as it reads (4,096 rows at a time).
+/// the BRDF in 1/sr to standard output, as it reads (4,096 rows at a time). The model is
+/// `--model` with `--params`, or a fit result (`--fit`).
 #[derive(Debug, Args)]
 pub struct EvalCmd {
     /// Model: six, six-cos2, five, minnaert, lambert.
-    #[arg(long, value_parser = parse_kind)]
-    model: ModelKind,
+    #[arg(long, value_parser = parse_kind, required_unless_present = "fit", requires = "params")]
+    model: Option<ModelKind>,
     /// Parameters as name=value pairs, e.g. kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2
-    #[arg(long, allow_hyphen_values = true)]
-    params: String,
+    #[arg(long, allow_hyphen_values = true, requires = "model")]
+    params: Option<String>,
+    /// A fit result as `brdf fit --json` or `brdf select --chosen` writes it (or a
+    /// hand-written `{"model": ..., "params": {...}}`): its model and parameters.
+    #[arg(long, value_name = "FIT.json", conflicts_with_all = ["model", "params"])]
+    fit: Option<PathBuf>,
+    /// Which fit of a batch result (`brdf fit --json` on several datasets), from 0.
+    #[arg(long, requires = "fit")]
+    index: Option<usize>,
     /// f64 (reference) or f32 (the firmware's arithmetic: angles converted to radians in
     /// f64, then rounded once to f32; parameters rounded once to f32).
     #[arg(long, value_enum, default_value_t = Precision::F64)]
@@ -73,23 +81,36 @@ pub fn evaluate_chunk<T: Float>(
 
 impl EvalCmd {
     pub fn run(self) -> Result<()> {
-        let params = parse_params(self.model, &self.params)?;
+        let (kind, params) = match (&self.fit, self.model, &self.params) {
+            (Some(path), _, _) => {
+                let shown = path.display().to_string();
+                let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {shown}"))?;
+                let (kind, params, _) = brdf_fit::report::FittedModel::one_of(&text, &shown, self.index)
+                    .map_err(|e| anyhow!(e))?;
+                (kind, params)
+            }
+            // (clap does not apply `requires = "fit"` once --model, which --fit excludes, is given.)
+            (None, _, _) if self.index.is_some() => bail!("--index picks a fit of --fit; give --fit"),
+            (None, Some(kind), Some(text)) => (kind, parse_params(kind, text)?),
+            _ => bail!("give --model with --params, or --fit"),
+        };
         let stdout = std::io::stdout();
         let out = stdout.lock();
         match self.precision {
-            Precision::F64 => self.eval::<f64>(&params, out, f64_text, true),
-            Precision::F32 => self.eval::<f32>(&params, out, f32_text, false),
+            Precision::F64 => self.eval::<f64>(kind, &params, out, f64_text, true),
+            Precision::F32 => self.eval::<f32>(kind, &params, out, f32_text, false),
         }
     }
 
     fn eval<T: Float>(
         &self,
+        kind: ModelKind,
         params: &[f64; MAX_PARAMS],
         out: impl Write,
         text: fn(T) -> String,
         use_batch: bool,
     ) -> Result<()> {
-        let model: AnyModel<T> = build(self.model, params)?;
+        let model: AnyModel<T> = build(kind, params)?;
         let batch = use_batch.then(|| Batch::new(&model));
         let mut reader = AngleReader::open(&self.angles, &self.output_column)?;
         let mut writer = AngleWriter::new(out, &reader, &self.output_column)?;
@@ -111,7 +132,7 @@ impl EvalCmd {
                     "{}: line {}: {}",
                     reader.file(),
                     chunk.line(i),
-                    brdf_fit::params::not_finite(values[i], self.model)
+                    brdf_fit::params::not_finite(values[i], kind)
                 );
             }
             writer.write_chunk(&chunk, values.iter().map(|&v| text(v)))?;

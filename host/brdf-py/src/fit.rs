@@ -243,3 +243,21 @@ pub(crate) type Selected<'py> = (
 /// allow_nonphysical, sequence)`, as `brdf select --budget --max-theta-i --max-theta-r
 /// --allow-nonphysical --sequence`.
 pub(crate) type SelectArgs = (f64, f64, f64, bool, u32);
+
+/// The model and parameters of one fit in `text` (`brdf_fit::report::FittedModel::one_of`,
+/// as `brdf eval --fit` reads it): the model's name and the parameters as `kb=...,kr=...`
+/// (each value printed to round-trip exactly).
+#[pyfunction]
+#[pyo3(signature = (text, origin, index=None))]
+pub(crate) fn fitted(text: &str, origin: &str, index: Option<usize>) -> PyResult<(String, String)> {
+    let (kind, p, _) =
+        brdf_fit::report::FittedModel::one_of(text, origin, index).map_err(PyValueError::new_err)?;
+    let params = kind
+        .param_names()
+        .iter()
+        .zip(p)
+        .map(|(n, v)| format!("{n}={v:?}"))
+        .collect::<Vec<_>>()
+        .join(",");
+    Ok((kind.name().to_owned(), params))
+}

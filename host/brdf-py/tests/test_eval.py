@@ -178,3 +178,37 @@ def test_all_cores_give_one_threads_values_bit_for_bit(precision):
     ti[50_000] = 91
     with pytest.raises(ValueError, match=r"index \[50000\]: column theta_i: zenith 91 deg"):
         brdf.eval("six", KHAKI, ti, tr, phi, precision=precision)
+
+
+def test_eval_fit_is_the_cli_eval_fit(cli, root, tmp_path):
+    """`brdf.eval_fit` and `FitResult.eval` give the values of `brdf eval --fit`, bit for bit."""
+    r = brdf.fit(str(root / "data/khaki-synthetic-inplane.csv"))
+    path = tmp_path / "fit.json"
+    path.write_text(r.to_json() + "\n")
+    ti, tr, ph = [0.0, 10.0, 30.0, 60.0], [0.0, 10.0, 40.0, 85.0], [0.0, 0.0, 180.0, 90.0]
+    angles = tmp_path / "a.csv"
+    angles.write_text("theta_i,theta_r,phi\n" + "".join(f"{a},{b},{c}\n" for a, b, c in zip(ti, tr, ph)))
+    for precision, dtype in (("f64", np.float64), ("f32", np.float32)):
+        out = cli("eval", "--fit", path, "--precision", precision, angles).stdout.splitlines()[1:]
+        want = np.array([float(line.split(",")[-1]) for line in out], dtype=dtype)
+        np.testing.assert_array_equal(brdf.eval_fit(path, ti, tr, ph, precision=precision), want)
+        np.testing.assert_array_equal(r.eval(ti, tr, ph, precision=precision), want)
+
+
+def test_eval_fit_errors_are_the_cli_messages(cli, tmp_path):
+    batch = tmp_path / "batch.json"
+    batch.write_text('[{"model": "lambert", "params": {"rho0": 0.25}}, {"model": "minnaert", "params": {"rho0": 0.5, "k": 0.9}}]')
+    angles = tmp_path / "a.csv"
+    angles.write_text("theta_i,theta_r,phi\n10,20,30\n")
+    np.testing.assert_array_equal(
+        brdf.eval_fit(batch, 10, 20, 30, index=0), brdf.eval("lambert", "rho0=0.25", 10, 20, 30)
+    )
+    for index in (None, 2):
+        args = ["eval", "--fit", batch, angles] + ([] if index is None else ["--index", str(index)])
+        p = cli(*args, check=False)
+        assert p.returncode != 0
+        with pytest.raises(ValueError) as e:
+            brdf.eval_fit(batch, 10, 20, 30, index=index)
+        assert str(e.value) in p.stderr, (str(e.value), p.stderr)
+    with pytest.raises(ValueError, match="index -1 is not a whole number"):
+        brdf.eval_fit(batch, 10, 20, 30, index=-1)

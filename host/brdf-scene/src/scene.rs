@@ -548,7 +548,7 @@ fn resolve_material(
         let text = std::fs::read_to_string(&path)
             .map_err(|err| field(fit.span(), "fit", format!("{shown}: {err}")))?;
         let (kind, p, k) =
-            fit_params(&text, index).map_err(|m| field(fit.span(), "fit", format!("{shown}: {m}")))?;
+            FittedModel::one_of(&text, &shown, index).map_err(|m| field(fit.span(), "fit", m))?;
         return Ok((build(kind, &p, fit.span(), "fit")?, Source::Fit(path, k)));
     }
     let blob = e.blob.as_ref().expect("exactly one source is given");
@@ -581,28 +581,4 @@ fn resolve_material(
         *dst = f64::from(src);
     }
     Ok((build(m.kind, &p, blob.span(), "blob")?, Source::Blob(path, k)))
-}
-
-/// Model and parameters of a `brdf fit --json` result (one object, or the `index`-th of an
-/// array), read by [`FittedModel::from_json`].
-fn fit_params(text: &str, index: Option<usize>) -> Result<(ModelKind, [f64; MAX_PARAMS], usize), String> {
-    let fits = FittedModel::from_json(text, "fit result").map_err(|e| e.to_string())?;
-    let n = fits.len();
-    let k = match index {
-        Some(k) if k < n => k,
-        Some(k) if n == 1 => return Err(format!("holds one fit; there is no index {k}")),
-        Some(k) => return Err(format!("holds {n} fits; there is no index {k}")),
-        None if n == 1 => 0,
-        None => {
-            return Err(format!(
-                "holds {n} fits: say which with index = 0..{}",
-                n.saturating_sub(1)
-            ))
-        }
-    };
-    let fit = &fits[k];
-    let p = fit
-        .params_array()
-        .map_err(|p| format!("parameter `{p}` missing"))?;
-    Ok((fit.model, p, k))
 }

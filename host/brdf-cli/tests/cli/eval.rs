@@ -270,3 +270,78 @@ fn large_files_are_evaluated_in_chunks_in_order_and_match_the_scalar_path() {
         "header and the whole chunks before the bad row"
     );
 }
+
+#[test]
+fn a_fit_result_evaluates_as_its_model_and_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let angles = write(
+        &dir,
+        "a.csv",
+        "theta_i,theta_r,phi\n0,0,0\n10,10,0\n30,40,180\n60,85,90\n",
+    );
+    // A batch of two fits (two hand-written results), as `brdf fit --json` prints a batch.
+    let fits = write(
+        &dir,
+        "fits.json",
+        r#"[{"model": "lambert", "params": {"rho0": 0.25}},
+            {"model": "six", "params": {"kb": 0.2545, "kr": 21.8031, "b": -27.5721, "a": 0.6705, "kd": 0.3676, "c": 1.2}}]"#,
+    );
+    let (a, f) = (angles.to_str().unwrap(), fits.to_str().unwrap());
+    for precision in ["f64", "f32"] {
+        let by_fit = eval_ok(&["eval", "--fit", f, "--index", "1", "--precision", precision, a]);
+        let by_params = eval_ok(&[
+            "eval",
+            "--model",
+            "six",
+            "--params",
+            KHAKI.as_str(),
+            "--precision",
+            precision,
+            a,
+        ]);
+        assert_eq!(by_fit, by_params, "{precision}");
+        let lambert = eval_ok(&["eval", "--fit", f, "--index", "0", "--precision", precision, a]);
+        assert_eq!(
+            lambert,
+            eval_ok(&[
+                "eval",
+                "--model",
+                "lambert",
+                "--params",
+                "rho0=0.25",
+                "--precision",
+                precision,
+                a
+            ])
+        );
+    }
+    // Which fit must be said for a batch, and must exist.
+    let e = eval_err(&["eval", "--fit", f, a]);
+    assert!(e.contains("holds 2 fits: say which with index 0..1"), "{e}");
+    let e = eval_err(&["eval", "--fit", f, "--index", "2", a]);
+    assert!(e.contains("holds 2 fits; there is no index 2"), "{e}");
+    // --fit excludes --model and --params; --index needs --fit.
+    assert!(eval_err(&["eval", "--fit", f, "--model", "six", a]).contains("cannot be used with"));
+    assert!(eval_err(&[
+        "eval",
+        "--model",
+        "six",
+        "--params",
+        KHAKI.as_str(),
+        "--index",
+        "0",
+        a
+    ])
+    .contains("--fit"));
+    // A fit whose parameters are out of range is refused, naming the parameter.
+    let bad = write(
+        &dir,
+        "bad.json",
+        r#"{"model": "lambert", "params": {"rho0": -1}}"#,
+    );
+    let e = eval_err(&["eval", "--fit", bad.to_str().unwrap(), a]);
+    assert!(
+        e.contains("invalid parameters for model lambert") && e.contains("rho0"),
+        "{e}"
+    );
+}

@@ -353,6 +353,35 @@ impl FittedModel {
         params_in_order(self.model, &self.params)
     }
 
+    /// The one fit of `text` that a consumer of one material means: the only one, or the
+    /// `index`-th of a batch (`brdf eval --fit`, a scene file's `fit =`, `brdf.eval_fit`).
+    /// Returns its model, its parameters in paper order and its index; the error says how
+    /// many fits the text holds and which indices exist.
+    pub fn one_of(
+        text: &str,
+        origin: &str,
+        index: Option<usize>,
+    ) -> Result<(ModelKind, [f64; MAX_PARAMS], usize), String> {
+        let fits = FittedModel::from_json(text, origin).map_err(|e| e.to_string())?;
+        let n = fits.len();
+        let k = match index {
+            Some(k) if k < n => k,
+            Some(k) if n == 1 => return Err(format!("{origin}: holds one fit; there is no index {k}")),
+            Some(k) => return Err(format!("{origin}: holds {n} fits; there is no index {k}")),
+            None if n == 1 => 0,
+            None => {
+                return Err(format!(
+                    "{origin}: holds {n} fits: say which with index 0..{}",
+                    n.saturating_sub(1)
+                ))
+            }
+        };
+        let p = fits[k]
+            .params_array()
+            .map_err(|p| format!("{origin}: parameter `{p}` missing"))?;
+        Ok((fits[k].model, p, k))
+    }
+
     /// The model in f64, refused naming the parameter when one is missing or outside its
     /// range.
     pub fn model(&self) -> Result<AnyModel<f64>, brdf_core::ParamError> {
@@ -379,6 +408,35 @@ impl FitReport {
     /// The parameters in paper order (unused entries 0), or the name of one that is missing.
     pub fn params_array(&self) -> Result<[f64; MAX_PARAMS], &'static str> {
         params_in_order(self.model, &self.params)
+    }
+
+    /// The one fit of `text` that a consumer of one material means: the only one, or the
+    /// `index`-th of a batch (`brdf eval --fit`, a scene file's `fit =`, `brdf.eval_fit`).
+    /// Returns its model, its parameters in paper order and its index; the error says how
+    /// many fits the text holds and which indices exist.
+    pub fn one_of(
+        text: &str,
+        origin: &str,
+        index: Option<usize>,
+    ) -> Result<(ModelKind, [f64; MAX_PARAMS], usize), String> {
+        let fits = FittedModel::from_json(text, origin).map_err(|e| e.to_string())?;
+        let n = fits.len();
+        let k = match index {
+            Some(k) if k < n => k,
+            Some(k) if n == 1 => return Err(format!("{origin}: holds one fit; there is no index {k}")),
+            Some(k) => return Err(format!("{origin}: holds {n} fits; there is no index {k}")),
+            None if n == 1 => 0,
+            None => {
+                return Err(format!(
+                    "{origin}: holds {n} fits: say which with index 0..{}",
+                    n.saturating_sub(1)
+                ))
+            }
+        };
+        let p = fits[k]
+            .params_array()
+            .map_err(|p| format!("{origin}: parameter `{p}` missing"))?;
+        Ok((fits[k].model, p, k))
     }
 
     /// The fitted model in f64 (refused, naming the parameter, when a parameter is outside

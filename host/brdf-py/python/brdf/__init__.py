@@ -30,6 +30,7 @@ __all__ = [
     "albedo",
     "eval",
     "eval_cosines",
+    "eval_fit",
     "eval_vectors",
     "fit",
     "pack",
@@ -130,6 +131,30 @@ def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, 
     return _shaped(out, shape)
 
 
+def eval_fit(fit, theta_i, theta_r, phi, *, index: Optional[int] = None, precision: str = "f64", parallel: bool = True):
+    """The BRDF (1/sr) of a fit result at angles in degrees, as ``brdf eval --fit``:
+    ``fit`` is a :class:`FitResult`, or a path to what ``brdf fit --json`` or ``brdf select
+    --chosen`` writes (or a hand-written ``{"model": ..., "params": {...}}``); ``index``
+    picks one fit of a batch. Otherwise as :func:`eval`.
+    """
+    if isinstance(fit, FitResult):
+        if index is not None:
+            raise TypeError("index picks a fit of a file; a FitResult is one fit")
+        text, origin = fit.to_json(), f"fit of {fit.dataset}"
+    else:
+        path = os.fspath(fit)
+        try:
+            with open(path, encoding="utf-8") as f:
+                text = f.read()
+        except OSError as e:
+            raise ValueError(f"cannot read {path}: {e.strerror}") from None
+        origin = path
+    if index is not None and (isinstance(index, bool) or not isinstance(index, int) or index < 0):
+        raise ValueError(f"index {index!r} is not a whole number >= 0")
+    model, params = _brdf.fitted(text, origin, index)
+    return eval(model, params, theta_i, theta_r, phi, precision=precision, parallel=parallel)
+
+
 def eval_cosines(model: str, params: Union[str, Mapping[str, float]], cos_theta_i, cos_theta_r, cos_phi, *, precision: str = "f64", parallel: bool = True):
     """The BRDF at cosines of the zenith angles and of the relative azimuth (each in
     [-1, 1], zenith cosines in [0, 1]), broadcast like numpy; see :func:`eval`."""
@@ -212,6 +237,10 @@ class FitResult:
     def to_json(self) -> str:
         """The report exactly as ``brdf fit --json`` prints one (without its final newline)."""
         return self._text
+
+    def eval(self, theta_i, theta_r, phi, *, precision: str = "f64", parallel: bool = True):
+        """This fit's BRDF at angles in degrees: :func:`eval_fit` of it."""
+        return eval_fit(self, theta_i, theta_r, phi, precision=precision, parallel=parallel)
 
     def __repr__(self) -> str:
         ps = ", ".join(f"{k}={v:.6g}" for k, v in self.params.items())

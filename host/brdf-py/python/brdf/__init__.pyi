@@ -19,6 +19,16 @@ def eval(
     precision: str = "f64",
     parallel: bool = True,
 ) -> Union[np.ndarray, np.floating]: ...
+def eval_fit(
+    fit: Union["FitResult", str, os.PathLike],
+    theta_i: ArrayLike,
+    theta_r: ArrayLike,
+    phi: ArrayLike,
+    *,
+    index: Optional[int] = None,
+    precision: str = "f64",
+    parallel: bool = True,
+) -> Union[np.ndarray, np.floating]: ...
 def eval_cosines(
     model: str,
     params: Params,
@@ -54,6 +64,15 @@ class FitResult:
     converged: bool
     def __init__(self, text: str) -> None: ...
     def to_json(self) -> str: ...
+    def eval(
+        self,
+        theta_i: ArrayLike,
+        theta_r: ArrayLike,
+        phi: ArrayLike,
+        *,
+        precision: str = "f64",
+        parallel: bool = True,
+    ) -> Union[np.ndarray, np.floating]: ...
 
 def fit(
     data: Union[str, os.PathLike, Sequence[Union[str, os.PathLike]], Mapping[str, ArrayLike], Any],
