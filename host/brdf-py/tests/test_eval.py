@@ -212,3 +212,11 @@ def test_eval_fit_errors_are_the_cli_messages(cli, tmp_path):
         assert str(e.value) in p.stderr, (str(e.value), p.stderr)
     with pytest.raises(ValueError, match="index -1 is not a whole number"):
         brdf.eval_fit(batch, 10, 20, 30, index=-1)
+
+
+def test_flags_and_counts_of_the_wrong_type_are_refused():
+    # Before: panels=2.9 ran with 2 panels, parallel="no" ran in parallel.
+    with pytest.raises(TypeError, match="panels must be a whole number, not 2.9"):
+        brdf.albedo("lambert", "rho0=0.5", [0.0], panels=2.9)
+    with pytest.raises(TypeError, match="parallel must be True or False, not 'no'"):
+        brdf.eval("lambert", "rho0=0.5", 0, 0, 0, parallel="no")

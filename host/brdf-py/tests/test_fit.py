@@ -79,6 +79,26 @@ def test_unknown_options_raise():
         brdf.fit({}, chainz=3)
 
 
+@pytest.mark.parametrize(
+    "kwargs,error,match",
+    [
+        # Before: seed=1.7 ran with seed 1, brightening="no" searched brightening,
+        # chains=True ran one chain, loss_scale="0.1" was read as a number.
+        ({"seed": 1.7}, TypeError, "seed must be a whole number, not 1.7"),
+        ({"chains": True}, TypeError, "chains must be a whole number, not True"),
+        ({"hops": 2.0}, TypeError, "hops must be a whole number, not 2.0"),
+        ({"agree": -1}, ValueError, "agree: `-1` is not a whole number >= 0"),
+        ({"brightening": "no"}, TypeError, "brightening must be True or False, not 'no'"),
+        ({"skip_invalid": 1}, TypeError, "skip_invalid must be True or False, not 1"),
+        ({"loss_scale": "0.1"}, TypeError, "loss_scale must be a number, not '0.1'"),
+        ({"residual": None}, TypeError, "residual must be a string, not None"),
+    ],
+)
+def test_options_of_the_wrong_type_are_refused_not_coerced(root, kwargs, error, match):
+    with pytest.raises(error, match=match):
+        brdf.fit(str(root / KHAKI), **kwargs)
+
+
 def test_read_gives_the_datasets_fit_uses(root):
     path = root / "data" / "measured" / "merl-aluminium-inplane" / "aluminum_brdf.csv"
     (d,) = brdf.read(path, format="merl-inplane")

@@ -109,3 +109,17 @@ def test_errors_are_the_cli_messages(cli, root, tmp_path):
             brdf.select(str(root / KHAKI), **bad)
     with pytest.raises(TypeError):
         brdf.select([str(root / KHAKI), str(root / KHAKI)])
+
+
+@pytest.mark.parametrize(
+    "kwargs,match",
+    [
+        # Before: allow_nonphysical="no" allowed them, budget="0.02" was read as a number.
+        ({"allow_nonphysical": "no"}, "allow_nonphysical must be True or False, not 'no'"),
+        ({"budget": "0.02"}, "budget must be a number, not '0.02'"),
+        ({"max_theta": "40"}, "max_theta_i must be a number, not '40'"),
+    ],
+)
+def test_options_of_the_wrong_type_are_refused(root, kwargs, match):
+    with pytest.raises(TypeError, match=match):
+        brdf.select(str(root / KHAKI), **kwargs)

@@ -125,7 +125,7 @@ def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, 
     names = ("theta_i", "theta_r", "phi")
     shape, cols = _columns(names, (theta_i, theta_r, phi))
     try:
-        out = _brdf.eval_angles(model, _params_text(params), *cols, precision, bool(parallel))
+        out = _brdf.eval_angles(model, _params_text(params), *cols, precision, _flag("parallel", parallel))
     except _brdf.ElementError as e:
         raise _located(names, shape, e) from None
     return _shaped(out, shape)
@@ -162,7 +162,7 @@ def eval_cosines(model: str, params: Union[str, Mapping[str, float]], cos_theta_
     names = ("cos_theta_i", "cos_theta_r", "cos_phi")
     shape, cols = _columns(names, (cos_theta_i, cos_theta_r, cos_phi))
     try:
-        out = _brdf.eval_columns(model, _params_text(params), cols, precision, bool(parallel))
+        out = _brdf.eval_columns(model, _params_text(params), cols, precision, _flag("parallel", parallel))
     except _brdf.ElementError as e:
         raise _located(names, shape, e) from None
     return _shaped(out.astype(dtype, copy=False), shape)
@@ -182,7 +182,7 @@ def eval_vectors(model: str, params: Union[str, Mapping[str, float]], wi, wr, *,
     parts = [wi[..., k] for k in range(3)] + [wr[..., k] for k in range(3)]
     shape, cols = _columns(["wi"] * 3 + ["wr"] * 3, parts)
     try:
-        out = _brdf.eval_columns(model, _params_text(params), cols, precision, bool(parallel))
+        out = _brdf.eval_columns(model, _params_text(params), cols, precision, _flag("parallel", parallel))
     except _brdf.ElementError as e:
         raise _located(names, shape, e) from None
     return _shaped(out.astype(dtype, copy=False), shape)
@@ -197,7 +197,7 @@ def albedo(model: str, params: Union[str, Mapping[str, float]], theta_i, *, pane
     """
     shape, (col,) = _columns(("theta_i",), (theta_i,))
     try:
-        out = _brdf.albedo(model, _params_text(params), col, int(panels))
+        out = _brdf.albedo(model, _params_text(params), col, _whole("panels", panels))
     except _brdf.ElementError as e:
         raise _located(("theta_i",), shape, e) from None
     return _shaped(out, shape)
@@ -263,12 +263,46 @@ def _settings(model, seed, residual, engine, options) -> "_brdf.Settings":
     if unknown:
         raise TypeError(f"unknown option(s): {', '.join(sorted(unknown))} (known: {', '.join(sorted(known))})")
     o = dict(options)
+    whole = {k: _whole(k, o.get(k)) for k in ("chains", "agree", "hops", "anneal_evals", "budget_evals")}
     return _brdf.Settings(
-        model, int(seed), residual, engine,
-        o.get("chains"), o.get("agree"), o.get("hops"), o.get("anneal_evals"),
-        o.get("loss", "linear"), float(o.get("loss_scale", 0.1)), bool(o.get("brightening", False)),
-        o.get("budget_evals"), bool(o.get("skip_invalid", False)), o.get("format"), o.get("channel", "r"),
+        _text("model", model), _whole("seed", seed), _text("residual", residual), _text("engine", engine),
+        whole["chains"], whole["agree"], whole["hops"], whole["anneal_evals"],
+        _text("loss", o.get("loss", "linear")), _number("loss_scale", o.get("loss_scale", 0.1)),
+        _flag("brightening", o.get("brightening", False)),
+        whole["budget_evals"], _flag("skip_invalid", o.get("skip_invalid", False)),
+        None if o.get("format") is None else _text("format", o["format"]), _text("channel", o.get("channel", "r")),
     )
+
+
+# Options are taken as given or refused: a float where a count belongs, a string where a flag
+# belongs, are errors, never truncated or read as true.
+def _whole(name: str, v):
+    """A whole number >= 0 (or None), as the CLI's integer options; bools are refused."""
+    if v is None:
+        return None
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+        raise TypeError(f"{name} must be a whole number, not {v!r}")
+    if v < 0:
+        raise ValueError(f"{name}: `{v}` is not a whole number >= 0")
+    return int(v)
+
+
+def _flag(name: str, v) -> bool:
+    if not isinstance(v, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, not {v!r}")
+    return bool(v)
+
+
+def _number(name: str, v) -> float:
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number, not {v!r}")
+    return float(v)
+
+
+def _text(name: str, v) -> str:
+    if not isinstance(v, str):
+        raise TypeError(f"{name} must be a string, not {v!r}")
+    return v
 
 
 def _array_columns(data):
@@ -401,12 +435,12 @@ def select(
     """
     name = options.pop("name", "arrays")
     s = _settings("six", seed, residual, "full", options)
-    mi = float(max_theta if max_theta_i is None else max_theta_i)
-    mr = float(max_theta if max_theta_r is None else max_theta_r)
+    mi = _number("max_theta_i", max_theta if max_theta_i is None else max_theta_i)
+    mr = _number("max_theta_r", max_theta if max_theta_r is None else max_theta_r)
     sequence = operator.index(sequence)
     if not 0 <= sequence <= 0xFFFFFFFF:
         raise ValueError(f"sequence {sequence}: outside 0..=4294967295")
-    args = (float(budget), mi, mr, bool(allow_nonphysical), sequence)
+    args = (_number("budget", budget), mi, mr, _flag("allow_nonphysical", allow_nonphysical), sequence)
     if isinstance(data, (str, os.PathLike)):
         done, notes, error = _brdf.select_path(s, os.fspath(data), args)
     elif _is_paths(data):
@@ -630,5 +664,5 @@ def select_scene(
     if not 0 <= seed <= 0xFFFFFFFFFFFFFFFF:
         raise ValueError(f"seed {seed}: outside 0..=18446744073709551615")
     return SceneSelection(
-        *_brdf.select_scene(os.fspath(scene), float(budget), seed, sequence, allow_nonphysical)
+        *_brdf.select_scene(os.fspath(scene), _number("budget", budget), seed, sequence, allow_nonphysical)
     )
