@@ -17,7 +17,9 @@ use brdf_link::{decode_defmt, Link, LinkError, Qemu, FLASH_IMAGE};
 use brdf_tests::qemu::firmware;
 use brdf_tests::TABLE1;
 use brdf_wire::blob::{blob_crc, table1_blob, Blob, Material, MAX_BLOB_LEN};
-use brdf_wire::frame::{parse_response, ErrorCode, Input, Request, Response, MAX_FIT_SAMPLES};
+use brdf_wire::frame::{
+    parse_response, ErrorCode, Input, Request, Response, MAX_FIT_BUDGET, MAX_FIT_SAMPLES,
+};
 use brdf_wire::slots::SLOT_IMAGE_LEN;
 use rand_core::SeedableRng;
 
@@ -235,11 +237,11 @@ fn a_long_fit_keeps_the_link_alive_and_answers_busy() {
     // gaps, at least 2 s (a gap is 75 ms here; the floor absorbs QEMU being starved of the
     // CPU by other processes: a 1 s floor was overrun on a loaded 2-core machine), and the
     // FIT is sized to last eight times that (so an estimate four times too slow still leaves
-    // the margin the assertion below needs): at least 12,000 evaluations, at most 200,000
-    // (QEMU takes over 50 us per evaluation of 256 samples, so the cap still lasts the 4 s
-    // the assertion needs).
+    // the margin the assertion below needs): at least 12,000 evaluations, at most the
+    // device's MAX_FIT_BUDGET of 100,000 (QEMU takes over 50 us per evaluation of 256
+    // samples, so the cap still lasts the 4 s the assertion needs).
     let timeout = Duration::from_secs_f64((2.0 * short).max(2_048.0 * per_eval).max(2.0));
-    let budget = (8.0 * timeout.as_secs_f64() / per_eval).clamp(12_000.0, 200_000.0) as u32;
+    let budget = (8.0 * timeout.as_secs_f64() / per_eval).clamp(12_000.0, f64::from(MAX_FIT_BUDGET)) as u32;
     dev.transport_mut().set_timeout(timeout);
     let started = std::time::Instant::now();
     let fit_tag = dev
