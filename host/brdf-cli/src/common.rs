@@ -6,8 +6,8 @@ use anyhow::{bail, Context, Result};
 use brdf_core::names::{Named, UnknownName};
 use brdf_core::ModelKind;
 use brdf_fit::import::{Channel, Format};
-use brdf_fit::request::{Limit, AGREE, ANNEAL_EVALS, CHAINS, DEFAULT_LOSS_SCALE, HOPS};
-use brdf_fit::{load_csv, Dataset, FitOptions, FitRequest, FitSettings, LoadOptions, LossKind, Residual};
+use brdf_fit::request::{Limit, AGREE, ANNEAL_EVALS, CHAINS, HOPS};
+use brdf_fit::{load_csv, Dataset, FitRequest, FitSettings, LoadOptions, LossKind, Residual};
 use clap::Args;
 
 use crate::formats::import_reporting;
@@ -21,29 +21,32 @@ pub struct EngineArgs {
     /// Residual form: relative ((f - y) / y), absolute (f - y in 1/sr) or log (ln f - ln y).
     #[arg(long, value_parser = named::<Residual>, default_value_t = Residual::Relative)]
     pub residual: Residual,
-    /// Most annealing chains, each polished by Levenberg-Marquardt (1 to 64).
-    #[arg(long, default_value_t = FitOptions::default().chains as u64, value_parser = limit(CHAINS))]
-    pub chains: u64,
+    /// Most annealing chains, each polished by Levenberg-Marquardt (1 to 64; default 32; full
+    /// engine).
+    #[arg(long, value_parser = limit(CHAINS))]
+    pub chains: Option<u64>,
     /// Independent searches (chains or basin hops) that must reach the best cost before
-    /// the fit is called converged; at least this many chains run (1 to 64).
-    #[arg(long, default_value_t = FitOptions::default().agree as u64, value_parser = limit(AGREE))]
-    pub agree: u64,
+    /// the fit is called converged; at least this many chains run (1 to 64; default 3; full
+    /// engine).
+    #[arg(long, value_parser = limit(AGREE))]
+    pub agree: Option<u64>,
     /// Basin-hopping moves from the best point that must all fail to improve it before the
-    /// fit is called converged (0 to 64). More hops and agreeing searches catch more local
-    /// optima on noisy data from few incidences, at more time (see the README).
-    #[arg(long, default_value_t = FitOptions::default().hops as u64, value_parser = limit(HOPS))]
-    pub hops: u64,
-    /// Cost evaluations per annealing chain (1 to 100,000,000).
-    #[arg(long, default_value_t = brdf_fit::anneal::AnnealOptions::default().evals as u64,
-          value_parser = limit(ANNEAL_EVALS))]
-    pub anneal_evals: u64,
+    /// fit is called converged (0 to 64; default 4; full engine). More hops and agreeing
+    /// searches catch more local optima on noisy data from few incidences, at more time (see
+    /// the README).
+    #[arg(long, value_parser = limit(HOPS))]
+    pub hops: Option<u64>,
+    /// Cost evaluations per annealing chain (1 to 100,000,000; default 300; full engine).
+    #[arg(long, value_parser = limit(ANNEAL_EVALS))]
+    pub anneal_evals: Option<u64>,
     /// Robust loss (as scipy's least_squares): linear (least squares), huber, soft-l1 or
     /// cauchy. Residuals beyond --loss-scale count less than squared.
     #[arg(long, value_parser = named::<LossKind>, default_value_t = LossKind::Linear)]
     pub loss: LossKind,
-    /// Scale C of the robust loss, in the residual's units (0.1 = a 10% relative error).
-    #[arg(long, value_parser = parse_positive, default_value_t = DEFAULT_LOSS_SCALE)]
-    pub loss_scale: f64,
+    /// Scale C of a robust loss, in the residual's units (default 0.1 = a 10% relative
+    /// error; not with the linear loss).
+    #[arg(long, value_parser = parse_positive)]
+    pub loss_scale: Option<f64>,
     /// Let the six-parameter diffuse term brighten towards grazing: search c down to -0.99
     /// (Minnaert's k - 1) instead of 0. The kb + kd energy bound then no longer applies;
     /// the albedo is still checked by quadrature.
@@ -56,9 +59,9 @@ pub struct EngineArgs {
     /// rejects listed) instead of the canonical CSV.
     #[arg(long, value_parser = named::<Format>)]
     pub format: Option<Format>,
-    /// Colour channel for `--format cornell` (r, g, b; either case).
-    #[arg(long, value_parser = named::<Channel>, default_value_t = Channel::R)]
-    pub channel: Channel,
+    /// Colour channel for `--format cornell` (r, g, b; either case; default r).
+    #[arg(long, value_parser = named::<Channel>)]
+    pub channel: Option<Channel>,
 }
 
 impl EngineArgs {
@@ -101,9 +104,11 @@ impl EngineArgs {
             allow_zero_brdf: self.residual == Residual::Absolute,
         };
         let mut out = Vec::new();
+        let channel =
+            brdf_fit::import::channel_for(self.format, self.channel).map_err(|e| anyhow::anyhow!(e))?;
         if let Some(format) = self.format {
             for f in files {
-                out.extend(import_reporting(f, format, self.channel)?.datasets);
+                out.extend(import_reporting(f, format, channel)?.datasets);
             }
             return Ok(out);
         }
@@ -250,4 +255,37 @@ pub fn legend(r: &brdf_fit::report::FitReport) -> Result<brdf_plot::Fitted> {
         label: format!("{} (RMS rel {:.1}%)", r.model.name(), 100.0 * r.metrics.rms_rel),
         model: r.model()?,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The help states each default the library applies when an option is not given.
+    #[test]
+    fn the_help_states_the_library_defaults() {
+        #[derive(clap::Parser)]
+        struct Only {
+            #[command(flatten)]
+            engine: EngineArgs,
+        }
+        let cmd = <Only as clap::CommandFactory>::command();
+        let help = |id: &str| {
+            cmd.get_arguments()
+                .find(|a| a.get_id() == id)
+                .and_then(|a| a.get_long_help().or(a.get_help()))
+                .map(|h| h.to_string())
+                .unwrap()
+        };
+        let d = brdf_fit::FitOptions::default();
+        for (id, v) in [
+            ("chains", d.chains),
+            ("agree", d.agree),
+            ("hops", d.hops),
+            ("anneal_evals", d.anneal.evals),
+        ] {
+            assert!(help(id).contains(&format!("default {v};")), "{id}: {}", help(id));
+        }
+        assert!(help("loss_scale").contains(&format!("default {}", brdf_fit::request::DEFAULT_LOSS_SCALE)));
+    }
 }

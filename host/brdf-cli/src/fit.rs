@@ -35,10 +35,9 @@ pub struct FitCmd {
     #[arg(long = "engine", value_parser = named::<EngineKind>, default_value_t = EngineKind::Full)]
     engine_kind: EngineKind,
     /// Evaluation budget of the embedded engine (65 to 10,000,000: above its 64-point
-    /// screen).
-    #[arg(long, default_value_t = u64::from(brdf_fit::embedded::DEFAULT_BUDGET),
-          value_parser = limit(BUDGET_EVALS))]
-    budget_evals: u64,
+    /// screen; default 20,000; embedded engine only).
+    #[arg(long, value_parser = limit(BUDGET_EVALS))]
+    budget_evals: Option<u64>,
     /// Fit only datasets i with i % N == K (0-based K), for job arrays across machines.
     #[arg(long, value_parser = parse_shard)]
     shard: Option<(usize, usize)>,
@@ -66,6 +65,10 @@ impl FitCmd {
             budget_evals: self.budget_evals,
             ..self.engine.request(self.model)
         })?;
+        // Every dataset is checked before any is fitted: a batch fails before it writes.
+        for d in &datasets {
+            settings.check(d)?;
+        }
         let mut csv = match &self.output {
             Some(path) => {
                 Some(ResultsCsv::create(path).with_context(|| format!("cannot write {}", path.display()))?)

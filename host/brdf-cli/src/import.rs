@@ -24,14 +24,16 @@ pub struct ImportCmd {
     /// Output CSV (standard output if omitted).
     #[arg(short = 'o', long)]
     output: Option<PathBuf>,
-    /// Colour channel (cornell only): r, g, b, either case.
-    #[arg(long, value_parser = named::<Channel>, default_value_t = Channel::R)]
-    channel: Channel,
+    /// Colour channel (cornell only): r, g, b, either case; default r.
+    #[arg(long, value_parser = named::<Channel>)]
+    channel: Option<Channel>,
 }
 
 impl ImportCmd {
     pub fn run(self) -> Result<()> {
-        let imp = import_reporting(&self.input, self.format, self.channel)?;
+        let channel =
+            brdf_fit::import::channel_for(Some(self.format), self.channel).map_err(|e| anyhow::anyhow!(e))?;
+        let imp = import_reporting(&self.input, self.format, channel)?;
         match &self.output {
             Some(path) => {
                 let f = std::fs::File::create(path)

@@ -362,7 +362,9 @@ impl ReportCmd {
              without the outlying lines. `--loss-scale` {} (relative error).\n",
             with.data.points.len(),
             without.data.points.len(),
-            self.engine.loss_scale
+            self.engine
+                .loss_scale
+                .unwrap_or(brdf_fit::request::DEFAULT_LOSS_SCALE)
         )?;
         writeln!(
             md,
@@ -381,7 +383,10 @@ impl ReportCmd {
             let mut settings = self.engine.settings(ModelKind::Six)?;
             settings.loss = Loss {
                 kind: loss,
-                scale: self.engine.loss_scale,
+                scale: self
+                    .engine
+                    .loss_scale
+                    .unwrap_or(brdf_fit::request::DEFAULT_LOSS_SCALE),
             };
             let r = brdf_fit::fit_all(&settings, std::slice::from_ref(&e.data))?.remove(0);
             let model = r.model()?;

@@ -13,6 +13,11 @@ use brdf_fit::FitSettings;
 
 use crate::common::{parse_fraction, write_blob, EngineArgs};
 
+/// `--budget`: a fraction (`2%`, `0.02`) that meets the library's budget rule.
+fn parse_budget(text: &str) -> Result<f64, String> {
+    brdf_scene::ladder::check_budget(parse_fraction(text)?)
+}
+
 /// Fit the model ladder to a dataset over the angular domain a scene uses, name the simplest
 /// model whose RMS relative error meets the budget, and the cheapest representation on the
 /// device (Lambert, Minnaert, five- or six-parameter exact, six-parameter tables of 64, 256 or
@@ -21,11 +26,12 @@ use crate::common::{parse_fraction, write_blob, EngineArgs};
 /// a parameter blob for `brdf flash`.
 #[derive(Debug, Args)]
 pub struct SelectCmd {
-    /// Largest acceptable error, e.g. 2% or 0.02: the held-out (5-fold cross-validated) RMS
-    /// relative error over the data's domain; with --scene, the worst relative error of a
-    /// material's σ at any aspect. When nothing meets it, the most accurate representation is
-    /// chosen (and written), and the output says so.
-    #[arg(long, value_parser = parse_fraction, default_value_t = brdf_scene::select::DEFAULT_BUDGET)]
+    /// Largest acceptable error, above 0, e.g. 2% or 0.02: the held-out (cross-validated) RMS
+    /// relative error over the data's domain (when nothing meets it, the most accurate
+    /// representation is chosen and written, with a warning); with --scene, the worst relative
+    /// error of a material's σ at any aspect (when nothing meets it for a material, nothing
+    /// is written).
+    #[arg(long, value_parser = parse_budget, default_value_t = brdf_scene::select::DEFAULT_BUDGET)]
     budget: f64,
     /// Angular domain: only points with theta_i and theta_r at most this (degrees; not with
     /// --scene, whose domain is its own queries).
@@ -41,7 +47,7 @@ pub struct SelectCmd {
     #[arg(short = 'o', long)]
     output: Option<PathBuf>,
     /// Write the fit the chosen representation comes from, as `brdf fit --json` prints it
-    /// (for `brdf pack`; add `--table N` there for a table rung). Not with --scene.
+    /// (for `brdf pack`; add `--table-nodes N` there for a table rung). Not with --scene.
     #[arg(long, value_name = "FILE.json", conflicts_with = "scene")]
     chosen: Option<PathBuf>,
     /// Sequence number of the blob written with -o.
@@ -68,6 +74,14 @@ pub struct SelectCmd {
 
 impl SelectCmd {
     pub fn run(self) -> Result<()> {
+        if let (Some(o), Some(c)) = (&self.output, &self.chosen) {
+            if std::path::absolute(o)? == std::path::absolute(c)? {
+                bail!(
+                    "-o and --chosen name the same file {}: one would overwrite the other",
+                    o.display()
+                );
+            }
+        }
         let Some(data) = self.data.clone() else {
             return self.run_scene();
         };
@@ -109,6 +123,9 @@ impl SelectCmd {
             let text = serde_json::to_string_pretty(&s.candidates[i])?;
             std::fs::write(path, text + "\n").with_context(|| format!("cannot write {}", path.display()))?;
         }
+        for n in &s.notes {
+            eprintln!("{n}");
+        }
         if s.chosen.is_some() && !s.within_budget {
             eprintln!("warning: {}", s.reason);
         }
@@ -121,10 +138,10 @@ impl SelectCmd {
         }
         writeln!(
             out,
-            "{}: {} points with theta_i <= {max_i} deg, theta_r <= {max_r} deg; budget: held-out RMS relative error <= {:.2}%",
+            "{}: {} points with theta_i <= {max_i} deg, theta_r <= {max_r} deg; budget: held-out RMS relative error <= {}%",
             domain.name,
             domain.points.len(),
-            100.0 * self.budget
+            brdf_core::Compact(100.0 * self.budget)
         )?;
         writeln!(
             out,
@@ -213,7 +230,7 @@ impl SelectCmd {
             (e.brightening, "--brightening"),
             (e.skip_invalid, "--skip-invalid"),
             (e.format.is_some(), "--format"),
-            (e.channel != defaults.channel, "--channel"),
+            (e.channel.is_some(), "--channel"),
         ] {
             if given {
                 bail!(

@@ -61,9 +61,11 @@ fn main() {
     for (s, (label, _)) in searches.iter().enumerate() {
         let mut failing = 0;
         let mut seconds = 0.0;
+        let mut worst: f64 = 1.0;
         for (((c, model), b), (_, runs)) in jobs.iter().zip(&best).zip(&per_job) {
             let (costs, t) = &runs[s];
             seconds += t;
+            worst = costs.iter().fold(worst, |w, &x| w.max(x / b));
             let reached = costs.iter().filter(|&&x| (x - b) / b <= SEED_COST_REL).count();
             if reached < costs.len() {
                 failing += 1;
@@ -77,7 +79,8 @@ fn main() {
         }
         let fits = (jobs.len() * SEEDS.count()) as f64;
         println!(
-            "{label}: {failing} of {} pairs fail; {:.1} ms per fit on average",
+            "{label}: {failing} of {} pairs fail (worst seed at {worst:.2} times the best cost); \
+             {:.1} ms per fit on average",
             jobs.len(),
             1e3 * seconds / fits
         );

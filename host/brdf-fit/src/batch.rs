@@ -27,6 +27,16 @@ pub enum FitError {
         /// The rule's error.
         source: AnnealError,
     },
+    /// Weighted data (`sigma` or `weight`) for the embedded engine, which would ignore them.
+    #[error(
+        "{dataset}: line {line}: the embedded engine weighs every point alike; it cannot use sigma or weight"
+    )]
+    Weighted {
+        /// Dataset name.
+        dataset: String,
+        /// The first weighted point's line.
+        line: u64,
+    },
     /// The embedded engine could not run.
     #[error(transparent)]
     Embedded(#[from] EmbeddedError),
@@ -81,9 +91,10 @@ impl FitSettings {
             .with_brightening(self.brightening)
     }
 
-    /// Fits one dataset and builds its report; refuses data with fewer distinct directions
-    /// than the model has parameters.
-    pub fn fit(&self, d: &Dataset) -> Result<FitReport, FitError> {
+    /// Whether these settings can fit `d`: one distinct direction per parameter, and for the
+    /// embedded engine no `sigma` or `weight` (its annealer weighs every point alike). A batch
+    /// checks every dataset before fitting any, so that it fails before writing anything.
+    pub fn check(&self, d: &Dataset) -> Result<(), FitError> {
         let geometries = d
             .points
             .iter()
@@ -92,6 +103,20 @@ impl FitSettings {
             dataset: d.name.clone(),
             source,
         })?;
+        if let Engine::Embedded { .. } = self.engine {
+            if let Some(p) = d.points.iter().find(|p| p.sigma.is_some() || p.weight.is_some()) {
+                return Err(FitError::Weighted {
+                    dataset: d.name.clone(),
+                    line: p.line,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Fits one dataset and builds its report, after [`FitSettings::check`].
+    pub fn fit(&self, d: &Dataset) -> Result<FitReport, FitError> {
+        self.check(d)?;
         let problem = self.problem(d);
         let outcome = match self.engine {
             Engine::Full => fit(&problem, &self.options),

@@ -88,6 +88,19 @@ impl Named for Channel {
 
 brdf_core::named_str!(Channel);
 
+/// The channel to read: `channel` if given, which only the Cornell format has (red when
+/// not given); an error when given for another format or for the canonical CSV (`format`
+/// `None`), where it would be ignored.
+pub fn channel_for(format: Option<Format>, channel: Option<Channel>) -> Result<Channel, String> {
+    match (format, channel) {
+        (_, None) => Ok(Channel::R),
+        (Some(Format::Cornell), Some(c)) => Ok(c),
+        (_, Some(c)) => Err(format!(
+            "channel {c} applies to the cornell format only; it would be ignored"
+        )),
+    }
+}
+
 /// What an import produced.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Imported {

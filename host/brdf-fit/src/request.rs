@@ -114,9 +114,19 @@ pub enum OptionError {
         "the embedded engine fits relative residuals with the linear loss and no brightening; {0} is set"
     )]
     Embedded(String),
+    /// An option the chosen engine or loss would ignore.
+    #[error("{name} {applies}; it would be ignored")]
+    Ignored {
+        /// The option.
+        name: &'static str,
+        /// Where it applies.
+        applies: &'static str,
+    },
 }
 
-/// Every option of a fit by its user-facing name, defaults as [`FitRequest::new`] gives them.
+/// Every option of a fit by its user-facing name, as [`FitRequest::new`] gives them. An
+/// option that applies to one engine or loss only is `None` unless given, so that giving it
+/// where it would be ignored is an error ([`OptionError::Ignored`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FitRequest {
     /// The model.
@@ -127,22 +137,23 @@ pub struct FitRequest {
     pub residual: Residual,
     /// Engine.
     pub engine: EngineKind,
-    /// [`CHAINS`].
-    pub chains: u64,
-    /// [`AGREE`].
-    pub agree: u64,
-    /// [`HOPS`].
-    pub hops: u64,
-    /// [`ANNEAL_EVALS`].
-    pub anneal_evals: u64,
+    /// [`CHAINS`] (full engine; default [`FitOptions::default`]'s).
+    pub chains: Option<u64>,
+    /// [`AGREE`] (full engine).
+    pub agree: Option<u64>,
+    /// [`HOPS`] (full engine).
+    pub hops: Option<u64>,
+    /// [`ANNEAL_EVALS`] (full engine).
+    pub anneal_evals: Option<u64>,
     /// Robust loss.
     pub loss: LossKind,
-    /// Its scale, in the residual's units.
-    pub loss_scale: f64,
+    /// Its scale, in the residual's units (a robust loss only; default
+    /// [`DEFAULT_LOSS_SCALE`]).
+    pub loss_scale: Option<f64>,
     /// Six-parameter `c` searched below 0.
     pub brightening: bool,
-    /// [`BUDGET_EVALS`] (embedded engine only).
-    pub budget_evals: u64,
+    /// [`BUDGET_EVALS`] (embedded engine only; default [`DEFAULT_BUDGET`]).
+    pub budget_evals: Option<u64>,
 }
 
 /// Default scale of a robust loss: a 10% relative error.
@@ -151,20 +162,19 @@ pub const DEFAULT_LOSS_SCALE: f64 = 0.1;
 impl FitRequest {
     /// The defaults for `model`: those of [`FitOptions::default`] and [`FitSettings::new`].
     pub fn new(model: ModelKind) -> Self {
-        let d = FitOptions::default();
         FitRequest {
             model,
-            seed: d.seed,
+            seed: FitOptions::default().seed,
             residual: Residual::default(),
             engine: EngineKind::Full,
-            chains: d.chains as u64,
-            agree: d.agree as u64,
-            hops: d.hops as u64,
-            anneal_evals: d.anneal.evals as u64,
+            chains: None,
+            agree: None,
+            hops: None,
+            anneal_evals: None,
             loss: LossKind::default(),
-            loss_scale: DEFAULT_LOSS_SCALE,
+            loss_scale: None,
             brightening: false,
-            budget_evals: u64::from(DEFAULT_BUDGET),
+            budget_evals: None,
         }
     }
 }
@@ -172,15 +182,44 @@ impl FitRequest {
 impl FitSettings {
     /// Checks every option of `r` and builds the settings, or says which option is wrong.
     pub fn from_options(r: &FitRequest) -> Result<FitSettings, OptionError> {
-        let chains = CHAINS.check(r.chains)? as usize;
-        let agree = AGREE.check(r.agree)? as usize;
-        let hops = HOPS.check(r.hops)? as usize;
-        let evals = ANNEAL_EVALS.check(r.anneal_evals)? as usize;
-        if !(r.loss_scale.is_finite() && r.loss_scale > 0.0) {
-            return Err(OptionError::LossScale(r.loss_scale));
+        let d = FitOptions::default();
+        let checked = |v: Option<u64>, limit: &Limit, default: usize| -> Result<usize, OptionError> {
+            Ok(v.map(|v| limit.check(v))
+                .transpose()?
+                .map_or(default, |v| v as usize))
+        };
+        let chains = checked(r.chains, &CHAINS, d.chains)?;
+        let agree = checked(r.agree, &AGREE, d.agree)?;
+        let hops = checked(r.hops, &HOPS, d.hops)?;
+        let evals = checked(r.anneal_evals, &ANNEAL_EVALS, d.anneal.evals)?;
+        let budget = checked(r.budget_evals, &BUDGET_EVALS, DEFAULT_BUDGET as usize)?;
+        if let Some(scale) = r.loss_scale {
+            if !(scale.is_finite() && scale > 0.0) {
+                return Err(OptionError::LossScale(scale));
+            }
+            if r.loss == LossKind::Linear {
+                return Err(OptionError::Ignored {
+                    name: "loss_scale",
+                    applies: "scales a robust loss (huber, soft-l1, cauchy), not the linear one",
+                });
+            }
         }
+        let ignored = |given: bool, name: &'static str, applies: &'static str| {
+            if given {
+                Err(OptionError::Ignored { name, applies })
+            } else {
+                Ok(())
+            }
+        };
         let engine = match r.engine {
-            EngineKind::Full => Engine::Full,
+            EngineKind::Full => {
+                ignored(
+                    r.budget_evals.is_some(),
+                    "budget_evals",
+                    "applies to the embedded engine only",
+                )?;
+                Engine::Full
+            }
             EngineKind::Embedded => {
                 let set = [
                     (
@@ -193,7 +232,14 @@ impl FitSettings {
                 if let Some((_, what)) = set.into_iter().find(|(bad, _)| *bad) {
                     return Err(OptionError::Embedded(what));
                 }
-                let budget = BUDGET_EVALS.check(r.budget_evals)?;
+                for (v, name) in [
+                    (r.chains, "chains"),
+                    (r.agree, "agree"),
+                    (r.hops, "hops"),
+                    (r.anneal_evals, "anneal_evals"),
+                ] {
+                    ignored(v.is_some(), name, "applies to the full engine only")?;
+                }
                 Engine::Embedded {
                     // At most 1e7: fits a u32.
                     budget: budget as u32,
@@ -205,7 +251,7 @@ impl FitSettings {
             residual: r.residual,
             loss: Loss {
                 kind: r.loss,
-                scale: r.loss_scale,
+                scale: r.loss_scale.unwrap_or(DEFAULT_LOSS_SCALE),
             },
             brightening: r.brightening,
             options: FitOptions {
@@ -248,13 +294,15 @@ mod tests {
         for limit in [CHAINS, AGREE, HOPS, ANNEAL_EVALS, BUDGET_EVALS] {
             let set = |v: u64| {
                 let mut r = FitRequest::new(ModelKind::Six);
-                r.engine = EngineKind::Embedded;
                 match limit.name {
-                    "chains" => r.chains = v,
-                    "agree" => r.agree = v,
-                    "hops" => r.hops = v,
-                    "anneal_evals" => r.anneal_evals = v,
-                    _ => r.budget_evals = v,
+                    "chains" => r.chains = Some(v),
+                    "agree" => r.agree = Some(v),
+                    "hops" => r.hops = Some(v),
+                    "anneal_evals" => r.anneal_evals = Some(v),
+                    _ => {
+                        r.engine = EngineKind::Embedded;
+                        r.budget_evals = Some(v)
+                    }
                 }
                 FitSettings::from_options(&r)
             };
@@ -306,10 +354,60 @@ mod tests {
     }
 
     #[test]
+    fn an_option_the_engine_or_loss_would_ignore_is_refused() {
+        let embedded = FitRequest {
+            engine: EngineKind::Embedded,
+            ..FitRequest::new(ModelKind::Six)
+        };
+        let full = FitRequest::new(ModelKind::Six);
+        for (r, name) in [
+            (
+                FitRequest {
+                    chains: Some(4),
+                    ..embedded.clone()
+                },
+                "chains",
+            ),
+            (
+                FitRequest {
+                    hops: Some(0),
+                    ..embedded.clone()
+                },
+                "hops",
+            ),
+            (
+                FitRequest {
+                    budget_evals: Some(5000),
+                    ..full.clone()
+                },
+                "budget_evals",
+            ),
+            (
+                FitRequest {
+                    loss_scale: Some(0.05),
+                    ..full.clone()
+                },
+                "loss_scale",
+            ),
+        ] {
+            let e = FitSettings::from_options(&r).unwrap_err();
+            assert!(
+                matches!(e, OptionError::Ignored { name: n, .. } if n == name),
+                "{e}"
+            );
+            assert!(
+                e.to_string().starts_with(name) && e.to_string().ends_with("it would be ignored"),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
     fn a_loss_scale_must_be_positive_and_finite() {
         for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             let r = FitRequest {
-                loss_scale: bad,
+                loss: LossKind::Huber,
+                loss_scale: Some(bad),
                 ..FitRequest::new(ModelKind::Lambert)
             };
             let e = FitSettings::from_options(&r).unwrap_err();

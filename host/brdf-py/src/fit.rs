@@ -10,6 +10,8 @@ pub(crate) struct Settings {
     pub(crate) skip_invalid: bool,
     pub(crate) format: Option<Format>,
     pub(crate) channel: Channel,
+    /// Whether a channel was given (not the default).
+    pub(crate) channel_given: bool,
 }
 
 #[pymethods]
@@ -28,38 +30,54 @@ impl Settings {
         hops: Option<u64>,
         anneal_evals: Option<u64>,
         loss: &str,
-        loss_scale: f64,
+        loss_scale: Option<f64>,
         brightening: bool,
         budget_evals: Option<u64>,
         skip_invalid: bool,
         format: Option<&str>,
-        channel: &str,
+        channel: Option<&str>,
     ) -> PyResult<Self> {
         let d = FitRequest::new(kind_of(model)?);
         let request = FitRequest {
             seed,
             residual: parse(residual)?,
             engine: parse(engine)?,
-            chains: chains.unwrap_or(d.chains),
-            agree: agree.unwrap_or(d.agree),
-            hops: hops.unwrap_or(d.hops),
-            anneal_evals: anneal_evals.unwrap_or(d.anneal_evals),
+            chains,
+            agree,
+            hops,
+            anneal_evals,
             loss: parse(loss)?,
             loss_scale,
             brightening,
-            budget_evals: budget_evals.unwrap_or(d.budget_evals),
+            budget_evals,
             ..d
         };
         let settings =
             FitSettings::from_options(&request).map_err(|e| PyValueError::new_err(e.to_string()))?;
         let format = format.map(parse::<Format>).transpose()?;
-        let channel = parse::<Channel>(channel)?;
+        let channel = channel.map(parse::<Channel>).transpose()?;
+        let channel_given = channel.is_some();
+        let channel = brdf_fit::import::channel_for(format, channel).map_err(PyValueError::new_err)?;
         Ok(Settings {
             settings,
             skip_invalid,
             format,
             channel,
+            channel_given,
         })
+    }
+}
+
+impl Settings {
+    /// Refuses the options that apply to files only (`format`, `channel`, `skip_invalid`)
+    /// when the data are arrays, where they would be ignored.
+    pub(crate) fn for_arrays(&self) -> PyResult<()> {
+        if self.format.is_some() || self.channel_given || self.skip_invalid {
+            return Err(PyValueError::new_err(
+                "format, channel and skip_invalid apply to files; arrays are used as given",
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -171,6 +189,7 @@ pub(crate) fn fit_arrays<'py>(
     sigma: Option<PyReadonlyArray1<'py, f64>>,
     weight: Option<PyReadonlyArray1<'py, f64>>,
 ) -> PyResult<String> {
+    settings.for_arrays()?;
     let allow_zero = settings.settings.residual == Residual::Absolute;
     let columns = (
         &theta_i,

@@ -29,7 +29,7 @@ pub(crate) fn select_dataset<'py>(
         let kept = DataDomain::new(&d, limits.0, limits.1);
         notes.extend(kept.left_out_note());
         let base = settings.settings;
-        let (text, candidates, blob) = py.detach(move || -> Result<_, String> {
+        let (text, candidates, blob, left_out) = py.detach(move || -> Result<_, String> {
             let s = select_data(
                 &kept,
                 &|kind| FitSettings { kind, ..base },
@@ -50,8 +50,9 @@ pub(crate) fn select_dataset<'py>(
                 .map(serde_json::to_string_pretty)
                 .collect::<Result<Vec<_>, _>>()
                 .map_err(|e| e.to_string())?;
-            Ok((text, candidates, blob))
+            Ok((text, candidates, blob, s.notes))
         })?;
+        notes.extend(left_out);
         Ok((text, candidates, blob.map(|b| PyBytes::new(py, &b.bytes))))
     })();
     match result {
@@ -63,11 +64,7 @@ pub(crate) fn select_dataset<'py>(
 /// A selection budget is a finite fraction greater than 0 (`budget` as `brdf select
 /// --budget` parses it).
 pub(crate) fn check_budget(budget: f64) -> Result<(), String> {
-    if budget.is_finite() && budget > 0.0 {
-        Ok(())
-    } else {
-        Err(format!("budget {budget} is not a finite fraction greater than 0"))
-    }
+    brdf_scene::ladder::check_budget(budget).map(|_| ())
 }
 
 /// `brdf select` on a file: see [`select_dataset`] and [`Selected`]; the notes are the
@@ -103,6 +100,7 @@ pub(crate) fn select_arrays<'py>(
     weight: Option<PyReadonlyArray1<'py, f64>>,
     options: SelectArgs,
 ) -> PyResult<Selected<'py>> {
+    settings.for_arrays()?;
     let allow_zero = settings.settings.residual == Residual::Absolute;
     let d = dataset(
         name,

@@ -210,7 +210,7 @@ def test_eval_fit_errors_are_the_cli_messages(cli, tmp_path):
         with pytest.raises(ValueError) as e:
             brdf.eval_fit(batch, 10, 20, 30, index=index)
         assert str(e.value) in p.stderr, (str(e.value), p.stderr)
-    with pytest.raises(ValueError, match="index -1 is not a whole number"):
+    with pytest.raises(ValueError, match="index: `-1` is not a whole number >= 0"):
         brdf.eval_fit(batch, 10, 20, 30, index=-1)
 
 

@@ -184,6 +184,10 @@ def test_options_map_to_the_cli_flags(cli, root, flags, kwargs):
         (["--hops", "65"], {"hops": 65}),
         (["--anneal-evals", "0"], {"anneal_evals": 0}),
         (["--engine", "embedded", "--budget-evals", "64"], {"engine": "embedded", "budget_evals": 64}),
+        # Options the engine or the loss would ignore.
+        (["--engine", "embedded", "--chains", "4"], {"engine": "embedded", "chains": 4}),
+        (["--budget-evals", "5000"], {"budget_evals": 5000}),
+        (["--loss-scale", "0.05"], {"loss_scale": 0.05}),
     ],
 )
 def test_bad_options_carry_the_cli_message(cli, root, flags, kwargs):
@@ -192,3 +196,13 @@ def test_bad_options_carry_the_cli_message(cli, root, flags, kwargs):
     with pytest.raises(ValueError) as e:
         brdf.fit(str(root / KHAKI), **kwargs)
     assert str(e.value) in p.stderr, (str(e.value), p.stderr)
+
+
+def test_file_options_are_refused_for_arrays(root):
+    (d,) = brdf.read(str(root / KHAKI))
+    arrays = {k: d[k] for k in ("theta_i", "theta_r", "phi", "brdf")}
+    for kwargs in ({"format": "cornell"}, {"skip_invalid": True}):
+        with pytest.raises(ValueError, match="apply to files; arrays are used as given"):
+            brdf.fit(arrays, **kwargs)
+    with pytest.raises(ValueError, match="channel g applies to the cornell format only"):
+        brdf.fit(arrays, channel="g")

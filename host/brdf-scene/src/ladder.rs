@@ -142,6 +142,16 @@ pub fn rungs(label: &str, kind: ModelKind, params: &[f64; MAX_PARAMS]) -> Result
     Ok(out)
 }
 
+/// The one rule for a budget (`brdf select --budget`, `brdf.select`, `brdf.select_scene`): a
+/// finite fraction above 0 (a budget of 0 would ask the f32 path to equal the f64 model).
+pub fn check_budget(budget: f64) -> Result<f64, String> {
+    if budget.is_finite() && budget > 0.0 {
+        Ok(budget)
+    } else {
+        Err(format!("budget {budget} is not a finite fraction greater than 0"))
+    }
+}
+
 /// The one eligibility rule: the rung's blob fits a flash slot and, without
 /// `allow_nonphysical`, the rung is reciprocal and bounded at grazing.
 pub fn eligible(r: &Rung, allow_nonphysical: bool) -> bool {

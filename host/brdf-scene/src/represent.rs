@@ -103,18 +103,36 @@ pub fn representations(reports: &[FitReport], domain: &Dataset) -> Result<Vec<Re
 /// of the data, few enough that a selection costs about six fits per model.
 pub const CV_FOLDS: usize = 5;
 
+/// Below this many points every point is its own fold (leave-one-out): with five folds, 7
+/// points would leave 5 to train on, too few for the six-parameter model, which would then go
+/// unjudged however well it fits. Leave-one-out keeps `n - 1`; its cost (`n` refits of small
+/// data) stays below that of five refits of larger data.
+pub const CV_LEAVE_ONE_OUT_BELOW: usize = 10 * CV_FOLDS;
+
+/// The number of folds for `n` points ([`CV_FOLDS`], or `n` below
+/// [`CV_LEAVE_ONE_OUT_BELOW`]).
+pub fn cv_fold_count(n: usize) -> usize {
+    if n < CV_LEAVE_ONE_OUT_BELOW {
+        n
+    } else {
+        CV_FOLDS
+    }
+}
+
 /// Seed of the fold assignment (fixed: the same data always give the same folds).
 const CV_SEED: u64 = 0x5eed_c0ff_ee00_0005;
 
-/// The fold of each of `n` points: a fixed pseudo-random order dealt round-robin, so the
+/// The fold of each of `n` points ([`cv_fold_count`] folds): a fixed pseudo-random order dealt
+/// round-robin, so the
 /// folds differ in size by at most one and do not follow the file's order (measurements are
 /// usually sorted by incidence, and a fold of one incidence would test extrapolation).
 pub fn cv_folds(n: usize) -> Vec<usize> {
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by_key(|&i| brdf_core::accuracy::splitmix64(&mut (i as u64 ^ CV_SEED)));
+    let k = cv_fold_count(n);
     let mut fold = vec![0; n];
     for (rank, &i) in order.iter().enumerate() {
-        fold[i] = rank % CV_FOLDS;
+        fold[i] = rank % k;
     }
     fold
 }
@@ -129,7 +147,7 @@ fn cross_validate(
 ) {
     use rayon::prelude::*;
     let fold = cv_folds(domain.points.len());
-    let jobs: Vec<(usize, ModelKind)> = (0..CV_FOLDS)
+    let jobs: Vec<(usize, ModelKind)> = (0..cv_fold_count(domain.points.len()))
         .flat_map(|f| ModelKind::LADDER.into_iter().map(move |k| (f, k)))
         .collect();
     // Per job: (rung name, sum of squared relative errors, points) for every rung it built.
@@ -302,6 +320,8 @@ pub struct DataSelection {
     pub chosen_fit: Option<usize>,
     /// Why it was chosen, or why nothing was.
     pub reason: String,
+    /// Models of the ladder left out (the data cannot determine them), with why.
+    pub notes: Vec<String>,
     /// The ladder's fits, simplest first.
     pub candidates: Vec<FitReport>,
     pub representations: Vec<Representation>,
@@ -331,10 +351,17 @@ pub fn select_data(
         ));
     }
     let mut candidates: Vec<FitReport> = Vec::new();
+    let mut notes = Vec::new();
     for &k in ModelKind::LADDER.iter() {
-        candidates.extend(
-            brdf_fit::fit_all(&settings(k), std::slice::from_ref(domain)).map_err(|e| e.to_string())?,
-        );
+        // A model the data cannot determine is left out, said in the notes; the others are
+        // still compared.
+        match brdf_fit::fit_all(&settings(k), std::slice::from_ref(domain)) {
+            Ok(r) => candidates.extend(r),
+            Err(e @ brdf_fit::FitError::Directions { .. }) => {
+                notes.push(format!("{}: not fitted: {e}", k.name()))
+            }
+            Err(e) => return Err(e.to_string()),
+        }
     }
     let mut reprs = representations(&candidates, domain)?;
     cross_validate(domain, settings, &mut reprs);
@@ -351,16 +378,33 @@ pub fn select_data(
     } = choose(
         &all,
         &errors,
-        &format!("held-out RMS relative error ({CV_FOLDS}-fold cross-validation)"),
+        &format!(
+            "held-out RMS relative error ({})",
+            match cv_fold_count(domain.points.len()) {
+                k if k == domain.points.len() => "leave-one-out cross-validation".to_owned(),
+                k => format!("{k}-fold cross-validation"),
+            }
+        ),
         budget,
         allow_nonphysical,
     );
     let within_budget = best.is_some();
     let chosen = best.or(closest.filter(|&c| errors[c].is_finite()));
-    let reason = match (within_budget, chosen) {
+    let mut reason = match (within_budget, chosen) {
         (false, Some(c)) => format!("{reason}; chosen as the most accurate: {}", reprs[c].rung.name),
         _ => reason,
     };
+    let unjudged: Vec<&str> = reprs
+        .iter()
+        .filter(|r| r.cv_rms_rel.is_none())
+        .map(|r| r.rung.name.as_str())
+        .collect();
+    if !unjudged.is_empty() {
+        reason.push_str(&format!(
+            "; not cross-validated (a fold left too few distinct directions to refit, or no device material): {}",
+            unjudged.join(", ")
+        ));
+    }
     let material = chosen.map(|i| (reprs[i].rung.material, reprs[i].rung.table.clone()));
     let chosen_fit = chosen.and_then(|i| candidates.iter().position(|c| c.model == reprs[i].rung.kind));
     Ok(DataSelection {
@@ -374,6 +418,7 @@ pub fn select_data(
         within_budget,
         chosen_fit,
         reason,
+        notes,
         candidates,
         representations: reprs,
         material,
@@ -386,17 +431,18 @@ mod cv_tests {
 
     #[test]
     fn folds_are_balanced_fixed_and_not_in_file_order() {
-        for n in [7, 10, 213, 1000] {
+        for n in [7, 10, 49, 50, 213, 1000] {
             let f = cv_folds(n);
             assert_eq!(f, cv_folds(n), "the same points give the same folds");
-            let sizes: Vec<usize> = (0..CV_FOLDS)
-                .map(|k| f.iter().filter(|&&g| g == k).count())
-                .collect();
+            let k = cv_fold_count(n);
+            assert_eq!(k, if n < CV_LEAVE_ONE_OUT_BELOW { n } else { CV_FOLDS });
+            assert!(f.iter().all(|&g| g < k));
+            let sizes: Vec<usize> = (0..k).map(|k| f.iter().filter(|&&g| g == k).count()).collect();
             let (lo, hi) = (sizes.iter().min().unwrap(), sizes.iter().max().unwrap());
             assert!(hi - lo <= 1, "{n}: {sizes:?}");
             // A file sorted by incidence must not give a fold of consecutive rows.
             let runs = f.windows(2).filter(|w| w[0] == w[1]).count();
-            assert!(runs < n / 2, "{n}: {runs} neighbours share a fold");
+            assert!(runs < n / 2 || k == n, "{n}: {runs} neighbours share a fold");
         }
     }
 }

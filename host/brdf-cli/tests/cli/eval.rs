@@ -333,6 +333,33 @@ fn a_fit_result_evaluates_as_its_model_and_parameters() {
         a
     ])
     .contains("--fit"));
+    // A parameter the model does not have, or one given twice, is refused (it would be
+    // ignored, or one value silently win), by eval and by pack alike.
+    for (json, says) in [
+        (
+            r#"{"model": "five", "params": {"kb": 0.25, "kr": 21.8, "b": -27.6, "a": 0.67, "kd": 0.37, "c": 1.2}}"#,
+            "unknown parameter `c` for the five model (expected kb, kr, b, a, kd)",
+        ),
+        (
+            r#"{"model": "lambert", "params": {"rho0": 0.3, "rho0": 0.9}}"#,
+            "parameter `rho0` given twice",
+        ),
+        ("[]", "holds no fit"),
+    ] {
+        let f = write(&dir, "odd.json", json);
+        let e = eval_err(&["eval", "--fit", f.to_str().unwrap(), a]);
+        assert!(e.contains(says), "{e}");
+        if json != "[]" {
+            let out = brdf(&[
+                "pack",
+                f.to_str().unwrap(),
+                "-o",
+                dir.path().join("x.bin").to_str().unwrap(),
+            ]);
+            assert!(!out.status.success());
+            assert!(String::from_utf8_lossy(&out.stderr).contains(says));
+        }
+    }
     // A fit whose parameters are out of range is refused, naming the parameter.
     let bad = write(
         &dir,

@@ -489,7 +489,6 @@ fn every_fitting_command_refuses_repeated_directions() {
     for args in [
         vec!["fit", p],
         vec!["fit", p, "--model", "minnaert"],
-        vec!["select", p],
         vec!["plot", "in-plane", p, "-o", png.to_str().unwrap()],
     ] {
         let out = brdf(&args);
@@ -499,5 +498,117 @@ fn every_fitting_command_refuses_repeated_directions() {
             err.contains("1 distinct direction(s) cannot determine"),
             "{args:?}: {err}"
         );
+    }
+    // `select` compares what the data can determine (Lambert's one parameter) and names the
+    // models it left out.
+    let out = brdf(&["select", p, "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let models: Vec<&str> = v["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["model"].as_str().unwrap())
+        .collect();
+    assert_eq!(models, ["lambert"]);
+    let notes = v["notes"].as_array().unwrap();
+    assert_eq!(notes.len(), 4, "{notes:?}");
+    assert!(
+        notes[0].as_str().unwrap().starts_with("minnaert: not fitted: "),
+        "{notes:?}"
+    );
+    // A batch with one such dataset fails before it writes anything.
+    let good = repo("data/khaki-synthetic-inplane.csv");
+    let rows = dir.path().join("rows.csv");
+    let out = brdf(&["fit", "--json", &good, p, "-o", rows.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(out.stdout.is_empty(), "{}", String::from_utf8_lossy(&out.stdout));
+    assert!(!rows.exists(), "the CSV was started");
+}
+
+#[test]
+fn select_judges_every_model_on_few_points_and_guards_its_outputs() {
+    // Seven exact six-parameter points: five folds would leave five points to refit six
+    // parameters, so the six-parameter model would go unjudged and Lambert win at 300%.
+    // Leave-one-out judges it.
+    let dir = tempfile::tempdir().unwrap();
+    let exact = ok(&[
+        "synth",
+        "--model",
+        "six",
+        "--params",
+        &KHAKI,
+        "--theta-i",
+        "0,10,30",
+        "--step",
+        "5",
+    ]);
+    let mut lines = exact.lines();
+    let mut seven = format!("{}\n", lines.next().unwrap());
+    for l in lines.step_by(15).take(7) {
+        seven.push_str(l);
+        seven.push('\n');
+    }
+    let path = dir.path().join("seven.csv");
+    std::fs::write(&path, seven).unwrap();
+    let p = path.to_str().unwrap();
+    let v: serde_json::Value = serde_json::from_str(&ok(&["select", p, "--json"])).unwrap();
+    let chosen = v["chosen"].as_str().unwrap();
+    assert!(chosen.starts_with("six"), "{chosen}: {}", v["reason"]);
+    assert!(
+        v["reason"].as_str().unwrap().contains("leave-one-out"),
+        "{}",
+        v["reason"]
+    );
+    // -o and --chosen may not name the same file; a budget must be above 0.
+    let same = dir.path().join("same");
+    let s = same.to_str().unwrap();
+    let out = brdf(&["select", p, "-o", s, "--chosen", s]);
+    assert!(!out.status.success() && !same.exists());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("name the same file"));
+    let out = brdf(&["select", p, "--budget", "0"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("budget 0 is not a finite fraction greater than 0"));
+}
+
+#[test]
+fn options_that_would_be_ignored_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = repo("data/khaki-synthetic-inplane.csv");
+    // Weighted data for the embedded engine, which weighs every point alike.
+    let text = std::fs::read_to_string(&data).unwrap();
+    let mut weighted = String::new();
+    for (i, l) in text.lines().enumerate() {
+        weighted.push_str(l);
+        weighted.push_str(if i == 0 { ",weight\n" } else { ",2\n" });
+    }
+    let w = dir.path().join("w.csv");
+    std::fs::write(&w, weighted).unwrap();
+    let ws = w.to_str().unwrap();
+    for (args, says) in [
+        (
+            vec!["fit", "--engine", "embedded", ws],
+            "the embedded engine weighs every point alike",
+        ),
+        (
+            vec!["fit", "--engine", "embedded", "--hops", "2", &data],
+            "hops applies to the full engine only",
+        ),
+        (
+            vec!["fit", "--budget-evals", "5000", &data],
+            "budget_evals applies to the embedded engine only",
+        ),
+        (
+            vec!["fit", "--loss-scale", "0.05", &data],
+            "loss_scale scales a robust loss",
+        ),
+        (
+            vec!["fit", "--channel", "g", &data],
+            "channel g applies to the cornell format only",
+        ),
+    ] {
+        let out = brdf(&args);
+        assert!(!out.status.success(), "{args:?} accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says), "{args:?}: {err}");
     }
 }

@@ -149,13 +149,19 @@ fn select_scene_picks_within_budget_and_says_why() {
     }
     assert!(json["scene_worst_sigma_error"].as_f64().unwrap() <= 0.01);
 
-    // A budget nothing meets writes nothing and says so.
+    // A budget of 0 is refused (the f32 path cannot equal the f64 model); one nothing meets
+    // writes nothing and says so.
+    let zero = brdf(&["select", "--scene", &scene(), "--budget", "0"]);
+    assert!(!zero.status.success());
+    assert!(
+        String::from_utf8_lossy(&zero.stderr).contains("budget 0 is not a finite fraction greater than 0")
+    );
     let none = brdf(&[
         "select",
         "--scene",
         &scene(),
         "--budget",
-        "0",
+        "1e-12",
         "-o",
         blob.to_str().unwrap(),
     ]);

@@ -255,6 +255,26 @@ pub enum ReadError {
         /// What is wrong.
         message: String,
     },
+    /// A parameter the model does not have (it would be ignored).
+    #[error("{origin}: unknown parameter `{name}` for the {model} model (expected {expected})")]
+    UnknownParam {
+        /// File and fit index.
+        origin: String,
+        /// The name given.
+        name: String,
+        /// The model.
+        model: &'static str,
+        /// Its parameter names.
+        expected: String,
+    },
+    /// A parameter given twice (which value was meant is unknown).
+    #[error("{origin}: parameter `{name}` given twice")]
+    DuplicateParam {
+        /// File and fit index.
+        origin: String,
+        /// The parameter.
+        name: String,
+    },
     /// A parameter of the model is missing.
     #[error("{origin}: no parameter `{name}` for the {model} model")]
     MissingParam {
@@ -315,11 +335,11 @@ fn params_in_order(kind: ModelKind, params: &Ordered<f64>) -> Result<[f64; MAX_P
 }
 
 /// One fit result, or an array of them, from `text`, each checked to name every parameter
-/// of its model.
+/// of its model once and nothing else.
 fn read_fits<T: serde::de::DeserializeOwned>(
     text: &str,
     origin: &str,
-    params: impl Fn(&T) -> (ModelKind, Result<[f64; MAX_PARAMS], &'static str>),
+    params: impl Fn(&T) -> (ModelKind, &Ordered<f64>),
 ) -> Result<Vec<T>, ReadError> {
     let items: Vec<&serde_json::value::RawValue> = if text.trim_start().starts_with('[') {
         serde_json::from_str(text).map_err(|e| ReadError::json(origin.to_owned(), text, text, &e))?
@@ -331,8 +351,24 @@ fn read_fits<T: serde::de::DeserializeOwned>(
         let origin = format!("{origin}: fit {i}");
         let part = item.get();
         let r: T = serde_json::from_str(part).map_err(|e| ReadError::json(origin.clone(), text, part, &e))?;
-        let (kind, p) = params(&r);
-        p.map_err(|name| ReadError::MissingParam {
+        let (kind, given) = params(&r);
+        for (k, (name, _)) in given.0.iter().enumerate() {
+            if !kind.param_names().contains(&name.as_str()) {
+                return Err(ReadError::UnknownParam {
+                    origin,
+                    name: name.clone(),
+                    model: kind.name(),
+                    expected: kind.param_names().join(", "),
+                });
+            }
+            if given.0[..k].iter().any(|(n, _)| n == name) {
+                return Err(ReadError::DuplicateParam {
+                    origin,
+                    name: name.clone(),
+                });
+            }
+        }
+        params_in_order(kind, given).map_err(|name| ReadError::MissingParam {
             origin,
             name,
             model: kind.name(),
@@ -345,7 +381,7 @@ fn read_fits<T: serde::de::DeserializeOwned>(
 impl FittedModel {
     /// Reads one fit result or an array of them (see [`FitReport::from_json`]).
     pub fn from_json(text: &str, origin: &str) -> Result<Vec<FittedModel>, ReadError> {
-        read_fits(text, origin, |r: &FittedModel| (r.model, r.params_array()))
+        read_fits(text, origin, |r: &FittedModel| (r.model, &r.params))
     }
 
     /// The parameters in paper order (unused entries 0), or the name of one that is missing.
@@ -364,6 +400,9 @@ impl FittedModel {
     ) -> Result<(ModelKind, [f64; MAX_PARAMS], usize), String> {
         let fits = FittedModel::from_json(text, origin).map_err(|e| e.to_string())?;
         let n = fits.len();
+        if n == 0 {
+            return Err(format!("{origin}: holds no fit"));
+        }
         let k = match index {
             Some(k) if k < n => k,
             Some(k) if n == 1 => return Err(format!("{origin}: holds one fit; there is no index {k}")),
@@ -394,7 +433,7 @@ impl FitReport {
     /// Reads `brdf fit --json` output: one report, or an array of them (a batch fit).
     /// `origin` names the source in errors (`fits.json: fit 2: line 40, column 12: ...`).
     pub fn from_json(text: &str, origin: &str) -> Result<Vec<FitReport>, ReadError> {
-        read_fits(text, origin, |r: &FitReport| (r.model, r.params_array()))
+        read_fits(text, origin, |r: &FitReport| (r.model, &r.params))
     }
 
     /// The model and parameters alone.

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import logging
-import operator
 import os
 import warnings
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
@@ -55,11 +54,10 @@ def _params_text(params: Union[str, Mapping[str, float]]) -> str:
     if isinstance(params, Mapping):
         parts = []
         for name, value in params.items():
-            try:
-                v = float(value)
-            except (TypeError, ValueError):
-                raise ValueError(f"params: {name}: {value!r} is not a number") from None
-            parts.append(f"{name}={v!r}")
+            # A number as Python holds it; True or "0.3" is refused, not read as 1 or 0.3.
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+                raise ValueError(f"params: {name}: {value!r} is not a number")
+            parts.append(f"{name}={float(value)!r}")
         return ",".join(parts)
     raise TypeError(f"params must be a dict or a 'name=value,...' string, not {type(params).__name__}")
 
@@ -148,10 +146,10 @@ def eval_fit(fit, theta_i, theta_r, phi, *, index: Optional[int] = None, precisi
                 text = f.read()
         except OSError as e:
             raise ValueError(f"cannot read {path}: {e.strerror}") from None
+        except UnicodeDecodeError as e:
+            raise ValueError(f"{path}: not UTF-8 text (byte {e.start})") from None
         origin = path
-    if index is not None and (isinstance(index, bool) or not isinstance(index, int) or index < 0):
-        raise ValueError(f"index {index!r} is not a whole number >= 0")
-    model, params = _brdf.fitted(text, origin, index)
+    model, params = _brdf.fitted(text, origin, _whole("index", index))
     return eval(model, params, theta_i, theta_r, phi, precision=precision, parallel=parallel)
 
 
@@ -267,10 +265,11 @@ def _settings(model, seed, residual, engine, options) -> "_brdf.Settings":
     return _brdf.Settings(
         _text("model", model), _whole("seed", seed), _text("residual", residual), _text("engine", engine),
         whole["chains"], whole["agree"], whole["hops"], whole["anneal_evals"],
-        _text("loss", o.get("loss", "linear")), _number("loss_scale", o.get("loss_scale", 0.1)),
+        _text("loss", o.get("loss", "linear")),
+        None if o.get("loss_scale") is None else _number("loss_scale", o["loss_scale"]),
         _flag("brightening", o.get("brightening", False)),
         whole["budget_evals"], _flag("skip_invalid", o.get("skip_invalid", False)),
-        None if o.get("format") is None else _text("format", o["format"]), _text("channel", o.get("channel", "r")),
+        None if o.get("format") is None else _text("format", o["format"]), None if o.get("channel") is None else _text("channel", o["channel"]),
     )
 
 
@@ -284,6 +283,8 @@ def _whole(name: str, v):
         raise TypeError(f"{name} must be a whole number, not {v!r}")
     if v < 0:
         raise ValueError(f"{name}: `{v}` is not a whole number >= 0")
+    if v > 0xFFFFFFFFFFFFFFFF:
+        raise ValueError(f"{name}: `{v}` is larger than any 64-bit whole number")
     return int(v)
 
 
@@ -437,7 +438,7 @@ def select(
     s = _settings("six", seed, residual, "full", options)
     mi = _number("max_theta_i", max_theta if max_theta_i is None else max_theta_i)
     mr = _number("max_theta_r", max_theta if max_theta_r is None else max_theta_r)
-    sequence = operator.index(sequence)
+    sequence = _whole("sequence", sequence)
     if not 0 <= sequence <= 0xFFFFFFFF:
         raise ValueError(f"sequence {sequence}: outside 0..=4294967295")
     args = (_number("budget", budget), mi, mr, _flag("allow_nonphysical", allow_nonphysical), sequence)
@@ -471,7 +472,7 @@ def read(path, format: Optional[str] = None, channel: Optional[str] = None, *, s
     or ``weight`` where the file gives them. Rows the CLI would skip or reject are reported
     as warnings.
     """
-    opts = {"format": format, "channel": channel or "r", "skip_invalid": skip_invalid}
+    opts = {"format": format, "channel": channel, "skip_invalid": skip_invalid}
     s = _settings("six", 1, "relative", "full", opts)
     sets, notes = _brdf.read_paths(s, [os.fspath(path)])
     for note in notes:
@@ -531,10 +532,10 @@ def pack(results, table_nodes: Optional[int] = None, *, sequence: int = 1) -> by
     else:
         sources = [source(results, "results")]
     if table_nodes is not None:
-        table_nodes = operator.index(table_nodes)
+        table_nodes = _whole("table_nodes", table_nodes)
         if table_nodes < 0:
             raise ValueError(f"{table_nodes} table nodes: not a count")
-    sequence = operator.index(sequence)
+    sequence = _whole("sequence", sequence)
     if not 0 <= sequence <= 0xFFFFFFFF:
         raise ValueError(f"sequence {sequence}: outside 0..=4294967295")
     blob, notes, error = _brdf.pack(sources, table_nodes, sequence)
@@ -657,10 +658,10 @@ def select_scene(
     """
     if not isinstance(allow_nonphysical, bool):
         raise TypeError(f"allow_nonphysical must be True or False, not {allow_nonphysical!r}")
-    sequence = operator.index(sequence)
+    sequence = _whole("sequence", sequence)
     if not 0 <= sequence <= 0xFFFFFFFF:
         raise ValueError(f"sequence {sequence}: outside 0..=4294967295")
-    seed = operator.index(seed)
+    seed = _whole("seed", seed)
     if not 0 <= seed <= 0xFFFFFFFFFFFFFFFF:
         raise ValueError(f"seed {seed}: outside 0..=18446744073709551615")
     return SceneSelection(
