@@ -350,6 +350,16 @@ pub fn select_data(
             domain.points.len(),
         ));
     }
+    // Representations are judged by relative error, which a zero reading (allowed for
+    // absolute residuals) leaves undefined.
+    if let Some(p) = domain.points.iter().find(|p| p.brdf <= 0.0) {
+        return Err(format!(
+            "{}: line {}: brdf {}: select judges representations by relative error, undefined at a zero reading",
+            domain.name,
+            p.line,
+            brdf_core::Compact(p.brdf)
+        ));
+    }
     let mut candidates: Vec<FitReport> = Vec::new();
     let mut notes = Vec::new();
     for &k in ModelKind::LADDER.iter() {

@@ -74,3 +74,25 @@ fn the_default_budget_is_the_command_lines() {
     assert_eq!(SelectOptions::default().budget, DEFAULT_BUDGET);
     assert_eq!(DEFAULT_BUDGET, 0.02);
 }
+
+/// Before: data with a zero reading (allowed with absolute residuals) gave every
+/// representation an infinite error and the reason "closest ... at inf%".
+#[test]
+fn data_selection_refuses_a_zero_reading_naming_its_line() {
+    use brdf_scene::represent::{select_data, DataDomain};
+    let mut d = brdf_fit::synth::in_plane(ModelKind::Lambert, &[0.5], &[0.0, 30.0], 10.0, 0.0, 1).unwrap();
+    d.points[3].brdf = 0.0;
+    let line = d.points[3].line;
+    let kept = DataDomain::new(&d, 90.0, 90.0);
+    let settings = |kind| brdf_fit::FitSettings {
+        residual: brdf_fit::Residual::Absolute,
+        ..brdf_fit::FitSettings::new(kind)
+    };
+    let e = select_data(&kept, &settings, 0.02, false).unwrap_err();
+    assert!(
+        e.contains(&format!(
+            "line {line}: brdf 0: select judges representations by relative error"
+        )),
+        "{e}"
+    );
+}
