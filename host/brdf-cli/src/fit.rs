@@ -48,6 +48,17 @@ pub struct FitCmd {
 
 impl FitCmd {
     pub fn run(self) -> Result<()> {
+        if let Some(out) = &self.output {
+            let out_abs = std::path::absolute(out)?;
+            for d in &self.data {
+                if std::path::absolute(d)? == out_abs {
+                    bail!(
+                        "-o {} is one of the data files: it would be overwritten",
+                        out.display()
+                    );
+                }
+            }
+        }
         let mut datasets = self.engine.load(&self.data)?;
         if let Some((k, n)) = self.shard {
             datasets = datasets

@@ -115,14 +115,17 @@ impl Loss {
                     (2.0 * s - 1.0, 1.0 / s, -0.5 / (z * s))
                 }
             }
+            // Both written without cancellation: with a large scale, z is tiny and
+            // `sqrt(1 + z) - 1` or `ln(1 + z)` would lose every digit (`--loss-scale 1e8` made
+            // every residual cost 0 and a grid node "converged").
             LossKind::SoftL1 => {
                 let t = 1.0 + z;
                 let s = t.sqrt();
-                (2.0 * (s - 1.0), 1.0 / s, -0.5 / (t * s))
+                (2.0 * z / (s + 1.0), 1.0 / s, -0.5 / (t * s))
             }
             LossKind::Cauchy => {
                 let t = 1.0 + z;
-                (t.ln(), 1.0 / t, -1.0 / (t * t))
+                (z.ln_1p(), 1.0 / t, -1.0 / (t * t))
             }
         };
         (c2 * rho, d1, d2 / c2)
@@ -608,5 +611,49 @@ impl ProjectionSums {
             }
         }
         (best.0, best.1.max(0.0))
+    }
+}
+
+#[cfg(test)]
+mod loss_tests {
+    use super::*;
+
+    /// Before: `sqrt(1 + z) - 1` and `ln(1 + z)` cancelled for a tiny `z` (a large loss
+    /// scale), so every residual cost 0. With a scale far above the residuals every robust
+    /// loss is least squares to rounding.
+    #[test]
+    fn a_large_scale_makes_every_loss_least_squares_to_rounding() {
+        for kind in [LossKind::Huber, LossKind::SoftL1, LossKind::Cauchy] {
+            for r in [1e-6_f64, 1e-3, 0.3, 2.0] {
+                let loss = Loss { kind, scale: 1e8 };
+                let (rho, d1, d2) = loss.eval(r * r);
+                assert!(((rho - r * r) / (r * r)).abs() < 1e-12, "{kind:?} r={r}: {rho}");
+                assert!((d1 - 1.0).abs() < 1e-12, "{kind:?} r={r}: {d1}");
+                assert!(d2.abs() < 1e-12, "{kind:?} r={r}: {d2}");
+            }
+        }
+    }
+
+    /// The rewritten forms equal the textbook ones where those are accurate.
+    #[test]
+    fn the_losses_are_scipys_at_moderate_scale() {
+        let c = 0.1_f64;
+        for r in [0.01_f64, 0.1, 1.0] {
+            let z = r * r / (c * c);
+            let soft = Loss {
+                kind: LossKind::SoftL1,
+                scale: c,
+            }
+            .eval(r * r)
+            .0;
+            assert!((soft - c * c * 2.0 * ((1.0 + z).sqrt() - 1.0)).abs() < 1e-15 * (1.0 + soft));
+            let cauchy = Loss {
+                kind: LossKind::Cauchy,
+                scale: c,
+            }
+            .eval(r * r)
+            .0;
+            assert!((cauchy - c * c * (1.0 + z).ln()).abs() < 1e-15 * (1.0 + cauchy));
+        }
     }
 }

@@ -114,6 +114,14 @@ pub enum OptionError {
         "the embedded engine fits relative residuals with the linear loss and no brightening; {0} is set"
     )]
     Embedded(String),
+    /// More agreeing searches asked for than chains run.
+    #[error("agree {agree} is more than chains {chains}: the fit could never converge")]
+    AgreeAboveChains {
+        /// Agreeing searches asked for.
+        agree: usize,
+        /// Chains that run.
+        chains: usize,
+    },
     /// An option the chosen engine or loss would ignore.
     #[error("{name} {applies}; it would be ignored")]
     Ignored {
@@ -193,6 +201,11 @@ impl FitSettings {
         let hops = checked(r.hops, &HOPS, d.hops)?;
         let evals = checked(r.anneal_evals, &ANNEAL_EVALS, d.anneal.evals)?;
         let budget = checked(r.budget_evals, &BUDGET_EVALS, DEFAULT_BUDGET as usize)?;
+        // At least `agree` chains run, and no more than `chains`: more agreeing searches than
+        // chains could never be met, and no fit would ever converge.
+        if agree > chains {
+            return Err(OptionError::AgreeAboveChains { agree, chains });
+        }
         if let Some(scale) = r.loss_scale {
             if !(scale.is_finite() && scale > 0.0) {
                 return Err(OptionError::LossScale(scale));
@@ -295,8 +308,9 @@ mod tests {
             let set = |v: u64| {
                 let mut r = FitRequest::new(ModelKind::Six);
                 match limit.name {
-                    "chains" => r.chains = Some(v),
-                    "agree" => r.agree = Some(v),
+                    // (with the other at the value that keeps agree <= chains)
+                    "chains" => (r.chains, r.agree) = (Some(v), Some(1)),
+                    "agree" => (r.agree, r.chains) = (Some(v), Some(64)),
                     "hops" => r.hops = Some(v),
                     "anneal_evals" => r.anneal_evals = Some(v),
                     _ => {
@@ -400,6 +414,25 @@ mod tests {
                 "{e}"
             );
         }
+    }
+
+    #[test]
+    fn more_agreeing_searches_than_chains_are_refused() {
+        let r = FitRequest {
+            agree: Some(10),
+            chains: Some(4),
+            ..FitRequest::new(ModelKind::Six)
+        };
+        assert_eq!(
+            FitSettings::from_options(&r).unwrap_err().to_string(),
+            "agree 10 is more than chains 4: the fit could never converge"
+        );
+        let r = FitRequest {
+            agree: Some(4),
+            chains: Some(4),
+            ..FitRequest::new(ModelKind::Six)
+        };
+        assert!(FitSettings::from_options(&r).is_ok());
     }
 
     #[test]

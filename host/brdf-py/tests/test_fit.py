@@ -184,6 +184,8 @@ def test_options_map_to_the_cli_flags(cli, root, flags, kwargs):
         (["--hops", "65"], {"hops": 65}),
         (["--anneal-evals", "0"], {"anneal_evals": 0}),
         (["--engine", "embedded", "--budget-evals", "64"], {"engine": "embedded", "budget_evals": 64}),
+        # More agreeing searches than chains could never converge.
+        (["--agree", "10", "--chains", "4"], {"agree": 10, "chains": 4}),
         # Options the engine or the loss would ignore.
         (["--engine", "embedded", "--chains", "4"], {"engine": "embedded", "chains": 4}),
         (["--budget-evals", "5000"], {"budget_evals": 5000}),
@@ -206,3 +208,30 @@ def test_file_options_are_refused_for_arrays(root):
             brdf.fit(arrays, **kwargs)
     with pytest.raises(ValueError, match="channel g applies to the cornell format only"):
         brdf.fit(arrays, channel="g")
+
+
+def test_array_data_is_taken_as_given_or_refused(root):
+    (d,) = brdf.read(str(root / KHAKI))
+    cols = {k: d[k] for k in ("theta_i", "theta_r", "phi", "brdf")}
+    # Before: (N, 1) beside (N,) broadcast to N^2 points and fitted.
+    bad = dict(cols, theta_i=cols["theta_i"][:, None])
+    with pytest.raises(ValueError, match=r"the columns differ in shape \(theta_i \(\d+, 1\)"):
+        brdf.fit(bad)
+    # Before: a misspelt key was ignored, and the fit ran without the uncertainties.
+    with pytest.raises(ValueError, match="unknown key\\(s\\) 'sigmas'"):
+        brdf.fit(dict(cols, sigmas=np.full_like(cols["brdf"], 0.01)))
+    # Before: a bytes path was misread.
+    with pytest.raises(TypeError, match="not bytes"):
+        brdf.fit(str(root / KHAKI).encode())
+    # What `read` returns fits as it is, under its own name.
+    r = brdf.fit(d)
+    assert r.dataset == d["name"]
+
+
+def test_repr_of_an_absolute_residual_fit_with_a_zero_reading(root):
+    (d,) = brdf.read(str(root / KHAKI))
+    d["brdf"][0] = 0.0
+    r = brdf.fit(d, residual="absolute", model="lambert")
+    # Before: repr raised TypeError (the relative error is null where a reading is 0).
+    assert r.metrics["rms_rel"] is None
+    assert repr(r).endswith("rms_rel undefined)")

@@ -107,8 +107,10 @@ pub(crate) fn exp<A: Arith>(x: f64) -> f64 {
     // is a logical shift: k1 = floor(k/2), k2 = k - k1.
     let u = bits & 0x000F_FFFF_FFFF_FFFF;
     let half = u >> 1;
-    let s1 = f64::from_bits((half - (1u64 << 50) + 1023) << 52);
-    let s2 = f64::from_bits((u - half - (1u64 << 50) + 1023) << 52);
+    // Modulo 2^64 on purpose: for a negative k1 the subtraction wraps, and the shift keeps
+    // only the exponent bits, which are right either way.
+    let s1 = f64::from_bits((half.wrapping_sub(1u64 << 50).wrapping_add(1023)) << 52);
+    let s2 = f64::from_bits(((u - half).wrapping_sub(1u64 << 50).wrapping_add(1023)) << 52);
     y * s1 * s2
 }
 

@@ -605,10 +605,23 @@ fn options_that_would_be_ignored_are_refused() {
             vec!["fit", "--channel", "g", &data],
             "channel g applies to the cornell format only",
         ),
+        (
+            vec!["fit", "--agree", "10", "--chains", "4", &data],
+            "agree 10 is more than chains 4",
+        ),
+        (
+            vec!["fit", ws, "-o", ws],
+            "is one of the data files: it would be overwritten",
+        ),
     ] {
         let out = brdf(&args);
         assert!(!out.status.success(), "{args:?} accepted");
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains(says), "{args:?}: {err}");
     }
+    let kept = std::fs::read_to_string(&w).unwrap();
+    assert!(
+        kept.starts_with("theta_i") && kept.lines().count() > 100,
+        "the data were overwritten"
+    );
 }

@@ -242,7 +242,10 @@ class FitResult:
 
     def __repr__(self) -> str:
         ps = ", ".join(f"{k}={v:.6g}" for k, v in self.params.items())
-        return f"FitResult({self.dataset!r}, {self.model}: {ps}; rms_rel {self.metrics['rms_rel']:.3g})"
+        rms = self.metrics.get("rms_rel")
+        # Absolute residuals with a zero reading leave the relative error undefined (null).
+        rms = "undefined" if rms is None else f"{rms:.3g}"
+        return f"FitResult({self.dataset!r}, {self.model}: {ps}; rms_rel {rms})"
 
 
 def _pairs(v):
@@ -306,8 +309,31 @@ def _text(name: str, v) -> str:
     return v
 
 
+_DATA_KEYS = ("theta_i", "theta_r", "phi", "brdf", "sigma", "weight", "name")
+
+
+def _data_name(data, given):
+    """The name of an array dataset: ``name=`` if given, else a dict's ``name`` (as
+    :func:`read` returns it), else ``arrays``."""
+    if given is not None:
+        return given
+    if isinstance(data, Mapping) and isinstance(data.get("name"), str):
+        return data["name"]
+    return "arrays"
+
+
 def _array_columns(data):
-    """The columns of an array dataset (a dict or an object with attributes), flattened."""
+    """The columns of an array dataset (a dict or an object with attributes), flattened.
+
+    One value per measurement: every column has the same shape (none is broadcast, so a
+    column of shape (N, 1) beside ones of shape (N,) is an error, not N^2 points), and a dict
+    holds no other key (a typo such as ``sigmas`` would drop the uncertainties)."""
+    if isinstance(data, Mapping):
+        unknown = [k for k in data if k not in _DATA_KEYS]
+        if unknown:
+            raise ValueError(
+                f"data: unknown key(s) {', '.join(map(repr, unknown))} (known: {', '.join(_DATA_KEYS)})"
+            )
     get = (lambda k: data.get(k)) if isinstance(data, Mapping) else (lambda k: getattr(data, k, None))
     cols = {}
     for k in ("theta_i", "theta_r", "phi", "brdf"):
@@ -320,11 +346,22 @@ def _array_columns(data):
         if v is not None:
             cols[k] = _real(k, v)
     names = list(cols)
+    shapes = {a.shape for a in cols.values()}
+    if len(shapes) > 1:
+        raise ValueError(
+            "data: the columns differ in shape ("
+            + ", ".join(f"{n} {a.shape}" for n, a in cols.items())
+            + "); give one value per measurement in each"
+        )
     shape, flat = _columns(names, list(cols.values()))
     return shape, dict(zip(names, flat))
 
 
 def _is_paths(data) -> bool:
+    if isinstance(data, (bytes, bytearray)) or (
+        isinstance(data, (list, tuple)) and any(isinstance(p, (bytes, bytearray)) for p in data)
+    ):
+        raise TypeError("paths must be str or os.PathLike, not bytes (decode them first)")
     return isinstance(data, (str, os.PathLike)) or (
         isinstance(data, (list, tuple)) and bool(data) and all(isinstance(p, (str, os.PathLike)) for p in data)
     )
@@ -343,7 +380,7 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
     Returns a :class:`FitResult` for one dataset, a list of them for several (a file with
     ``sample``/``wavelength`` columns, or several files).
     """
-    name = options.pop("name", "arrays")
+    name = _data_name(data, options.pop("name", None))
     s = _settings(model, seed, residual, engine, options)
     if _is_paths(data):
         paths = [os.fspath(data)] if isinstance(data, (str, os.PathLike)) else [os.fspath(p) for p in data]
@@ -434,7 +471,7 @@ def select(
     returned blob. The fit options are :func:`fit`'s (``chains``, ``loss``, ...; the full
     engine). Points left out of the domain and rows skipped are reported as warnings.
     """
-    name = options.pop("name", "arrays")
+    name = _data_name(data, options.pop("name", None))
     s = _settings("six", seed, residual, "full", options)
     mi = _number("max_theta_i", max_theta if max_theta_i is None else max_theta_i)
     mr = _number("max_theta_r", max_theta if max_theta_r is None else max_theta_r)
