@@ -52,7 +52,8 @@ pub struct EngineArgs {
     /// the albedo is still checked by quadrature.
     #[arg(long)]
     pub brightening: bool,
-    /// Skip invalid rows (each is listed on standard error) instead of stopping.
+    /// Skip invalid rows (each is listed on standard error) instead of stopping; `brdf fit`
+    /// also skips, and lists, the datasets it cannot fit (too few distinct directions).
     #[arg(long)]
     pub skip_invalid: bool,
     /// Read the files in this format (cornell, nist, merl-inplane; converted on the fly,

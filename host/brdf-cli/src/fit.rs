@@ -76,9 +76,11 @@ impl FitCmd {
             budget_evals: self.budget_evals,
             ..self.engine.request(self.model)
         })?;
-        // Every dataset is checked before any is fitted: a batch fails before it writes.
-        for d in &datasets {
-            settings.check(d)?;
+        // Every dataset is checked before any is fitted: a batch fails before it writes, or,
+        // with --skip-invalid, leaves out (and lists) the datasets it cannot fit.
+        let (datasets, skipped) = brdf_fit::fittable(&settings, datasets, self.engine.skip_invalid)?;
+        for s in &skipped {
+            eprintln!("{s}");
         }
         let mut csv = match &self.output {
             Some(path) => {

@@ -37,6 +37,12 @@ pub enum FitError {
         /// The first weighted point's line.
         line: u64,
     },
+    /// `--skip-invalid` left no dataset to fit.
+    #[error("no dataset left to fit: all {skipped} were skipped")]
+    NothingLeft {
+        /// Datasets skipped.
+        skipped: usize,
+    },
     /// The embedded engine could not run.
     #[error(transparent)]
     Embedded(#[from] EmbeddedError),
@@ -124,6 +130,32 @@ impl FitSettings {
         };
         Ok(report(d, &problem, &outcome, &self.options))
     }
+}
+
+/// The datasets of a batch that `settings` can fit ([`FitSettings::check`]), checked before
+/// any is fitted so that a batch fails before it writes: the first refusal is the error, or,
+/// with `skip`, each refused dataset is left out and its reason returned (`brdf fit
+/// --skip-invalid`, `brdf.fit(skip_invalid=True)`). An error when none is left.
+pub fn fittable(
+    settings: &FitSettings,
+    datasets: Vec<Dataset>,
+    skip: bool,
+) -> Result<(Vec<Dataset>, Vec<String>), FitError> {
+    let mut kept = Vec::with_capacity(datasets.len());
+    let mut skipped = Vec::new();
+    for d in datasets {
+        match settings.check(&d) {
+            Ok(()) => kept.push(d),
+            Err(e) if skip => skipped.push(format!("skipped dataset {e}")),
+            Err(e) => return Err(e),
+        }
+    }
+    if kept.is_empty() && !skipped.is_empty() {
+        return Err(FitError::NothingLeft {
+            skipped: skipped.len(),
+        });
+    }
+    Ok((kept, skipped))
 }
 
 /// Fits every dataset in parallel and calls `each(index, result)` in input order, each as

@@ -29,7 +29,7 @@ pub mod report;
 pub mod request;
 pub mod synth;
 
-pub use batch::{fit_all, fit_streamed, Engine, FitError, FitSettings};
+pub use batch::{fit_all, fit_streamed, fittable, Engine, FitError, FitSettings};
 pub use data::{load_csv, DataError, Dataset, LoadOptions, Loaded, Point, RowDegrees, RowError, Skipped};
 pub use fit::{fit, FitOptions, FitOutcome};
 pub use problem::{Loss, LossKind, Problem, Residual};

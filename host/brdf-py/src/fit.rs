@@ -133,7 +133,10 @@ pub(crate) fn fit_paths(
     settings: &Settings,
     paths: Vec<String>,
 ) -> PyResult<(Vec<String>, Vec<String>)> {
-    let (datasets, notes) = load(settings, &paths)?;
+    let (datasets, mut notes) = load(settings, &paths)?;
+    let (datasets, skipped) = brdf_fit::fittable(&settings.settings, datasets, settings.skip_invalid)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    notes.extend(skipped);
     Ok((fit_datasets(py, settings, datasets)?, notes))
 }
 

@@ -235,3 +235,18 @@ def test_repr_of_an_absolute_residual_fit_with_a_zero_reading(root):
     # Before: repr raised TypeError (the relative error is null where a reading is 0).
     assert r.metrics["rms_rel"] is None
     assert repr(r).endswith("rms_rel undefined)")
+
+
+def test_skip_invalid_leaves_out_a_dataset_it_cannot_fit_as_the_cli(cli, root, tmp_path):
+    one = tmp_path / "one-direction.csv"
+    one.write_text("theta_i,theta_r,phi,brdf\n" + "".join(f"20,35,30,{0.1 + 0.001 * k}\n" for k in range(8)))
+    good = root / KHAKI
+    p = cli("fit", "--json", "--skip-invalid", good, one)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        r = brdf.fit([str(good), str(one)], skip_invalid=True)
+    assert strip_seconds(r.to_json()) == strip_seconds(p.stdout.rstrip("\n"))
+    skipped = [str(w.message) for w in caught if "skipped dataset" in str(w.message)]
+    assert len(skipped) == 1 and skipped[0] in p.stderr, (skipped, p.stderr)
+    with pytest.raises(ValueError, match="no dataset left to fit: all 1 were skipped"):
+        brdf.fit(str(one), skip_invalid=True)

@@ -524,6 +524,28 @@ fn every_fitting_command_refuses_repeated_directions() {
     assert!(!out.status.success());
     assert!(out.stdout.is_empty(), "{}", String::from_utf8_lossy(&out.stdout));
     assert!(!rows.exists(), "the CSV was started");
+    // With --skip-invalid the batch fits the rest and lists the dataset it left out; with
+    // nothing left it fails.
+    let out = brdf(&["fit", "--json", "--skip-invalid", &good, p]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        v["dataset"]
+            .as_str()
+            .unwrap()
+            .ends_with("khaki-synthetic-inplane.csv"),
+        "{v}"
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&format!(
+            "skipped dataset {p}: 1 distinct direction(s) cannot determine"
+        )),
+        "{err}"
+    );
+    let out = brdf(&["fit", "--skip-invalid", p]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no dataset left to fit: all 1 were skipped"));
 }
 
 #[test]
