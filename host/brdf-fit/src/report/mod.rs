@@ -558,7 +558,7 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         loss: problem.loss(),
         brightening: problem.brightening(),
         influence: influence(dataset, problem, outcome, opts),
-        uncertainty: uncertainty(problem, outcome),
+        uncertainty: uncertainty(problem, outcome, distinct_directions(dataset, k + 1)),
         energy: energy_of(kind, params, &incidences),
         outside_ranges,
     }

@@ -44,6 +44,21 @@ pub const PROFILE_DELTA_CHI2: f64 = 3.84;
 /// Smallest rise of `chi^2` when parameter `j` is held at half or twice its value or at a
 /// bound and the others are refitted; `None` if the parameter is zero or no move is
 /// possible.
+/// Distinct directions among the points of `d`, counted up to `limit` (`O(n limit)`).
+pub fn distinct_directions(d: &Dataset, limit: usize) -> usize {
+    let mut seen: Vec<brdf_core::Geometry<f64>> = Vec::with_capacity(limit);
+    for p in &d.points {
+        if seen.len() >= limit {
+            break;
+        }
+        let g = brdf_core::Geometry::<f64>::from_angles(p.theta_i, p.theta_r, p.phi);
+        if !seen.contains(&g) {
+            seen.push(g);
+        }
+    }
+    seen.len()
+}
+
 pub(crate) fn profile_rise(problem: &Problem, outcome: &FitOutcome, j: usize, s2: f64) -> Option<f64> {
     let kind = outcome.kind;
     let (lo, hi) = problem.bounds();
@@ -185,7 +200,7 @@ const CONFOUNDED_SHARE: f64 = 0.01;
 /// the optimum (the lobe's `kr`, `b`, `a` when `kb = 0`) are reported as such; directions in
 /// which `J^T J` is singular name the parameters that share them, and only those. Every
 /// other parameter gets its standard error and the profile test.
-pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
+pub fn uncertainty(problem: &Problem, outcome: &FitOutcome, distinct: usize) -> Uncertainty {
     let kind = outcome.kind;
     let p = kind.param_count();
     let names = kind.param_names();
@@ -213,7 +228,15 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
         }
     }
     let free: Vec<usize> = (0..p).filter(|&j| note[j].is_none()).collect();
-    let dof = problem.len().saturating_sub(free.len());
+    // The noise is estimated from the residuals at distinct directions: repeated readings of
+    // as many directions as free parameters are fitted exactly, whatever their number, and
+    // leave no residual to estimate it from (every standard error would be 0).
+    let no_noise_estimate = distinct <= free.len();
+    let dof = if no_noise_estimate {
+        0
+    } else {
+        problem.len().saturating_sub(free.len())
+    };
     let s2 = if dof > 0 {
         2.0 * outcome.cost / dof as f64
     } else {
@@ -307,7 +330,13 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome) -> Uncertainty {
                 None,
                 None,
                 false,
-                Some("its variance is not defined (fewer points than parameters)".to_owned()),
+                Some(if no_noise_estimate {
+                    "its variance is not defined (no more distinct directions than parameters: \
+                     the fit passes through them and leaves no noise estimate)"
+                        .to_owned()
+                } else {
+                    "its variance is not defined (fewer points than parameters)".to_owned()
+                }),
             )
         } else {
             let se = cov[j][j].sqrt() * d[j].abs();

@@ -67,3 +67,37 @@ fn a_non_finite_metric_reads_back_as_nan() {
     let r = FitReport::from_json(&v.to_string(), "n.json").unwrap();
     assert!(r[0].metrics.max_rel.is_nan());
 }
+
+/// Before: six distinct directions read ten times each, fitted with the six-parameter model,
+/// reported every parameter "determined" with standard error 0: the fit passes through the
+/// six directions exactly, whatever the number of copies, and leaves no noise estimate.
+#[test]
+fn copies_of_as_many_directions_as_parameters_determine_nothing() {
+    let khaki = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
+    let all = brdf_fit::synth::in_plane(ModelKind::Six, &khaki, &[0.0, 30.0], 10.0, 0.0, 1).unwrap();
+    let six: Vec<_> = all.points.iter().step_by(3).take(6).copied().collect();
+    let d = brdf_fit::Dataset {
+        name: "six directions x 10".into(),
+        points: (0..10).flat_map(|_| six.iter().copied()).collect(),
+    };
+    assert_eq!(brdf_fit::report::distinct_directions(&d, 7), 6);
+    let r = FitSettings::new(ModelKind::Six).fit(&d).unwrap();
+    for (name, u) in &r.uncertainty.params.0 {
+        assert!(!u.determined, "{name} called determined: {u:?}");
+        assert!(u.se.is_none(), "{name}: {u:?}");
+        let note = u.note.as_deref().unwrap_or("");
+        assert!(
+            note.contains("no more distinct directions than parameters"),
+            "{name}: {note}"
+        );
+    }
+    // One more direction, and the same copies, give a noise estimate again.
+    let mut seven = d.clone();
+    seven.points.push(*all.points.last().unwrap());
+    assert_eq!(brdf_fit::report::distinct_directions(&seven, 8), 7);
+    let r = FitSettings::new(ModelKind::Six).fit(&seven).unwrap();
+    for (name, u) in &r.uncertainty.params.0 {
+        let note = u.note.as_deref().unwrap_or("");
+        assert!(!note.contains("no more distinct directions"), "{name}: {note}");
+    }
+}
