@@ -7,7 +7,7 @@
 use std::time::Instant;
 
 use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
-use brdf_fit::report::{energy, report, uncertainty};
+use brdf_fit::report::{distinct_directions, energy, report, uncertainty};
 use brdf_fit::{fit, load_csv, FitOptions, LoadOptions, Problem, Residual};
 
 fn main() {
@@ -23,7 +23,7 @@ fn main() {
     let outcome = fit(&problem, &FitOptions::default());
     let fitted = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    std::hint::black_box(uncertainty(&problem, &outcome));
+    std::hint::black_box(uncertainty(&problem, &outcome, distinct_directions(data, 7)));
     let unc = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let model = AnyModel::new(ModelKind::Six, &outcome.params[..6]).expect("fitted parameters are valid");
