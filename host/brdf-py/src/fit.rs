@@ -192,18 +192,8 @@ pub(crate) fn fit_arrays<'py>(
     sigma: Option<PyReadonlyArray1<'py, f64>>,
     weight: Option<PyReadonlyArray1<'py, f64>>,
 ) -> PyResult<String> {
-    settings.for_arrays()?;
-    let allow_zero = settings.settings.residual == Residual::Absolute;
-    let columns = (
-        &theta_i,
-        &theta_r,
-        &phi,
-        &brdf,
-        sigma.as_ref(),
-        weight.as_ref(),
-        allow_zero,
-    );
-    let mut reports = fit_datasets(py, settings, vec![dataset(name, columns)?])?;
+    let columns = (&theta_i, &theta_r, &phi, &brdf, sigma.as_ref(), weight.as_ref());
+    let mut reports = fit_datasets(py, settings, vec![dataset(name, settings, columns)?])?;
     Ok(reports.remove(0))
 }
 
@@ -215,13 +205,14 @@ pub(crate) type Columns<'a, 'py> = (
     &'a PyReadonlyArray1<'py, f64>,
     Option<&'a PyReadonlyArray1<'py, f64>>,
     Option<&'a PyReadonlyArray1<'py, f64>>,
-    bool,
 );
 
-/// A dataset from arrays, each row checked as `brdf fit` checks a CSV row (`allow_zero`: a
-/// BRDF of 0 is allowed, for absolute residuals).
-pub(crate) fn dataset(name: String, columns: Columns<'_, '_>) -> PyResult<Dataset> {
-    let (theta_i, theta_r, phi, brdf, sigma, weight, allow_zero) = columns;
+/// A dataset from arrays for `settings` (which must not name file options), each row checked
+/// as `brdf fit` checks a CSV row (a BRDF of 0 allowed for absolute residuals).
+pub(crate) fn dataset(name: String, settings: &Settings, columns: Columns<'_, '_>) -> PyResult<Dataset> {
+    settings.for_arrays()?;
+    let allow_zero = settings.settings.residual == Residual::Absolute;
+    let (theta_i, theta_r, phi, brdf, sigma, weight) = columns;
     if sigma.is_some() && weight.is_some() {
         return Err(PyValueError::new_err("sigma and weight cannot be used together"));
     }

@@ -100,19 +100,7 @@ pub(crate) fn select_arrays<'py>(
     weight: Option<PyReadonlyArray1<'py, f64>>,
     options: SelectArgs,
 ) -> PyResult<Selected<'py>> {
-    settings.for_arrays()?;
-    let allow_zero = settings.settings.residual == Residual::Absolute;
-    let d = dataset(
-        name,
-        (
-            &theta_i,
-            &theta_r,
-            &phi,
-            &brdf,
-            sigma.as_ref(),
-            weight.as_ref(),
-            allow_zero,
-        ),
-    )?;
+    let columns = (&theta_i, &theta_r, &phi, &brdf, sigma.as_ref(), weight.as_ref());
+    let d = dataset(name, settings, columns)?;
     Ok(select_dataset(py, settings, d, options, Vec::new()))
 }

@@ -375,7 +375,20 @@ fn numeric_flags_refuse_what_they_cannot_mean() {
         (vec!["select", d], "--max-theta", vec!["nan", "-1", "91", "inf"]),
         (vec!["select", d], "--max-theta-i", vec!["nan", "-1", "91"]),
         (vec!["select", d], "--max-theta-r", vec!["nan", "95"]),
-        (vec!["select", d], "--budget", vec!["-1", "nan", "inf"]),
+        (
+            vec!["select", d],
+            "--budget",
+            vec!["-1", "nan", "inf", "0", "0%", ""],
+        ),
+        (vec!["fit", d], "--loss-scale", vec!["0", "-1", "nan", "inf", ""]),
+        (vec!["fit", d], "--channel", vec!["x", "", "rg"]),
+        (vec!["fit", d], "--engine", vec!["fast", "", "Full"]),
+        (vec!["fit", d], "--residual", vec!["rel", ""]),
+        (
+            vec!["eval", "--fit", "nonexistent.json", d],
+            "--index",
+            vec!["-1", "1.5", "nan", ""],
+        ),
         (
             vec!["plot", "map", d, "-o", "x.svg"],
             "--theta-i",

@@ -449,35 +449,6 @@ impl FitReport {
         params_in_order(self.model, &self.params)
     }
 
-    /// The one fit of `text` that a consumer of one material means: the only one, or the
-    /// `index`-th of a batch (`brdf eval --fit`, a scene file's `fit =`, `brdf.eval_fit`).
-    /// Returns its model, its parameters in paper order and its index; the error says how
-    /// many fits the text holds and which indices exist.
-    pub fn one_of(
-        text: &str,
-        origin: &str,
-        index: Option<usize>,
-    ) -> Result<(ModelKind, [f64; MAX_PARAMS], usize), String> {
-        let fits = FittedModel::from_json(text, origin).map_err(|e| e.to_string())?;
-        let n = fits.len();
-        let k = match index {
-            Some(k) if k < n => k,
-            Some(k) if n == 1 => return Err(format!("{origin}: holds one fit; there is no index {k}")),
-            Some(k) => return Err(format!("{origin}: holds {n} fits; there is no index {k}")),
-            None if n == 1 => 0,
-            None => {
-                return Err(format!(
-                    "{origin}: holds {n} fits: say which with index 0..{}",
-                    n.saturating_sub(1)
-                ))
-            }
-        };
-        let p = fits[k]
-            .params_array()
-            .map_err(|p| format!("{origin}: parameter `{p}` missing"))?;
-        Ok((fits[k].model, p, k))
-    }
-
     /// The fitted model in f64 (refused, naming the parameter, when a parameter is outside
     /// its range: see [`FitReport::outside_ranges`]).
     pub fn model(&self) -> Result<AnyModel<f64>, brdf_core::ParamError> {
