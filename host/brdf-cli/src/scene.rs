@@ -80,6 +80,9 @@ impl SceneCmd {
 
 impl LrcsCmd {
     fn run(self) -> Result<()> {
+        if let Some(plot) = &self.plot {
+            brdf_plot::check_path(plot)?; // before the sweep, not after it
+        }
         let scene = load(&self.scene)?;
         let n = scene.aspects().len();
         let bar = progress::bar(n, "aspects");

@@ -46,6 +46,7 @@ pub(crate) fn render(
         file: file.clone(),
         message,
     };
+    check_path(path)?;
     match path.extension().and_then(|e| e.to_str()) {
         Some("svg") => {
             let root = SVGBackend::new(path, size).into_drawing_area();
@@ -60,6 +61,15 @@ pub(crate) fn render(
             root.present().map_err(err).map_err(wrap)
         }
         _ => Err(PlotError::Format(file)),
+    }
+}
+
+/// Whether `path` names a chart format this crate writes (`.svg`, `.png`): the one rule,
+/// checked by the drawing and by commands before long work whose result a chart shows.
+pub fn check_path(path: &Path) -> Result<(), PlotError> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("svg" | "png") => Ok(()),
+        _ => Err(PlotError::Format(path.display().to_string())),
     }
 }
 

@@ -31,6 +31,7 @@ mod polar;
 mod residuals;
 mod tradeoff;
 
+pub use common::check_path;
 pub use in_plane::in_plane;
 pub use map::hemisphere_map;
 pub use polar::{polar, PolarCurve, POLAR_RANGE_DB};

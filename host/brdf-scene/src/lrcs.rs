@@ -137,7 +137,7 @@ pub fn lrcs_with(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + Syn
                 AspectSigma {
                     azimuth: a.azimuth_deg,
                     elevation: a.elevation_deg,
-                    lrcs: by_material.iter().sum(),
+                    lrcs: by_material.iter().fold(0.0, |s, m| s + m), // from +0, as `QueryBatch::sigma`
                     by_material,
                     facets_seen: batches.iter().map(QueryBatch::len).sum(),
                 }

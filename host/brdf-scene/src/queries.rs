@@ -55,7 +55,11 @@ impl QueryBatch {
         scratch.clear();
         scratch.resize(self.len(), 0.0);
         eval_batch(e, &self.cos_theta_i, &self.cos_theta_r, &self.cos_phi, scratch);
-        self.weight.iter().zip(scratch.iter()).map(|(w, f)| w * f).sum()
+        // From +0: `Sum` of f64 starts at -0, and σ of an aspect that sees nothing printed `-0`.
+        self.weight
+            .iter()
+            .zip(scratch.iter())
+            .fold(0.0, |s, (w, f)| s + w * f)
     }
 }
 

@@ -483,10 +483,14 @@ fn sweep(v: &Spanned<Vec<f64>>, lo: f64, hi: f64) -> Result<Vec<f64>, String> {
     if n > MAX_ASPECTS as f64 {
         return Err(format!("{n} values: more than {MAX_ASPECTS}"));
     }
-    // Values within 1e-9 steps of stop are taken as stop itself (excluded).
+    // Values after the first within 1e-9 steps of stop are taken as stop itself (excluded);
+    // the first, `start`, is below stop, so it is always a value (a range narrower than
+    // 1e-9 steps once gave no value at all, hence no aspect and an empty result).
     let out: Vec<f64> = (0..n as usize)
         .map(|k| start + k as f64 * step)
-        .filter(|x| *x < stop - 1e-9 * step)
+        .enumerate()
+        .filter(|(k, x)| *k == 0 || *x < stop - 1e-9 * step)
+        .map(|(_, x)| x)
         .collect();
     if let Some(bad) = out.iter().find(|x| **x < lo || **x > hi) {
         return Err(format!("{bad} is outside [{lo}, {hi}]"));

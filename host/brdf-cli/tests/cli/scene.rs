@@ -249,3 +249,21 @@ fn select_scene_refuses_what_it_cannot_apply_and_honours_allow_nonphysical() {
     .unwrap();
     assert_eq!(json["allow_nonphysical"], true);
 }
+
+/// A chart format `brdf` cannot write is refused before any work: with a scene that does not
+/// even exist the error is the chart's (it once came only after the whole sweep).
+#[test]
+fn lrcs_refuses_an_unknown_chart_format_before_the_sweep() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = brdf(&[
+        "scene",
+        "lrcs",
+        dir.path().join("missing.toml").to_str().unwrap(),
+        "--plot",
+        dir.path().join("p.jpg").to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("p.jpg: unknown plot format (use .svg or .png)"), "{e}");
+    assert!(!e.contains("missing.toml"), "{e}");
+}

@@ -29,6 +29,20 @@ fn err(text: &str) -> String {
 const SENSOR: &str =
     "[sensor]\nmode = \"monostatic\"\nazimuth_deg = [0, 360, 90]\nelevation_deg = [0, 1, 1]\n";
 
+/// A sweep whose range is narrower than its step has one value, its start (the values near
+/// stop are dropped as stop itself; the start once was too, leaving no aspect at all).
+#[test]
+fn a_sweep_narrower_than_its_step_has_its_start() {
+    let (_d, p) = scene_with(
+        "mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nmodel = \"lambert\"\nparams = \"rho0=0.3\"\n\
+         [sensor]\nmode = \"monostatic\"\nazimuth_deg = [0, 1e-10, 1]\nelevation_deg = [10, 10.5, 7]\n",
+    );
+    let s = Scene::load(&p).unwrap();
+    assert_eq!(s.sensor.azimuth_deg, vec![0.0]);
+    assert_eq!(s.sensor.elevation_deg, vec![10.0]);
+    assert_eq!(s.aspects().len(), 1);
+}
+
 #[test]
 fn the_bundled_scene_loads_and_its_mesh_is_what_the_generator_makes() {
     let s = Scene::load(&bundled().join("target.toml")).unwrap();
