@@ -58,6 +58,14 @@ pub enum MeshError {
         /// The I/O error.
         source: std::io::Error,
     },
+    /// Not a regular file (a device, a directory, a pipe), or larger than [`MAX_MESH_BYTES`].
+    #[error("{file}: {why}")]
+    NotAMeshFile {
+        /// Mesh file.
+        file: String,
+        /// What it is instead.
+        why: String,
+    },
     /// Neither `.obj` nor `.stl`.
     #[error("{file}: unknown mesh format (expected .obj or .stl)")]
     Format {
@@ -229,18 +237,43 @@ pub(crate) mod v3 {
 
 impl Mesh {
     /// Reads and checks an OBJ or STL file (by extension).
+    /// At most [`MAX_MESH_BYTES`] are read; anything but a regular file is refused unread.
     pub fn load(path: &Path) -> Result<Mesh, MeshError> {
+        use std::io::Read;
         let file = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
-            file: file.clone(),
-            source,
-        })?;
-        match path
+        let ext = path
             .extension()
             .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .as_deref()
-        {
+            .map(str::to_ascii_lowercase);
+        if !matches!(ext.as_deref(), Some("obj" | "stl")) {
+            return Err(MeshError::Format { file });
+        }
+        let io = |source| MeshError::Io {
+            file: file.clone(),
+            source,
+        };
+        let not_mesh = |why: String| MeshError::NotAMeshFile {
+            file: file.clone(),
+            why,
+        };
+        if !std::fs::metadata(path).map_err(io)?.is_file() {
+            return Err(not_mesh(
+                "not a regular file (a device, directory or pipe)".into(),
+            ));
+        }
+        let mut bytes = Vec::new();
+        std::fs::File::open(path)
+            .map_err(io)?
+            .take(MAX_MESH_BYTES + 1)
+            .read_to_end(&mut bytes)
+            .map_err(io)?;
+        if bytes.len() as u64 > MAX_MESH_BYTES {
+            return Err(not_mesh(format!(
+                "larger than {} MiB, the most a mesh may be (mesh::MAX_MESH_BYTES)",
+                MAX_MESH_BYTES >> 20
+            )));
+        }
+        match ext.as_deref() {
             Some("obj") => Self::from_obj(path, without_bom(&bytes)),
             Some("stl") if without_bom(&bytes).starts_with(b"solid") => {
                 Self::from_stl(path, without_bom(&bytes))
@@ -526,6 +559,10 @@ impl Mesh {
     }
 }
 
+/// Largest mesh file read, bytes: a binary STL of 20 million facets (50 bytes each), an OBJ
+/// of several million; the file is held in memory while it is read, so this bounds that.
+pub const MAX_MESH_BYTES: u64 = 1 << 30;
+
 /// `bytes` without a leading UTF-8 byte-order mark (editors on Windows write one; the OBJ
 /// reader took it for part of the first statement and the line numbers went wrong). Used for
 /// text only: a binary STL's header may begin with any bytes.
@@ -757,6 +794,23 @@ mod tests {
             assert!(e.contains("off its plane"), "{order}: {e}");
             assert_eq!(obj(&quad("0.000001", order)).unwrap().facets.len(), 2);
         }
+    }
+
+    /// A device is refused unread, whatever its name says (`/dev/zero` was read until memory
+    /// ran out), and so is a directory.
+    #[test]
+    fn a_device_or_directory_is_not_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let link = dir.path().join("zero.stl");
+        std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+        let e = Mesh::load(&link).unwrap_err().to_string();
+        assert!(e.contains("zero.stl: not a regular file"), "{e}");
+        let sub = dir.path().join("d.obj");
+        std::fs::create_dir(&sub).unwrap();
+        let e = Mesh::load(&sub).unwrap_err().to_string();
+        assert!(e.contains("d.obj: not a regular file"), "{e}");
+        let e = Mesh::load(Path::new("/dev/zero")).unwrap_err().to_string();
+        assert!(e.contains("unknown mesh format"), "{e}");
     }
 
     /// A UTF-8 byte-order mark before the first statement is not part of it (the first line
