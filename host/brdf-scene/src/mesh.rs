@@ -536,6 +536,46 @@ impl Mesh {
     /// STL (ASCII or binary) through `stl_io`: one part, named after the file's stem.
     fn from_stl(path: &Path, bytes: &[u8]) -> Result<Mesh, MeshError> {
         let file = path.display().to_string();
+        let refuse = |at: Origin, message: String| MeshError::Parse {
+            file: file.clone(),
+            at,
+            message,
+        };
+        if bytes.starts_with(b"solid") {
+            // ASCII: the reader stops at the first `endsolid` and would drop any later solid.
+            let text = String::from_utf8_lossy(bytes);
+            let solids: Vec<usize> = text
+                .lines()
+                .enumerate()
+                .filter(|(_, l)| l.split_whitespace().next() == Some("solid"))
+                .map(|(k, _)| k + 1)
+                .collect();
+            if let Some(&second) = solids.get(1) {
+                return Err(refuse(
+                    Origin::Line(second as u64),
+                    format!(
+                        "a second `solid` ({} in all): one solid per STL file (split the file, \
+                         or join its solids into one)",
+                        solids.len()
+                    ),
+                ));
+            }
+        } else if bytes.len() >= 84 {
+            // Binary: 80-byte header, facet count, 50 bytes per facet. The reader trusts the
+            // count and would read a longer file short.
+            let count = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64;
+            let want = 84 + 50 * count;
+            if bytes.len() as u64 != want {
+                return Err(refuse(
+                    Origin::Facet(1),
+                    format!(
+                        "binary STL header counts {count} facets ({want} bytes) but the file has \
+                         {} bytes",
+                        bytes.len()
+                    ),
+                ));
+            }
+        }
         let mut cursor = std::io::Cursor::new(bytes);
         let stl = stl_io::read_stl(&mut cursor).map_err(|e| MeshError::Stl {
             file: file.clone(),
@@ -794,6 +834,43 @@ mod tests {
             assert!(e.contains("off its plane"), "{order}: {e}");
             assert_eq!(obj(&quad("0.000001", order)).unwrap().facets.len(), 2);
         }
+    }
+
+    /// A binary STL whose header counts other than the facets it holds, and an ASCII STL of
+    /// two solids, are refused (the first was read short, the second lost its second solid).
+    #[test]
+    fn stl_facet_counts_and_solids_are_checked() {
+        let dir = tempfile::tempdir().unwrap();
+        let facet = |v: [[f32; 3]; 3]| -> Vec<u8> {
+            let mut b: Vec<u8> = [0f32, 0.0, 1.0].iter().flat_map(|x| x.to_le_bytes()).collect();
+            b.extend(v.iter().flatten().flat_map(|x| x.to_le_bytes()));
+            b.extend([0, 0]);
+            b
+        };
+        let t1 = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]];
+        let t2 = [[2., 0., 0.], [3., 0., 0.], [2., 1., 0.]];
+        let binary = |count: u32, n: usize| {
+            let mut b = vec![b'x'; 80];
+            b.extend(count.to_le_bytes());
+            for t in [t1, t2].iter().take(n) {
+                b.extend(facet(*t));
+            }
+            b
+        };
+        let p = dir.path().join("b.stl");
+        for (count, n) in [(1, 2), (3, 2)] {
+            std::fs::write(&p, binary(count, n)).unwrap();
+            let e = Mesh::load(&p).unwrap_err().to_string();
+            assert!(e.contains(&format!("header counts {count} facets")), "{e}");
+        }
+        std::fs::write(&p, binary(2, 2)).unwrap();
+        assert_eq!(Mesh::load(&p).unwrap().facets.len(), 2);
+        let a = "solid a\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n\
+                 endloop\nendfacet\nendsolid a\n";
+        let b = a.replace("solid a", "solid b").replace("vertex 0 ", "vertex 5 ");
+        std::fs::write(&p, format!("{a}{b}")).unwrap();
+        let e = Mesh::load(&p).unwrap_err().to_string();
+        assert!(e.contains("line 10") && e.contains("second `solid`"), "{e}");
     }
 
     /// A device is refused unread, whatever its name says (`/dev/zero` was read until memory
