@@ -101,6 +101,13 @@ impl LrcsCmd {
             n,
             result.seconds
         );
+        if result.aspects.iter().all(|a| a.facets_seen == 0) {
+            eprintln!(
+                "warning: no facet faces the sensor at any aspect, so sigma is 0 everywhere: is \
+                 the mesh wound inside out (facets are counter-clockwise seen from outside), or \
+                 does the sweep see only back faces?"
+            );
+        }
         let mut out = sink(&self.output)?;
         if self.json {
             let j = LrcsReport::new(self.scene.display().to_string(), &scene, &result);

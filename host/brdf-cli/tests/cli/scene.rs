@@ -267,3 +267,31 @@ fn lrcs_refuses_an_unknown_chart_format_before_the_sweep() {
     assert!(e.contains("p.jpg: unknown plot format (use .svg or .png)"), "{e}");
     assert!(!e.contains("missing.toml"), "{e}");
 }
+
+/// A sheet seen only from behind at every aspect (an open shell wound inside out looks the
+/// same) gives σ = +0 everywhere and says why, instead of printing zeros without a word.
+#[test]
+fn lrcs_that_sees_no_facet_at_any_aspect_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("t.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let scene = |el: &str| {
+        let p = dir.path().join(format!("s{el}.toml"));
+        std::fs::write(
+            &p,
+            format!(
+                "mesh = \"t.obj\"\n[[material]]\npart = \"*\"\nmodel = \"lambert\"\nparams = \"rho0=0.3\"\n\
+                 [sensor]\nmode = \"monostatic\"\nazimuth_deg = [0, 360, 90]\nelevation_deg = [{el}, 90, 200]\n"
+            ),
+        )
+        .unwrap();
+        brdf(&["scene", "lrcs", p.to_str().unwrap()])
+    };
+    let below = scene("-60");
+    let csv = ok(&below);
+    assert!(csv.lines().skip(1).all(|l| l.ends_with(",0")), "{csv}");
+    let e = String::from_utf8_lossy(&below.stderr);
+    assert!(e.contains("no facet faces the sensor at any aspect"), "{e}");
+    let above = scene("60");
+    ok(&above);
+    assert!(!String::from_utf8_lossy(&above.stderr).contains("no facet faces"));
+}
