@@ -15,6 +15,28 @@ use crate::brdf;
 /// The directions checked per material (see the module's note).
 const SAMPLE: &[&str] = &["--directions", "2000", "--edge", "100"];
 
+/// A directions file naming only material 1 checks material 1 and says that 0 and 2 were
+/// not checked (they were left out without a word).
+#[test]
+fn check_names_the_materials_a_directions_file_leaves_out() {
+    if brdf_tests::qemu::firmware().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("d.csv");
+    std::fs::write(&f, "theta_i,theta_r,phi,material\n10,20,180,1\n40,30,90,1\n").unwrap();
+    let out = brdf(&["check", "--qemu", "--directions", f.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    for m in [0, 2] {
+        assert!(err.contains(&format!("material {m} (six) not checked")), "{err}");
+    }
+    assert!(!err.contains("material 1 (six) not checked"), "{err}");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.lines().any(|l| l.trim_start().starts_with("1 ")), "{text}");
+    assert!(!text.lines().any(|l| l.trim_start().starts_with("0 ")), "{text}");
+}
+
 #[test]
 fn check_qemu_passes_for_table1_and_a_fresh_fit() {
     let Some(elf) = brdf_tests::qemu::firmware() else {
