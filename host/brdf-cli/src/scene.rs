@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 use crate::progress;
 use anyhow::{Context, Result};
 use brdf_scene::lrcs::{lrcs, LrcsReport};
-use brdf_scene::queries::collect_queries;
 use brdf_scene::scene::{Mode, Scene};
 use clap::{Args, Subcommand};
 
@@ -149,17 +148,15 @@ impl LrcsCmd {
 impl DomainCmd {
     fn run(self) -> Result<()> {
         let scene = load(&self.scene)?;
-        let bar = progress::bar(scene.aspects().len(), "aspects");
-        let d = collect_queries(&scene, &|| bar.inc(1));
-        bar.finish_and_clear();
+        let aspects = scene.aspects().len();
+        let bar = progress::bar(aspects, "aspects");
         let out = sink(&self.output)?;
-        brdf_scene::queries::write_csv(&scene, &d, out).context("cannot write the queries")?;
-        eprintln!(
-            "{}: {} queries over {} aspects",
-            self.scene.display(),
-            d.len(),
-            d.aspects.len()
-        );
+        // Streamed: the queries of a few hundred aspects at a time (a million aspects held at
+        // once ran out of memory).
+        let n = brdf_scene::queries::write_csv_streamed(&scene, out, &|| bar.inc(1))
+            .context("cannot write the queries")?;
+        bar.finish_and_clear();
+        eprintln!("{}: {n} queries over {aspects} aspects", self.scene.display());
         Ok(())
     }
 }

@@ -212,17 +212,30 @@ pub fn rows<'a>(scene: &'a Scene, queries: &'a SceneQueries) -> impl Iterator<It
 /// Writes the queries as CSV (shortest round-trip decimal for every number).
 pub fn write_csv<W: Write>(scene: &Scene, queries: &SceneQueries, out: W) -> Result<(), csv::Error> {
     let mut w = csv::Writer::from_writer(out);
-    w.write_record([
-        "azimuth",
-        "elevation",
-        "material",
-        "part",
-        "facet",
-        "theta_i",
-        "theta_r",
-        "phi",
-        "weight",
-    ])?;
+    w.write_record(CSV_HEADER)?;
+    write_rows(&mut w, scene, queries)?;
+    w.flush()?;
+    Ok(())
+}
+
+/// Columns of [`write_csv`] and [`write_csv_streamed`].
+const CSV_HEADER: [&str; 9] = [
+    "azimuth",
+    "elevation",
+    "material",
+    "part",
+    "facet",
+    "theta_i",
+    "theta_r",
+    "phi",
+    "weight",
+];
+
+fn write_rows<W: Write>(
+    w: &mut csv::Writer<W>,
+    scene: &Scene,
+    queries: &SceneQueries,
+) -> Result<(), csv::Error> {
     for r in rows(scene, queries) {
         w.write_record([
             r.azimuth.to_string(),
@@ -236,8 +249,43 @@ pub fn write_csv<W: Write>(scene: &Scene, queries: &SceneQueries, out: W) -> Res
             r.weight.to_string(),
         ])?;
     }
-    w.flush()?;
     Ok(())
+}
+
+/// Aspects whose queries [`write_csv_streamed`] holds at once: the memory it needs is this many
+/// aspects' queries (four f64 and a facet index, about 40 bytes, per facet seen), whatever
+/// the sweep's length.
+pub const STREAM_ASPECTS: usize = 256;
+
+/// [`write_csv`] of every aspect of `scene`, computed [`STREAM_ASPECTS`] at a time (in
+/// parallel within each group) and written in sweep order, so that a sweep of a million aspects
+/// does not hold a million aspects' queries. Returns the number of queries written.
+pub fn write_csv_streamed<W: Write>(
+    scene: &Scene,
+    out: W,
+    progress: &(dyn Fn() + Sync),
+) -> Result<usize, csv::Error> {
+    let mut w = csv::Writer::from_writer(out);
+    w.write_record(CSV_HEADER)?;
+    let mut written = 0;
+    for group in scene.aspects().chunks(STREAM_ASPECTS) {
+        let batches = group
+            .par_iter()
+            .map_init(Vec::new, |stack, a| {
+                let b = aspect_queries(scene, a, stack);
+                progress();
+                b
+            })
+            .collect();
+        let q = SceneQueries {
+            aspects: group.to_vec(),
+            batches,
+        };
+        written += q.len();
+        write_rows(&mut w, scene, &q)?;
+    }
+    w.flush()?;
+    Ok(written)
 }
 
 /// One direction of a directions file.

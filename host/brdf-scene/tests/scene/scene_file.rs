@@ -43,6 +43,25 @@ fn a_sweep_narrower_than_its_step_has_its_start() {
     assert_eq!(s.aspects().len(), 1);
 }
 
+/// `scene domain` streams groups of aspects; what it writes is exactly the CSV of all queries
+/// collected at once, across group boundaries.
+#[test]
+fn the_streamed_domain_is_the_collected_one() {
+    let text = std::fs::read_to_string(bundled().join("target.toml"))
+        .unwrap()
+        .replace("azimuth_deg = [0, 360, 5]", "azimuth_deg = [0, 360, 1.25]");
+    let (_d, p) = scene_with(&text);
+    let s = Scene::load(&p).unwrap();
+    assert!(s.aspects().len() > 2 * brdf_scene::queries::STREAM_ASPECTS);
+    let all = brdf_scene::queries::collect_queries(&s, &|| {});
+    let mut once = Vec::new();
+    brdf_scene::queries::write_csv(&s, &all, &mut once).unwrap();
+    let mut streamed = Vec::new();
+    let n = brdf_scene::queries::write_csv_streamed(&s, &mut streamed, &|| {}).unwrap();
+    assert_eq!(n, all.len());
+    assert!(once == streamed, "the streamed CSV differs");
+}
+
 #[test]
 fn the_bundled_scene_loads_and_its_mesh_is_what_the_generator_makes() {
     let s = Scene::load(&bundled().join("target.toml")).unwrap();
