@@ -18,6 +18,7 @@ pub mod batch;
 pub mod data;
 pub mod embedded;
 pub mod fit;
+pub mod fitted_table;
 pub mod grid;
 pub mod import;
 pub mod kernel;
