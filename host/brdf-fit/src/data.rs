@@ -216,9 +216,16 @@ pub struct RowDegrees {
     pub weight: Option<f64>,
 }
 
+/// Magnitudes a measured BRDF may have, 1/sr. No surface comes near either end (a polished
+/// mirror's peak is about 1e7 1/sr); the fit squares values and their inverses, and beyond
+/// about 1e150 those overflow or vanish (data scaled by 1e200 fitted to all-zero parameters at
+/// 100% error), so a value out here is a unit error and is refused with its line.
+pub const BRDF_MAGNITUDE: std::ops::RangeInclusive<f64> = 1e-100..=1e100;
+
 impl Point {
     /// Validates a row as `brdf fit` does: every value finite, zeniths in [0, 90) degrees,
-    /// `brdf > 0` (`>= 0` with `allow_zero_brdf`, for absolute residuals), `sigma` and
+    /// `brdf > 0` (`>= 0` with `allow_zero_brdf`, for absolute residuals) and, unless 0, in
+    /// [`BRDF_MAGNITUDE`], `sigma` and
     /// `weight` above 0; `line` is where it came from.
     pub fn from_degrees(r: RowDegrees, allow_zero_brdf: bool, line: u64) -> Result<Point, RowError> {
         let finite = |v: f64, column| {
@@ -253,6 +260,12 @@ impl Point {
                 "> 0 (relative and log residuals divide by it)",
             )?
         };
+        let brdf = in_range(
+            brdf,
+            brdf == 0.0 || BRDF_MAGNITUDE.contains(&brdf),
+            "brdf",
+            "[1e-100, 1e100] 1/sr (is the unit right?)",
+        )?;
         let positive = |v: Option<f64>, column| -> Result<Option<f64>, RowError> {
             match v {
                 Some(v) => Ok(Some(in_range(finite(v, column)?, v > 0.0, column, "> 0")?)),
@@ -570,6 +583,9 @@ mod tests {
         infinite: "theta_i,theta_r,phi,brdf\n0,0,0,inf\n" => "column brdf: `inf` is not finite";
         negative_brdf: "theta_i,theta_r,phi,brdf\n0,0,0,-0.1\n" => "line 2: column brdf: -0.1 is outside > 0";
         zero_brdf: "theta_i,theta_r,phi,brdf\n0,0,0,0\n" => "column brdf: 0 is outside > 0";
+        // Scaled by 1e200 (or 1e-200) the data once fitted to all-zero parameters at 100%.
+        huge_brdf: "theta_i,theta_r,phi,brdf\n0,0,0,0.1\n0,10,0,2.5e200\n" => "line 3: column brdf: 2.5e200 is outside [1e-100, 1e100] 1/sr";
+        tiny_brdf: "theta_i,theta_r,phi,brdf\n0,0,0,3e-200\n" => "line 2: column brdf: 3e-200 is outside [1e-100, 1e100]";
         zenith_at_90: "theta_i,theta_r,phi,brdf\n90,0,0,0.1\n" => "column theta_i: 90 is outside [0, 90)";
         negative_zenith: "theta_i,theta_r,phi,brdf\n10,-5,0,0.1\n" => "column theta_r: -5 is outside";
         theta_s_out_of_range: "theta_i,theta_s,brdf\n10,95,0.1\n" => "column theta_s: 95 is outside";
@@ -582,6 +598,24 @@ mod tests {
         zero_sigma: "theta_i,theta_r,phi,brdf,sigma\n0,0,0,1,0\n" => "column sigma: 0 is outside > 0";
         zero_bytes: "" => "empty file";
         theta_s_and_phi: "theta_i,theta_s,phi,brdf\n10,20,77,0.1\n" => "`theta_s` and `phi` cannot be used together";
+    }
+
+    /// The ends of [`BRDF_MAGNITUDE`] are accepted, and a zero where zeros are allowed.
+    #[test]
+    fn brdf_magnitudes_at_the_ends_are_accepted() {
+        let row = |brdf| RowDegrees {
+            theta_i: 0.0,
+            theta_r: 0.0,
+            phi: 0.0,
+            brdf,
+            sigma: None,
+            weight: None,
+        };
+        for v in [1e-100, 1e100, 0.37] {
+            assert_eq!(Point::from_degrees(row(v), false, 1).unwrap().brdf, v);
+        }
+        assert_eq!(Point::from_degrees(row(0.0), true, 1).unwrap().brdf, 0.0);
+        assert!(Point::from_degrees(row(1.0000001e100), true, 1).is_err());
     }
 
     #[test]

@@ -195,6 +195,11 @@ pub fn import(path: &Path, format: Format, channel: Channel) -> Result<Imported,
                 ))
             } else if r.brdf <= 0.0 {
                 Some(format!("brdf {} is not positive", r.brdf))
+            } else if !crate::data::BRDF_MAGNITUDE.contains(&r.brdf) {
+                Some(format!(
+                    "brdf {} is outside [1e-100, 1e100] 1/sr (is the unit right?)",
+                    r.brdf
+                ))
             } else {
                 None
             };
