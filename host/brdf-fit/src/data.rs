@@ -40,7 +40,45 @@ pub struct Dataset {
     pub points: Vec<Point>,
 }
 
+/// Most incidence groups a fit's report has (per-incidence metrics, albedo): one per distinct
+/// incidence up to this many (a goniometer's 1-degree steps from 0 to 89 fit), 1-degree bins
+/// beyond (a scan with continuous incidences had one group per point, and 200,000 groups
+/// took 327 s of report).
+pub const MAX_INCIDENCE_GROUPS: usize = 90;
+
 impl Dataset {
+    /// The points grouped by incidence, ascending: `(theta_i, point indices)`. Each distinct
+    /// incidence (within 1e-9 rad) is a group, `theta_i` its value; when there are more than
+    /// [`MAX_INCIDENCE_GROUPS`], the groups are 1-degree bins of `theta_i` and `theta_i` is the
+    /// mean over the bin. Every point is in exactly one group. O(n log n).
+    pub fn incidence_groups(&self) -> Vec<(f64, Vec<usize>)> {
+        let mut order: Vec<usize> = (0..self.points.len()).collect();
+        order.sort_by(|&a, &b| self.points[a].theta_i.total_cmp(&self.points[b].theta_i));
+        let ti = |k: usize| self.points[k].theta_i;
+        let mut groups: Vec<(f64, Vec<usize>)> = Vec::new();
+        for &k in &order {
+            match groups.last_mut() {
+                Some((t, members)) if (ti(k) - *t).abs() < 1e-9 => members.push(k),
+                _ => groups.push((ti(k), vec![k])),
+            }
+        }
+        if groups.len() <= MAX_INCIDENCE_GROUPS {
+            return groups;
+        }
+        let mut bins: Vec<(f64, Vec<usize>)> = Vec::new();
+        let bin = |k: usize| ti(k).to_degrees().floor();
+        for &k in &order {
+            match bins.last_mut() {
+                Some((_, members)) if bin(members[0]) == bin(k) => members.push(k),
+                _ => bins.push((0.0, vec![k])),
+            }
+        }
+        for (t, members) in &mut bins {
+            *t = members.iter().map(|&k| ti(k)).sum::<f64>() / members.len() as f64;
+        }
+        bins
+    }
+
     /// Distinct incidence angles (radians), ascending.
     pub fn incidences(&self) -> Vec<f64> {
         let mut v: Vec<f64> = self.points.iter().map(|p| p.theta_i).collect();
@@ -598,6 +636,45 @@ mod tests {
         zero_sigma: "theta_i,theta_r,phi,brdf,sigma\n0,0,0,1,0\n" => "column sigma: 0 is outside > 0";
         zero_bytes: "" => "empty file";
         theta_s_and_phi: "theta_i,theta_s,phi,brdf\n10,20,77,0.1\n" => "`theta_s` and `phi` cannot be used together";
+    }
+
+    /// Few distinct incidences are one group each; continuous ones are 1-degree bins; every
+    /// point is in one group.
+    #[test]
+    fn incidence_groups_are_exact_or_binned() {
+        let pt = |deg: f64| Point {
+            theta_i: deg.to_radians(),
+            theta_r: 0.1,
+            phi: 0.0,
+            brdf: 1.0,
+            sigma: None,
+            weight: None,
+            line: 1,
+        };
+        let few = Dataset {
+            name: "few".into(),
+            points: [30.0, 0.0, 30.0, 60.0].map(pt).to_vec(),
+        };
+        let g = few.incidence_groups();
+        assert_eq!(g.len(), 3);
+        assert_eq!(g[1], (30f64.to_radians(), vec![0, 2]));
+        let n = 20_000;
+        let many = Dataset {
+            name: "many".into(),
+            points: (0..n).map(|k| pt(89.9 * k as f64 / n as f64)).collect(),
+        };
+        let g = many.incidence_groups();
+        assert_eq!(g.len(), MAX_INCIDENCE_GROUPS);
+        let mut seen = vec![false; n];
+        for (t, members) in &g {
+            let lo = t.to_degrees().floor();
+            for &k in members {
+                assert!(!seen[k]);
+                seen[k] = true;
+                assert_eq!(many.points[k].theta_i.to_degrees().floor(), lo);
+            }
+        }
+        assert!(seen.iter().all(|&s| s));
     }
 
     /// The ends of [`BRDF_MAGNITUDE`] are accepted, and a zero where zeros are allowed.

@@ -172,7 +172,8 @@ impl From<FlatIncidenceMetrics> for IncidenceMetrics {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(from = "FlatIncidenceMetrics")]
 pub struct IncidenceMetrics {
-    /// Incidence zenith, degrees.
+    /// Incidence zenith, degrees (the mean over a 1-degree bin when the data have more than
+    /// `data::MAX_INCIDENCE_GROUPS` distinct incidences: `Dataset::incidence_groups`).
     #[serde(deserialize_with = "f64_or_null")]
     pub theta_i: f64,
     /// Points at this incidence.
@@ -472,19 +473,17 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
     let kind: ModelKind = outcome.kind;
     let values = problem.values(&outcome.q);
     let y: Vec<f64> = dataset.points.iter().map(|p| p.brdf).collect();
-    let incidences = dataset.incidences();
-    let per_incidence = incidences
+    let groups = dataset.incidence_groups();
+    let incidences: Vec<f64> = groups.iter().map(|g| g.0).collect();
+    let per_incidence = groups
         .iter()
-        .map(|&ti| {
-            let (f, yy): (Vec<f64>, Vec<f64>) = dataset
-                .points
+        .map(|(ti, members)| {
+            let (f, yy): (Vec<f64>, Vec<f64>) = members
                 .iter()
-                .zip(&values)
-                .filter(|(p, _)| (p.theta_i - ti).abs() < 1e-9)
-                .map(|(p, &f)| (f, p.brdf))
+                .map(|&k| (values[k], dataset.points[k].brdf))
                 .unzip();
             IncidenceMetrics {
-                theta_i: degrees(ti),
+                theta_i: degrees(*ti),
                 n: f.len(),
                 metrics: metrics(&f, &yy),
             }
