@@ -84,7 +84,7 @@ impl Settings {
 /// Fits every dataset; returns each report as `brdf fit --json` prints one.
 pub(crate) fn fit_datasets(py: Python<'_>, s: &Settings, datasets: Vec<Dataset>) -> PyResult<Vec<String>> {
     let settings = s.settings;
-    py.detach(move || {
+    interruptible(py, move || {
         brdf_fit::fit_streamed(&settings, &datasets, |_, _| {})
             .into_iter()
             .map(|r| match r {
@@ -92,8 +92,45 @@ pub(crate) fn fit_datasets(py: Python<'_>, s: &Settings, datasets: Vec<Dataset>)
                 Err(e) => Err(e.to_string()),
             })
             .collect::<Result<Vec<String>, String>>()
-    })
+    })?
     .map_err(PyValueError::new_err)
+}
+
+/// How often a long call looks for Ctrl-C (Python's signal handlers run only on the thread
+/// holding the interpreter, so the work runs on another thread meanwhile).
+const SIGNAL_POLL: std::time::Duration = std::time::Duration::from_millis(50);
+
+/// Runs `work` on its own thread without the interpreter's lock and returns its result, raising
+/// `KeyboardInterrupt` (or whatever a signal handler raises) within [`SIGNAL_POLL`] of Ctrl-C
+/// instead of when the work ends (a fit may run for minutes). The fitter cannot be stopped
+/// part way, so an interrupted fit finishes on its thread in the background and its result
+/// is dropped.
+pub(crate) fn interruptible<T: Send + 'static>(
+    py: Python<'_>,
+    work: impl FnOnce() -> T + Send + 'static,
+) -> PyResult<T> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::Builder::new()
+        .name("brdf-fit".into())
+        .spawn(move || {
+            let _ = tx.send(work());
+        })
+        .map_err(|e| PyValueError::new_err(format!("cannot start the fit: {e}")))?;
+    let mut rx = rx;
+    loop {
+        // The receiver is `Send`, not `Sync`: it goes to the wait and comes back.
+        let (got, back) = py.detach(move || (rx.recv_timeout(SIGNAL_POLL), rx));
+        rx = back;
+        match got {
+            Ok(v) => return Ok(v),
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => py.check_signals()?,
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(PyValueError::new_err(
+                    "the fit stopped without a result (it panicked)",
+                ))
+            }
+        }
+    }
 }
 
 /// Reads data files as `brdf fit [--format F] [--skip-invalid] FILES` does; returns the

@@ -250,3 +250,30 @@ def test_skip_invalid_leaves_out_a_dataset_it_cannot_fit_as_the_cli(cli, root, t
     assert len(skipped) == 1 and skipped[0] in p.stderr, (skipped, p.stderr)
     with pytest.raises(ValueError, match="no dataset left to fit: all 1 were skipped"):
         brdf.fit(str(one), skip_invalid=True)
+
+
+def test_ctrl_c_interrupts_a_long_fit(root):
+    """Ctrl-C raises KeyboardInterrupt during a fit (it was honoured only when the fit ended,
+    minutes later with `anneal_evals` 1e8). The 60 s limit only stops a hung test: the fit
+    itself would run for minutes."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    code = (
+        "import sys, brdf\n"
+        "print('started', flush=True)\n"
+        f"brdf.fit({str(root / KHAKI)!r}, anneal_evals=100_000_000, chains=64)\n"
+        "print('finished', flush=True)\n"
+    )
+    child = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    assert child.stdout.readline().strip() == "started"
+    time.sleep(1.0)
+    child.send_signal(signal.SIGINT)
+    out, err = child.communicate(timeout=60)
+    assert child.returncode != 0, out
+    assert "KeyboardInterrupt" in err, err
+    assert "finished" not in out
