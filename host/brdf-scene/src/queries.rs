@@ -143,15 +143,20 @@ impl SceneQueries {
 /// 36 bytes per query.
 pub fn collect_queries(scene: &Scene, progress: &(dyn Fn() + Sync)) -> SceneQueries {
     let aspects = scene.aspects();
-    let batches = aspects
+    let batches = batches_of(scene, &aspects, progress);
+    SceneQueries { aspects, batches }
+}
+
+/// [`aspect_queries`] of `aspects`, in parallel, in their order.
+fn batches_of(scene: &Scene, aspects: &[Aspect], progress: &(dyn Fn() + Sync)) -> Vec<Vec<QueryBatch>> {
+    aspects
         .par_iter()
         .map_init(Vec::new, |stack, a| {
             let b = aspect_queries(scene, a, stack);
             progress();
             b
         })
-        .collect();
-    SceneQueries { aspects, batches }
+        .collect()
 }
 
 /// Degrees of an angle whose cosine is `c` (clamped to [-1, 1]).
@@ -269,17 +274,9 @@ pub fn write_csv_streamed<W: Write>(
     w.write_record(CSV_HEADER)?;
     let mut written = 0;
     for group in scene.aspects().chunks(STREAM_ASPECTS) {
-        let batches = group
-            .par_iter()
-            .map_init(Vec::new, |stack, a| {
-                let b = aspect_queries(scene, a, stack);
-                progress();
-                b
-            })
-            .collect();
         let q = SceneQueries {
             aspects: group.to_vec(),
-            batches,
+            batches: batches_of(scene, group, progress),
         };
         written += q.len();
         write_rows(&mut w, scene, &q)?;
