@@ -7,58 +7,68 @@ use super::*;
 /// Returns (see [`Selected`]) the JSON `brdf select --json` prints, each candidate's report
 /// as `brdf fit --json` prints it and the chosen representation's blob (as `brdf select -o`
 /// writes it) or None, or the error; with either, `notes` and then what the CLI prints on
-/// standard error first (the points left out).
+/// standard error first (the points left out). Raises only what a signal handler raises
+/// (Ctrl-C).
 pub(crate) fn select_dataset<'py>(
     py: Python<'py>,
     settings: &Settings,
     d: Dataset,
     options: SelectArgs,
     mut notes: Vec<String>,
-) -> Selected<'py> {
+) -> PyResult<Selected<'py>> {
     use brdf_scene::represent::{select_data, DataDomain};
     let (budget, max_theta_i, max_theta_r, allow_nonphysical, sequence) = options;
     let limits = (max_theta_i, max_theta_r);
-    #[allow(clippy::type_complexity)]
-    let result = (|| -> Result<(String, Vec<String>, Option<Bound<'py, PyBytes>>), String> {
+    let checked = (|| -> Result<(), String> {
         check_budget(budget)?;
         for (name, v) in [("max_theta_i", limits.0), ("max_theta_r", limits.1)] {
             if !(0.0..=90.0).contains(&v) {
                 return Err(format!("{name} {v} is outside 0..=90 degrees"));
             }
         }
-        let kept = DataDomain::new(&d, limits.0, limits.1);
-        notes.extend(kept.left_out_note());
-        let base = settings.settings;
-        let (text, candidates, blob, left_out) = py.detach(move || -> Result<_, String> {
-            let s = select_data(
-                &kept,
-                &|kind| FitSettings { kind, ..base },
-                budget,
-                allow_nonphysical,
-            )?;
-            let blob = match &s.material {
-                Some((m, table)) => Some(
-                    brdf_fit::pack::encode(&[*m], std::slice::from_ref(table), sequence)
-                        .map_err(|e| e.to_string())?,
-                ),
-                None => None,
-            };
-            let text = serde_json::to_string_pretty(&s).map_err(|e| e.to_string())?;
-            let candidates = s
-                .candidates
-                .iter()
-                .map(serde_json::to_string_pretty)
-                .collect::<Result<Vec<_>, _>>()
-                .map_err(|e| e.to_string())?;
-            Ok((text, candidates, blob, s.notes))
-        })?;
-        notes.extend(left_out);
-        Ok((text, candidates, blob.map(|b| PyBytes::new(py, &b.bytes))))
+        Ok(())
     })();
-    match result {
-        Ok(v) => (Some(v), notes, None),
-        Err(e) => (None, notes, Some(e)),
+    if let Err(e) = checked {
+        return Ok((None, notes, Some(e)));
     }
+    let kept = DataDomain::new(&d, limits.0, limits.1);
+    notes.extend(kept.left_out_note());
+    let base = settings.settings;
+    // Ctrl-C raises at once (`interruptible`); the selection's own errors come back as text.
+    let work = crate::fit::interruptible(py, move || -> Result<_, String> {
+        let s = select_data(
+            &kept,
+            &|kind| FitSettings { kind, ..base },
+            budget,
+            allow_nonphysical,
+        )?;
+        let blob = match &s.material {
+            Some((m, table)) => Some(
+                brdf_fit::pack::encode(&[*m], std::slice::from_ref(table), sequence)
+                    .map_err(|e| e.to_string())?,
+            ),
+            None => None,
+        };
+        let text = serde_json::to_string_pretty(&s).map_err(|e| e.to_string())?;
+        let candidates = s
+            .candidates
+            .iter()
+            .map(serde_json::to_string_pretty)
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| e.to_string())?;
+        Ok((text, candidates, blob, s.notes))
+    })?;
+    Ok(match work {
+        Ok((text, candidates, blob, left_out)) => {
+            notes.extend(left_out);
+            (
+                Some((text, candidates, blob.map(|b| PyBytes::new(py, &b.bytes)))),
+                notes,
+                None,
+            )
+        }
+        Err(e) => (None, notes, Some(e)),
+    })
 }
 
 /// A selection budget is a finite fraction greater than 0 (`budget` as `brdf select
@@ -81,7 +91,7 @@ pub(crate) fn select_path<'py>(
         Ok(d) => d,
         Err(e) => return Ok((None, notes, Some(e))),
     };
-    Ok(select_dataset(py, settings, d, options, notes))
+    select_dataset(py, settings, d, options, notes)
 }
 
 /// `brdf select` on one dataset given as arrays: see [`select_dataset`] and [`Selected`].
@@ -102,5 +112,5 @@ pub(crate) fn select_arrays<'py>(
 ) -> PyResult<Selected<'py>> {
     let columns = (&theta_i, &theta_r, &phi, &brdf, sigma.as_ref(), weight.as_ref());
     let d = dataset(name, settings, columns)?;
-    Ok(select_dataset(py, settings, d, options, Vec::new()))
+    select_dataset(py, settings, d, options, Vec::new())
 }

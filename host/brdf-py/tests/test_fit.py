@@ -252,10 +252,11 @@ def test_skip_invalid_leaves_out_a_dataset_it_cannot_fit_as_the_cli(cli, root, t
         brdf.fit(str(one), skip_invalid=True)
 
 
-def test_ctrl_c_interrupts_a_long_fit(root):
-    """Ctrl-C raises KeyboardInterrupt during a fit (it was honoured only when the fit ended,
-    minutes later with `anneal_evals` 1e8). The 60 s limit only stops a hung test: the fit
-    itself would run for minutes."""
+@pytest.mark.parametrize("call", ["fit", "select"])
+def test_ctrl_c_interrupts_a_long_fit(root, call):
+    """Ctrl-C raises KeyboardInterrupt during a fit or a selection (it was honoured only when
+    the fit ended, minutes later with `anneal_evals` 1e8). The 60 s limit only stops a hung
+    test: the work itself would run for minutes."""
     import signal
     import subprocess
     import sys
@@ -264,7 +265,7 @@ def test_ctrl_c_interrupts_a_long_fit(root):
     code = (
         "import sys, brdf\n"
         "print('started', flush=True)\n"
-        f"brdf.fit({str(root / KHAKI)!r}, anneal_evals=100_000_000, chains=64)\n"
+        f"brdf.{call}({str(root / KHAKI)!r}, anneal_evals=100_000_000, chains=64)\n"
         "print('finished', flush=True)\n"
     )
     child = subprocess.Popen(
