@@ -541,7 +541,12 @@ impl Mesh {
             at,
             message,
         };
-        if bytes.starts_with(b"solid") {
+        // Binary: 80-byte header, facet count, 50 bytes per facet. Some exporters begin a
+        // binary header with `solid` too: a file whose length matches its count is binary.
+        let count = (bytes.len() >= 84)
+            .then(|| u64::from(u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]])));
+        let binary = count.is_some_and(|c| bytes.len() as u64 == 84 + 50 * c);
+        if bytes.starts_with(b"solid") && !binary {
             // ASCII: the reader stops at the first `endsolid` and would drop any later solid.
             let text = String::from_utf8_lossy(bytes);
             let solids: Vec<usize> = text
@@ -560,21 +565,16 @@ impl Mesh {
                     ),
                 ));
             }
-        } else if bytes.len() >= 84 {
-            // Binary: 80-byte header, facet count, 50 bytes per facet. The reader trusts the
-            // count and would read a longer file short.
-            let count = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64;
-            let want = 84 + 50 * count;
-            if bytes.len() as u64 != want {
-                return Err(refuse(
-                    Origin::Facet(1),
-                    format!(
-                        "binary STL header counts {count} facets ({want} bytes) but the file has \
-                         {} bytes",
-                        bytes.len()
-                    ),
-                ));
-            }
+        } else if let (Some(count), false) = (count, binary) {
+            // The reader trusts the count and would read a longer file short.
+            return Err(refuse(
+                Origin::Facet(1),
+                format!(
+                    "binary STL header counts {count} facets ({} bytes) but the file has {} bytes",
+                    84 + 50 * count,
+                    bytes.len()
+                ),
+            ));
         }
         let mut cursor = std::io::Cursor::new(bytes);
         let stl = stl_io::read_stl(&mut cursor).map_err(|e| MeshError::Stl {
@@ -864,6 +864,11 @@ mod tests {
             assert!(e.contains(&format!("header counts {count} facets")), "{e}");
         }
         std::fs::write(&p, binary(2, 2)).unwrap();
+        assert_eq!(Mesh::load(&p).unwrap().facets.len(), 2);
+        // A binary header that begins with `solid` (some exporters write one) is still binary.
+        let mut solid_header = binary(2, 2);
+        solid_header[..6].copy_from_slice(b"solid ");
+        std::fs::write(&p, &solid_header).unwrap();
         assert_eq!(Mesh::load(&p).unwrap().facets.len(), 2);
         let a = "solid a\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n\
                  endloop\nendfacet\nendsolid a\n";
