@@ -90,6 +90,12 @@ pub trait Float:
     fn abs(self) -> Self;
     /// Neither infinite nor NaN.
     fn is_finite(self) -> bool;
+    /// `self as usize`: truncated towards zero, saturating (negative and NaN give 0).
+    fn to_index(self) -> usize;
+    /// `i` as this type (rounded to nearest for large `i`).
+    fn from_index(i: usize) -> Self;
+    /// `x` as this type (exact: f32 widens or stays).
+    fn from_f32(x: f32) -> Self;
     /// Smaller of the two; NaN if either is NaN is not guaranteed (use on finite values).
     fn min(self, other: Self) -> Self {
         if other < self {
@@ -171,6 +177,18 @@ macro_rules! impl_float {
             #[inline]
             fn is_finite(self) -> bool {
                 $t::is_finite(self)
+            }
+            #[inline]
+            fn to_index(self) -> usize {
+                self as usize
+            }
+            #[inline]
+            fn from_index(i: usize) -> Self {
+                i as $t
+            }
+            #[inline]
+            fn from_f32(x: f32) -> Self {
+                x as $t
             }
         }
     };

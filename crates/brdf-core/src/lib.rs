@@ -43,6 +43,7 @@
 //! | [`table`] | the tabulated six-parameter path, its byte layout and accuracy | a device repeats lookups of one material and can spare `table_len(n)` bytes |
 //! | [`batch`] | one material over many directions (`std` feature: AVX2/AVX-512 chosen at run time) | the host evaluates thousands of directions (renderers, scenes, quadrature) |
 //! | [`anneal`] | the heap-free simulated annealer and its degenerate-sample rule | a device refits a material from its own measurements |
+//! | [`fitted`] | fitted tables: an analytic base model times a measured correction tabulated in Rusinkiewicz coordinates ([`fitted::Corrected`]), their bytes and coverage | you serve a measured material no analytic model fits |
 //! | [`cost`] | Cortex-M4F instructions per evaluation, per model and path | you choose a representation for an instruction budget |
 //!
 //! # Tables
@@ -132,6 +133,7 @@ pub mod batch;
 pub mod checks;
 pub mod cost;
 mod error;
+pub mod fitted;
 mod float;
 mod geometry;
 mod model;

@@ -91,7 +91,7 @@ fn main() {
         DEFAULT_SHAPE.theta_h,
         DEFAULT_SHAPE.theta_d,
         DEFAULT_SHAPE.phi_d,
-        DEFAULT_SHAPE.stored_bytes()
+        DEFAULT_SHAPE.encoded_len()
     );
     println!("| data | points | fitted table | 4-NN | ratio | table coverage | seconds per fit |");
     println!("|---|---|---|---|---|---|---|");
@@ -110,7 +110,7 @@ fn main() {
                 };
                 let (train, test) = (pick(false), pick(true));
                 let t = std::time::Instant::now();
-                let table = FittedTable::fit_cv(&train, DEFAULT_SHAPE).expect("table fit");
+                let table = FittedTable::fit_cv(&train, &vec![0.0; train.len()], DEFAULT_SHAPE).expect("table fit");
                 secs += t.elapsed().as_secs_f64();
                 cov += table.coverage();
                 let rel = |pred: &dyn Fn(&Point) -> f64| -> Vec<f64> {

@@ -20,47 +20,21 @@
 //! * Smoothness ([`FittedTable::fit_cv`]): `lambda` from a fixed log grid by 5-fold
 //!   cross-validation on [`trimmed_rms_rel`].
 
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::PI;
 
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use brdf_core::Geometry;
+use serde::Serialize;
 use thiserror::Error;
 
 use crate::data::Point;
 
-/// Grid nodes per axis of a fitted table.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct TableShape {
-    /// Nodes along `theta_h` (square-root spacing over `[0, pi/2]`).
-    pub theta_h: usize,
-    /// Nodes along `theta_d` (linear over `[0, pi/2]`).
-    pub theta_d: usize,
-    /// Nodes along the folded `phi_d` (linear over `[0, pi/2]`).
-    pub phi_d: usize,
-}
-
-impl TableShape {
-    /// Number of cells (grid nodes), `theta_h * theta_d * phi_d`.
-    pub fn cells(&self) -> usize {
-        self.theta_h * self.theta_d * self.phi_d
-    }
-
-    /// Bytes a table of this shape takes on a device: 2 per cell (`ln f` quantised to `u16`
-    /// over the table's own min..max range), `ceil(cells / 8)` for the coverage bits and a
-    /// 16-byte header (shape, range). 4054 bytes for [`DEFAULT_SHAPE`].
-    pub fn stored_bytes(&self) -> usize {
-        let cells = self.cells();
-        2 * cells + cells.div_ceil(8) + 16
-    }
-}
-
-/// Most bytes one device material may take (the fitted-table rung's budget).
-pub const MAX_STORED_BYTES: usize = 4096;
+pub use brdf_core::fitted::FittedShape;
 
 /// 20 x 19 x 5 = 1900 cells: stored as one `u16` per cell, its coverage bits and header
-/// ([`FittedTable::stored_bytes`]) it is 4054 bytes, within the 4 KiB a device material may
-/// take.
-pub const DEFAULT_SHAPE: TableShape = TableShape {
+/// ([`FittedShape::encoded_len`]) it is 4,054 bytes; with a Lambert base, a blob of this one
+/// material is 4,082 bytes, within a flash slot's 4,096.
+pub const DEFAULT_SHAPE: FittedShape = FittedShape {
     theta_h: 20,
     theta_d: 19,
     phi_d: 5,
@@ -108,6 +82,14 @@ pub enum TableError {
         points: usize,
         /// Points needed ([`MIN_POINTS`]).
         needed: usize,
+    },
+    /// A base model value whose logarithm is not finite (the base is 0 or unbounded there).
+    #[error("line {line}: the base model's ln f = {value} is not finite there")]
+    Base {
+        /// Source line of the reading.
+        line: u64,
+        /// `ln` of the base model at it.
+        value: f64,
     },
     /// A reading whose logarithm is undefined (`brdf <= 0` or not finite).
     #[error("line {line}: brdf = {value} is not a positive finite number; a fitted table fits ln f")]
@@ -162,36 +144,11 @@ pub fn coordinates(theta_i: f64, theta_r: f64, phi: f64) -> [f64; 3] {
 /// The 8 cells of a query's trilinear stencil with their weights (summing to 1).
 type Stencil = [(usize, f64); 8];
 
-/// Lower node, upper node and fraction of a continuous index `x` in `[0, n-1]`. An axis of
-/// one node gives that node twice, the second with weight 0.
-fn axis(x: f64, n: usize) -> (usize, usize, f64) {
-    if n < 2 {
-        return (0, 0, 0.0);
-    }
-    let lo = (x.floor().max(0.0) as usize).min(n - 2);
-    (lo, lo + 1, x - lo as f64)
-}
-
-fn stencil(shape: TableShape, c: [f64; 3]) -> Stencil {
-    let (nh, nd, np) = (shape.theta_h, shape.theta_d, shape.phi_d);
-    let span = |n: usize| n.saturating_sub(1) as f64;
-    let u = (c[0] / FRAC_PI_2).clamp(0.0, 1.0).sqrt() * span(nh);
-    let v = (c[1] / FRAC_PI_2).clamp(0.0, 1.0) * span(nd);
-    let w = (c[2] / FRAC_PI_2).clamp(0.0, 1.0) * span(np);
-    let (i0, i1, a) = axis(u, nh);
-    let (j0, j1, b) = axis(v, nd);
-    let (k0, k1, g) = axis(w, np);
-    let mut out = [(0, 0.0); 8];
-    let mut m = 0;
-    for (i, wi) in [(i0, 1.0 - a), (i1, a)] {
-        for (j, wj) in [(j0, 1.0 - b), (j1, b)] {
-            for (k, wk) in [(k0, 1.0 - g), (k1, g)] {
-                out[m] = ((i * nd + j) * np + k, wi * wj * wk);
-                m += 1;
-            }
-        }
-    }
-    out
+/// The stencil of a direction pair (radians) on the device's axes ([`brdf_core::fitted::axes`]):
+/// the fit and every evaluation place a point alike.
+fn stencil(shape: FittedShape, theta_i: f64, theta_r: f64, phi: f64) -> Stencil {
+    let g = Geometry::<f64>::from_angles(theta_i, theta_r, phi);
+    brdf_core::fitted::stencil(shape, brdf_core::fitted::axes(&g))
 }
 
 fn predict(x: &[f64], s: &Stencil) -> f64 {
@@ -295,7 +252,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// The rows of the smoothness operator `R`: second differences along `theta_h` and `theta_d`
 /// (every interior triple, for every other index), along `phi_d` second differences when it
 /// has more than two nodes, first differences when it has two.
-fn regulariser_rows(shape: TableShape) -> Vec<Vec<(usize, f64)>> {
+fn regulariser_rows(shape: FittedShape) -> Vec<Vec<(usize, f64)>> {
     let (nh, nd, np) = (shape.theta_h, shape.theta_d, shape.phi_d);
     let cell = |i: usize, j: usize, k: usize| (i * nd + j) * np + k;
     let mut rows = Vec::new();
@@ -335,13 +292,13 @@ fn regulariser_rows(shape: TableShape) -> Vec<Vec<(usize, f64)>> {
 /// The shared, data-independent part of every solve for one shape: `R^T R` and the
 /// half-bandwidth of the normal matrix.
 struct System {
-    shape: TableShape,
+    shape: FittedShape,
     bw: usize,
     rtr: Band,
 }
 
 impl System {
-    fn new(shape: TableShape) -> Self {
+    fn new(shape: FittedShape) -> Self {
         assert!(
             shape.cells() > 0,
             "a fitted table needs at least one node per axis: {shape:?}"
@@ -441,12 +398,14 @@ fn cv_folds(n: usize) -> Vec<usize> {
     fold
 }
 
-/// An isotropic BRDF tabulated as `ln f` on a Rusinkiewicz grid (see the module docs).
+/// A correction `t = ln(f / f_base)` tabulated on a Rusinkiewicz grid (see the module docs);
+/// with no base (`base_ln` all 0) `t` is `ln f` itself.
 #[derive(Clone, Debug, Serialize)]
 pub struct FittedTable {
     /// Grid nodes per axis.
-    pub shape: TableShape,
-    /// `ln f` (f in 1/sr) per cell, cell `(i, j, k)` (theta_h, theta_d, phi_d) at
+    #[serde(skip)]
+    pub shape: FittedShape,
+    /// `t` per cell, cell `(i, j, k)` (theta_h, theta_d, phi_d) at
     /// `(i * theta_d + j) * phi_d + k`.
     pub ln_f: Vec<f64>,
     /// Per cell: some training point put more than [`COVER_WEIGHT`] on it.
@@ -455,8 +414,9 @@ pub struct FittedTable {
     pub smoothness: f64,
 }
 
-/// Checks the points and returns their stencils and `ln brdf`.
-fn prepare(points: &[Point], shape: TableShape) -> Result<(Vec<Stencil>, Vec<f64>), TableError> {
+/// Checks the points and returns their stencils and targets `ln brdf - base_ln`.
+fn prepare(points: &[Point], base_ln: &[f64], shape: FittedShape) -> Result<(Vec<Stencil>, Vec<f64>), TableError> {
+    assert_eq!(points.len(), base_ln.len(), "one base value per point");
     if points.len() < MIN_POINTS {
         return Err(TableError::TooFewPoints {
             points: points.len(),
@@ -469,16 +429,19 @@ fn prepare(points: &[Point], shape: TableShape) -> Result<(Vec<Stencil>, Vec<f64
             value: p.brdf,
         });
     }
+    if let Some((p, b)) = points.iter().zip(base_ln).find(|(_, b)| !b.is_finite()) {
+        return Err(TableError::Base { line: p.line, value: *b });
+    }
     let stencils = points
         .iter()
-        .map(|p| stencil(shape, coordinates(p.theta_i, p.theta_r, p.phi)))
+        .map(|p| stencil(shape, p.theta_i, p.theta_r, p.phi))
         .collect();
-    let ln_y = points.iter().map(|p| p.brdf.ln()).collect();
+    let ln_y = points.iter().zip(base_ln).map(|(p, b)| p.brdf.ln() - b).collect();
     Ok((stencils, ln_y))
 }
 
 impl FittedTable {
-    fn from_solution(shape: TableShape, ln_f: Vec<f64>, stencils: &[Stencil], smoothness: f64) -> Self {
+    fn from_solution(shape: FittedShape, ln_f: Vec<f64>, stencils: &[Stencil], smoothness: f64) -> Self {
         let mut covered = vec![false; shape.cells()];
         for s in stencils {
             for &(c, w) in s {
@@ -495,22 +458,26 @@ impl FittedTable {
         }
     }
 
-    /// The trimmed fit (see the module docs) with smoothness `lambda = smoothness`. Point
-    /// `sigma` and `weight` are not used: every point starts with weight 1. Coverage counts
-    /// every point, trimmed ones included (a dropout still says the direction was measured).
+    /// The trimmed fit (see the module docs) of `t = ln brdf - base_ln` (one base value per
+    /// point, `ln` of the base model there; zeros for a table of `ln f`) with smoothness
+    /// `lambda = smoothness`. Point `sigma` and `weight` are not used: every point starts with
+    /// weight 1. Coverage counts every point, trimmed ones included (a dropout still says the
+    /// direction was measured).
     ///
     /// # Errors
     /// [`TableError::TooFewPoints`] below [`MIN_POINTS`] points, [`TableError::NotPositive`]
-    /// for the first reading that is not positive and finite.
+    /// for the first reading that is not positive and finite, [`TableError::Base`] for the
+    /// first base value that is not finite.
     ///
     /// # Panics
-    /// If an axis of `shape` has no node, or `smoothness` is negative or not finite.
-    pub fn fit(points: &[Point], shape: TableShape, smoothness: f64) -> Result<Self, TableError> {
+    /// If `shape` is not valid ([`FittedShape::is_valid`]), `base_ln` has another length
+    /// than `points`, or `smoothness` is negative or not finite.
+    pub fn fit(points: &[Point], base_ln: &[f64], shape: FittedShape, smoothness: f64) -> Result<Self, TableError> {
         assert!(
             smoothness.is_finite() && smoothness >= 0.0,
             "smoothness must be >= 0: {smoothness}"
         );
-        let (stencils, ln_y) = prepare(points, shape)?;
+        let (stencils, ln_y) = prepare(points, base_ln, shape)?;
         let system = System::new(shape);
         let x = system.trimmed_fit(&stencils, &ln_y, smoothness);
         Ok(Self::from_solution(shape, x, &stencils, smoothness))
@@ -525,9 +492,9 @@ impl FittedTable {
     /// As [`FittedTable::fit`].
     ///
     /// # Panics
-    /// If an axis of `shape` has no node.
-    pub fn fit_cv(points: &[Point], shape: TableShape) -> Result<Self, TableError> {
-        let (stencils, ln_y) = prepare(points, shape)?;
+    /// As [`FittedTable::fit`].
+    pub fn fit_cv(points: &[Point], base_ln: &[f64], shape: FittedShape) -> Result<Self, TableError> {
+        let (stencils, ln_y) = prepare(points, base_ln, shape)?;
         let system = System::new(shape);
         let fold = cv_folds(points.len());
         let grid = smoothness_grid();
@@ -566,25 +533,24 @@ impl FittedTable {
         Ok(Self::from_solution(shape, x, &stencils, best.1))
     }
 
-    /// The BRDF (1/sr) at `(theta_i, theta_r, phi)`: `exp` of the trilinear interpolation of
-    /// `ln f`. Reciprocal by construction; directions beyond the grid clamp to its edge.
+    /// `exp(t)` at `(theta_i, theta_r, phi)`, `t` interpolated trilinearly: the factor on the
+    /// base model (the BRDF in 1/sr for a table fitted with no base). Reciprocal by
+    /// construction. In f64 from the unquantised cells; the device's value is
+    /// [`brdf_core::fitted::Corrected`] over [`FittedTable::to_bytes`].
     pub fn eval(&self, theta_i: f64, theta_r: f64, phi: f64) -> f64 {
-        predict(
-            &self.ln_f,
-            &stencil(self.shape, coordinates(theta_i, theta_r, phi)),
-        )
-        .exp()
+        predict(&self.ln_f, &stencil(self.shape, theta_i, theta_r, phi)).exp()
     }
 
-    /// Whether the data informed the table at this direction: the stencil cell with the
-    /// largest trilinear weight (the nearest node) is covered. Outside, the value is the
-    /// smoothness term's extrapolation.
+    /// Whether the data informed the table at this direction
+    /// ([`brdf_core::fitted::FittedTable::covers`]'s rule). Outside, the value is the smoothness
+    /// term's extrapolation.
     pub fn covers(&self, theta_i: f64, theta_r: f64, phi: f64) -> bool {
-        let s = stencil(self.shape, coordinates(theta_i, theta_r, phi));
-        let nearest = s
+        let share: f64 = stencil(self.shape, theta_i, theta_r, phi)
             .iter()
-            .fold(s[0], |best, &e| if e.1 > best.1 { e } else { best });
-        self.covered[nearest.0]
+            .filter(|(c, _)| self.covered[*c])
+            .map(|(_, w)| w)
+            .sum();
+        share >= brdf_core::fitted::COVERED_SHARE
     }
 
     /// Fraction of cells covered.
@@ -592,15 +558,20 @@ impl FittedTable {
         self.covered.iter().filter(|&&c| c).count() as f64 / self.covered.len() as f64
     }
 
-    /// Bytes on a device ([`TableShape::stored_bytes`]).
-    pub fn stored_bytes(&self) -> usize {
-        self.shape.stored_bytes()
+    /// The table as a device holds it ([`brdf_core::fitted`]: `t` quantised to u16 over its
+    /// range, coverage bits). Fails only when `t` spans beyond
+    /// [`brdf_core::fitted::FITTED_LN_LIMIT`].
+    pub fn to_bytes(&self) -> Result<Vec<u8>, brdf_core::fitted::FittedError> {
+        let mut out = vec![0u8; self.shape.encoded_len()];
+        brdf_core::fitted::encode_fitted(self.shape, &self.ln_f, &self.covered, &mut out)?;
+        Ok(out)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::FRAC_PI_2;
     use brdf_core::accuracy::splitmix64_unit;
 
     /// Held-out trimmed RMS relative error the synthetic test must stay under. Measured
@@ -675,7 +646,7 @@ mod tests {
             .map(|(k, [ti, tr, phi])| point(ti, tr, phi, synthetic(ti, tr, phi), k as u64 + 2))
             .collect();
         let start = std::time::Instant::now();
-        let table = FittedTable::fit_cv(&train, DEFAULT_SHAPE).unwrap();
+        let table = FittedTable::fit_cv(&train, &vec![0.0; train.len()], DEFAULT_SHAPE).unwrap();
         let elapsed = start.elapsed();
         let rel: Vec<f64> = random_directions(300, 2)
             .into_iter()
@@ -696,8 +667,7 @@ mod tests {
             trimmed_rms_rel(&train_rel)
         );
         assert!(err < SYNTHETIC_HELD_OUT_MAX, "held-out trimmed rms rel {err}");
-        assert_eq!(table.stored_bytes(), 4054);
-        assert!(DEFAULT_SHAPE.stored_bytes() <= MAX_STORED_BYTES);
+        assert_eq!(table.to_bytes().unwrap().len(), 4054);
     }
 
     #[test]
@@ -719,7 +689,7 @@ mod tests {
     #[test]
     fn errors_name_the_problem() {
         let pts: Vec<Point> = (0..5).map(|k| point(0.3, 0.4, PI, 0.5, k + 2)).collect();
-        let e = FittedTable::fit(&pts, DEFAULT_SHAPE, 1.0).unwrap_err();
+        let e = FittedTable::fit(&pts, &[0.0; 5], DEFAULT_SHAPE, 1.0).unwrap_err();
         assert!(
             matches!(
                 e,
@@ -736,7 +706,7 @@ mod tests {
             .map(|k| point(0.3, 0.01 * k as f64, PI, 0.5, k + 2))
             .collect();
         pts[7].brdf = 0.0;
-        let e = FittedTable::fit_cv(&pts, DEFAULT_SHAPE).unwrap_err();
+        let e = FittedTable::fit_cv(&pts, &[0.0; 20], DEFAULT_SHAPE).unwrap_err();
         assert!(
             matches!(e, TableError::NotPositive { line: 9, value } if value == 0.0),
             "{e:?}"
@@ -759,7 +729,7 @@ mod tests {
                 )
             })
             .collect();
-        let table = FittedTable::fit(&pts, DEFAULT_SHAPE, 0.1).unwrap();
+        let table = FittedTable::fit(&pts, &[0.0; 12], DEFAULT_SHAPE, 0.1).unwrap();
         assert!(table.coverage() < 0.02, "coverage {}", table.coverage());
         assert!(table.coverage() > 0.0);
         assert!(table.covers(t, t, PI) && table.covers(t, t, 0.0));
@@ -789,12 +759,12 @@ mod tests {
     fn banded_cholesky_matches_dense() {
         // A small shape so the dense check is cheap; every stencil and bandwidth path used.
         for shape in [
-            TableShape {
+            FittedShape {
                 theta_h: 4,
                 theta_d: 3,
                 phi_d: 2,
             },
-            TableShape {
+            FittedShape {
                 theta_h: 3,
                 theta_d: 4,
                 phi_d: 3,
@@ -804,7 +774,7 @@ mod tests {
             let pts = random_directions(30, 9);
             let stencils: Vec<Stencil> = pts
                 .iter()
-                .map(|&[a, b, c]| stencil(shape, coordinates(a, b, c)))
+                .map(|&[a, b, c]| stencil(shape, a, b, c))
                 .collect();
             let ln_y: Vec<f64> = pts.iter().map(|&[a, b, c]| synthetic(a, b, c).ln()).collect();
             let w = vec![1.0; 30];
