@@ -374,7 +374,7 @@ mod tests {
         let mut s = 7u64;
         for _ in 0..2000 {
             let mut r = || crate::accuracy::splitmix64_unit(&mut s);
-            let (ti, tr, phi) = (1.5 * r(), 1.5 * r(), 6.28 * r());
+            let (ti, tr, phi) = (1.5 * r(), 1.5 * r(), 6.0 * r());
             let [th, td, pd] = rusinkiewicz(ti, tr, phi);
             let g = Geometry::<f64>::from_angles(ti, tr, phi);
             let [u, v, w] = axes(&g);
