@@ -305,7 +305,7 @@ pub fn encode_fitted(
     out[4..8].copy_from_slice(&lo.to_le_bytes());
     out[8..12].copy_from_slice(&step.to_le_bytes());
     for (c, &v) in ln_values.iter().enumerate() {
-        let q = ((v - f64::from(lo)) / f64::from(step)).round().clamp(0.0, 65535.0) as u16;
+        let q = libm::round((v - f64::from(lo)) / f64::from(step)).clamp(0.0, 65535.0) as u16;
         out[FITTED_HEADER_LEN + 2 * c..FITTED_HEADER_LEN + 2 * c + 2].copy_from_slice(&q.to_le_bytes());
         if covered[c] {
             out[FITTED_HEADER_LEN + 2 * cells + c / 8] |= 1 << (c % 8);

@@ -1,6 +1,8 @@
 //! The parameter blob: the materials a device evaluates, as flashed or loaded.
 //!
-//! Little-endian layout, version 2 (version 1 is version 2 without tables, and is still read):
+//! Little-endian layout, version 3 (version 2 is version 3 without fitted tables, version 1
+//! version 2 without lookup tables; both are still read, and a blob without fitted tables is
+//! written as version 2, so devices that know only version 2 still take it):
 //!
 //! | offset | size | field |
 //! |---|---|---|
@@ -10,7 +12,7 @@
 //! | 8 | 4 | sequence number (newer blobs have larger numbers) |
 //! | 12 | 2 | material count (1 to [`MAX_MATERIALS`]) |
 //! | 14 | 2 | reserved (0; readers reject anything else) |
-//! | 16 | 4 + 4 n + 12 t | per material: model id, parameter count n, table node count t (u16), n f32 parameters, then t x 3 f32 table nodes ([`brdf_core::table`]; six-parameter model only, t = 0 for none) |
+//! | 16 | 4 + 4 n + ... | per material: model id, parameter count n, table word w (u16), n f32 parameters, then: for w = 0 nothing; for w in 2..=4096, w x 3 f32 lookup-table nodes ([`brdf_core::table`]; six-parameter model only); for w = [`FITTED_WORD`] (version 3), a fitted table ([`brdf_core::fitted`]: the model is its base, its length follows from its header) |
 //! | end - 4 | 4 | CRC-32 (ISO-HDLC) of every byte before it |
 //!
 //! A reader rejects a wrong magic, a version or flag it does not know, a non-zero reserved
@@ -18,6 +20,7 @@
 //! valid ranges and a table that is malformed or belongs to other parameters (checked with
 //! [`SixTable::verify`]), each with its own [`BlobError`].
 
+use brdf_core::fitted::{FittedShape, FittedTable, FITTED_HEADER_LEN};
 use brdf_core::table::{table_len, SixTable, MAX_TABLE_NODES, MIN_TABLE_NODES};
 use brdf_core::{table1_f32, AnyModel, ModelKind, SixParams, MAX_PARAMS, TABLE1};
 
@@ -25,8 +28,12 @@ use crate::crc32;
 
 /// `BRDF`.
 pub const BLOB_MAGIC: [u8; 4] = *b"BRDF";
-/// The blob format version this crate reads and writes.
-pub const BLOB_VERSION: u16 = 2;
+/// The newest blob format version this crate reads and writes (fitted tables).
+pub const BLOB_VERSION: u16 = 3;
+/// The version written for a blob without fitted tables.
+pub const BLOB_VERSION_WITHOUT_FITTED: u16 = 2;
+/// The table word of a material followed by a fitted table (version 3).
+pub const FITTED_WORD: u16 = 0x8000;
 /// Most materials in one blob.
 pub const MAX_MATERIALS: usize = 8;
 /// Largest encoded blob: one flash slot, and what one LOAD frame carries. Eight materials
@@ -82,6 +89,7 @@ pub fn table1_blob() -> Blob {
             kind: ModelKind::Six,
             params,
             table: None,
+            fitted: None,
         });
     }
     Blob {
@@ -99,6 +107,27 @@ pub struct Material {
     pub params: [f32; MAX_PARAMS],
     /// Where this material's lookup tables are (six-parameter model only).
     pub table: Option<TableRef>,
+    /// Where this material's fitted table is: the model is then its base, `f = f_base *
+    /// exp(t)` ([`brdf_core::fitted::Corrected`]). Never together with `table`.
+    pub fitted: Option<FittedRef>,
+}
+
+/// A material's fitted table inside an encoded blob.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FittedRef {
+    /// Bytes of the table ([`FittedShape::encoded_len`] of its shape).
+    pub len: u16,
+    /// Byte offset of the table in the encoded blob (set by [`Blob::decode`]; ignored by
+    /// [`Blob::encode_with_tables`]).
+    pub offset: u16,
+}
+
+impl FittedRef {
+    /// The table's bytes inside `blob`, the bytes this reference was decoded from.
+    pub fn bytes<'b>(&self, blob: &'b [u8]) -> Option<&'b [u8]> {
+        let at = usize::from(self.offset);
+        blob.get(at..at + usize::from(self.len))
+    }
 }
 
 /// A material's tables inside an encoded blob.
@@ -148,6 +177,7 @@ impl Material {
             kind,
             params,
             table: None,
+            fitted: None,
         };
         m.model()?;
         Ok(m)
@@ -169,9 +199,29 @@ impl Material {
         Ok(())
     }
 
+    /// Gives this material (its model the base) the fitted table `bytes` ([`brdf_core::fitted`]),
+    /// checked; pass the same bytes with the material to [`Blob::encode_with_tables`].
+    pub fn with_fitted(mut self, bytes: &[u8]) -> Result<Material, brdf_core::fitted::FittedError> {
+        FittedTable::new(bytes)?;
+        self.table = None;
+        self.fitted = Some(FittedRef {
+            len: bytes.len() as u16,
+            offset: 0,
+        });
+        Ok(self)
+    }
+
     /// Bytes this material takes in an encoded blob (model id, counts, parameters, tables).
     pub fn encoded_len(&self) -> usize {
-        4 + 4 * self.kind.param_count() + self.table.map_or(0, |t| t.len())
+        4 + 4 * self.kind.param_count()
+            + self.table.map_or(0, |t| t.len())
+            + self.fitted.map_or(0, |f| usize::from(f.len))
+    }
+
+    /// The fitted table over `blob` (the bytes this material was decoded from), if the
+    /// material has one. O(1) after [`Blob::decode`] checked it.
+    pub fn fitted_table<'b>(&self, blob: &'b [u8]) -> Option<FittedTable<'b>> {
+        FittedTable::new(self.fitted?.bytes(blob)?).ok()
     }
 
     /// Validates and builds the exact f32 model.
@@ -297,8 +347,13 @@ impl Blob {
         if self.materials.is_empty() {
             return Err(BlobError::MaterialCount(0));
         }
+        let version = if self.materials.iter().any(|m| m.fitted.is_some()) {
+            BLOB_VERSION
+        } else {
+            BLOB_VERSION_WITHOUT_FITTED
+        };
         out[0..4].copy_from_slice(&BLOB_MAGIC);
-        out[4..6].copy_from_slice(&BLOB_VERSION.to_le_bytes());
+        out[4..6].copy_from_slice(&version.to_le_bytes());
         out[6..8].copy_from_slice(&0u16.to_le_bytes());
         out[8..12].copy_from_slice(&self.sequence.to_le_bytes());
         out[12..14].copy_from_slice(&(self.materials.len() as u16).to_le_bytes());
@@ -306,18 +361,27 @@ impl Blob {
         let mut at = HEADER_LEN;
         for (i, m) in self.materials.iter().enumerate() {
             let k = m.kind.param_count();
-            let nodes = m.table.map_or(0, |t| t.nodes);
+            let word = match (m.table, m.fitted) {
+                (Some(_), Some(_)) => return Err(BlobError::Table(i as u8)),
+                (Some(t), None) => t.nodes,
+                (None, Some(_)) => FITTED_WORD,
+                (None, None) => 0,
+            };
             out[at] = model_id(m.kind);
             out[at + 1] = k as u8;
-            out[at + 2..at + 4].copy_from_slice(&nodes.to_le_bytes());
+            out[at + 2..at + 4].copy_from_slice(&word.to_le_bytes());
             at += 4;
             for p in &m.params[..k] {
                 out[at..at + 4].copy_from_slice(&p.to_le_bytes());
                 at += 4;
             }
-            if let Some(t) = m.table {
+            let want = m.table.map(|t| t.len()).or(m.fitted.map(|f| usize::from(f.len)));
+            if let Some(len) = want {
                 match tables.get(i).copied().flatten() {
-                    Some(bytes) if bytes.len() == t.len() => {
+                    Some(bytes) if bytes.len() == len => {
+                        if m.fitted.is_some() && FittedTable::new(bytes).is_err() {
+                            return Err(BlobError::Table(i as u8));
+                        }
                         out[at..at + bytes.len()].copy_from_slice(bytes);
                         at += bytes.len();
                     }
@@ -340,7 +404,7 @@ impl Blob {
         }
         let u16_at = |i: usize| u16::from_le_bytes([bytes[i], bytes[i + 1]]);
         let version = u16_at(4);
-        if version != 1 && version != BLOB_VERSION {
+        if !(1..=BLOB_VERSION).contains(&version) {
             return Err(BlobError::Version(version));
         }
         let flags = u16_at(6);
@@ -387,9 +451,33 @@ impl Blob {
                 kind,
                 params,
                 table: None,
+                fitted: None,
             };
             m.model().map_err(|_| BlobError::Params(i))?;
-            if nodes != 0 {
+            if nodes == FITTED_WORD {
+                if version < 3 || at + FITTED_HEADER_LEN > body {
+                    return Err(if version < 3 { BlobError::Table(i) } else { BlobError::Length });
+                }
+                let shape = FittedShape {
+                    theta_h: usize::from(bytes[at]),
+                    theta_d: usize::from(bytes[at + 1]),
+                    phi_d: usize::from(bytes[at + 2]),
+                };
+                if !shape.is_valid() {
+                    return Err(BlobError::Table(i));
+                }
+                let len = shape.encoded_len();
+                if at + len > body {
+                    return Err(BlobError::Length);
+                }
+                FittedTable::new(&bytes[at..at + len]).map_err(|_| BlobError::Table(i))?;
+                m.fitted = Some(FittedRef {
+                    // at + len <= body < MAX_BLOB_LEN = 4096 was checked.
+                    len: len as u16,
+                    offset: at as u16,
+                });
+                at += len;
+            } else if nodes != 0 {
                 let n = usize::from(nodes);
                 if version == 1 || kind != ModelKind::Six || !(MIN_TABLE_NODES..=MAX_TABLE_NODES).contains(&n)
                 {
@@ -429,6 +517,7 @@ mod tests {
             kind: ModelKind::Six,
             params,
             table: None,
+            fitted: None,
         }
     }
 
@@ -442,6 +531,7 @@ mod tests {
                 kind: ModelKind::Lambert,
                 params: l,
                 table: None,
+                fitted: None,
             })
             .unwrap();
         Blob {
@@ -463,7 +553,7 @@ mod tests {
             Blob::decode(&c[..n]).unwrap_err()
         };
         assert_eq!(bad(&|c| c[0] = b'X'), BlobError::Magic);
-        assert_eq!(bad(&|c| c[4] = 3), BlobError::Version(3));
+        assert_eq!(bad(&|c| c[4] = 4), BlobError::Version(4));
         assert_eq!(bad(&|c| c[20] ^= 1), BlobError::Crc);
         // A non-zero reserved field, even correctly signed, is refused.
         let mut c = buf;
@@ -553,5 +643,103 @@ mod table_tests {
         let n = b.encode_with_tables(&[Some(&t)], &mut buf).unwrap();
         assert!(n <= MAX_BLOB_LEN);
         assert!(Blob::decode(&buf[..n]).is_ok());
+    }
+}
+
+#[cfg(test)]
+mod fitted_tests {
+    extern crate std;
+    use super::*;
+    use brdf_core::fitted::{encode_fitted, Corrected, FittedShape};
+    use brdf_core::Brdf;
+
+    /// The largest shape `brdf select` writes (20 x 19 x 5) over a Lambert base.
+    const SHAPE: FittedShape = FittedShape {
+        theta_h: 20,
+        theta_d: 19,
+        phi_d: 5,
+    };
+
+    fn lambert_with_table() -> (Blob, std::vec::Vec<u8>) {
+        let cells = SHAPE.cells();
+        let v: std::vec::Vec<f64> = (0..cells).map(|k| ((k % 37) as f64 - 18.0) / 9.0).collect();
+        let cov: std::vec::Vec<bool> = (0..cells).map(|k| k % 5 != 0).collect();
+        let mut t = std::vec![0u8; SHAPE.encoded_len()];
+        encode_fitted(SHAPE, &v, &cov, &mut t).unwrap();
+        let m = Material::from_params(ModelKind::Lambert, &[0.4]).unwrap().with_fitted(&t).unwrap();
+        let mut materials = heapless::Vec::new();
+        materials.push(m).unwrap();
+        (
+            Blob {
+                sequence: 3,
+                materials,
+            },
+            t,
+        )
+    }
+
+    #[test]
+    fn a_fitted_table_round_trips_in_one_slot_and_is_checked() {
+        let (b, t) = lambert_with_table();
+        let mut buf = [0u8; MAX_BLOB_LEN];
+        let n = b.encode_with_tables(&[Some(&t)], &mut buf).unwrap();
+        assert_eq!(n, b.encoded_len());
+        assert!(n <= MAX_BLOB_LEN, "{n}");
+        assert_eq!(u16::from_le_bytes([buf[4], buf[5]]), 3, "version 3 when a fitted table is present");
+        let d = Blob::decode(&buf[..n]).unwrap();
+        let r = d.materials[0].fitted.unwrap();
+        assert_eq!((usize::from(r.len), r.offset), (t.len(), 24));
+        let table = d.materials[0].fitted_table(&buf[..n]).unwrap();
+        let m = Corrected {
+            base: d.materials[0].model().unwrap(),
+            table,
+        };
+        let base = d.materials[0].model().unwrap().eval_cosines(0.8, 0.6, -0.5);
+        let f = m.eval_cosines(0.8, 0.6, -0.5);
+        assert!(f.is_finite() && f != base, "{f} {base}");
+        // Without its bytes, or with bytes that are not a table, nothing is written.
+        assert_eq!(b.encode(&mut buf).unwrap_err(), BlobError::Table(0));
+        let mut bad = t.clone();
+        bad[3] = 1;
+        assert_eq!(b.encode_with_tables(&[Some(&bad)], &mut buf).unwrap_err(), BlobError::Table(0));
+        let n = b.encode_with_tables(&[Some(&t)], &mut buf).unwrap();
+
+        let resign = |c: &mut [u8]| {
+            let crc = crate::crc32(&c[..n - 4]);
+            c[n - 4..n].copy_from_slice(&crc.to_le_bytes());
+        };
+        // A fitted table in a version-2 blob.
+        let mut c = buf;
+        c[4] = 2;
+        resign(&mut c);
+        assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Table(0));
+        // A shape that runs past the end, a shape of one node, a reserved byte set.
+        let mut c = buf;
+        c[24] = 21;
+        resign(&mut c);
+        assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Length);
+        let mut c = buf;
+        c[25] = 1;
+        resign(&mut c);
+        assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Table(0));
+        let mut c = buf;
+        c[27] = 1;
+        resign(&mut c);
+        assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Table(0));
+        // A smaller shape leaves bytes over: the length no longer matches.
+        let mut c = buf;
+        c[26] = 4;
+        resign(&mut c);
+        assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Length);
+        // Both a lookup table and a fitted table: refused when encoding.
+        let mut both = b.clone();
+        both.materials[0].table = Some(TableRef { nodes: 16, offset: 0 });
+        let mut big = std::vec![0u8; 2 * MAX_BLOB_LEN];
+        assert_eq!(both.encode_with_tables(&[Some(&t)], &mut big).unwrap_err(), BlobError::Table(0));
+        // A blob without fitted tables is still written as version 2.
+        let mut buf2 = [0u8; MAX_BLOB_LEN];
+        let n2 = table1_blob().encode(&mut buf2).unwrap();
+        assert_eq!(u16::from_le_bytes([buf2[4], buf2[5]]), 2);
+        assert!(Blob::decode(&buf2[..n2]).is_ok());
     }
 }

@@ -359,7 +359,7 @@ mod tests {
         let mut blob = [0u8; MAX_BLOB_LEN];
         let n = b.encode(&mut blob).unwrap();
         let mut img = [0xFFu8; SLOT_IMAGE_LEN];
-        slot_image(&blob[..n], Some(sequence - 1), &mut img).unwrap();
+        slot_image(&blob[..n], Some(sequence.wrapping_sub(1)), &mut img).unwrap();
         img
     }
 

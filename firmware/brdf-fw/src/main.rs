@@ -12,9 +12,10 @@
 #![no_main]
 
 use brdf_core::anneal::{anneal_kind, AnnealConfig, Samples, DEVICE_SEED};
+use brdf_core::fitted::{Corrected, FittedTable};
 use brdf_core::table::{SixTable, TableConsts};
 use brdf_core::{AnyModel, Brdf, Geometry, ModelKind};
-use brdf_wire::blob::{blob_crc, table1_blob, Blob, TableRef, BLOB_VERSION, MAX_BLOB_LEN};
+use brdf_wire::blob::{blob_crc, table1_blob, Blob, FittedRef, TableRef, BLOB_VERSION, MAX_BLOB_LEN};
 use brdf_wire::frame::{
     encode_response, parse_request, samples, ErrorCode, FrameReader, Input, Request, Response, MAX_BATCH,
     MAX_FIT_BUDGET, MAX_FIT_SAMPLES, MAX_FRAME, PROGRESS_SAMPLE_EVALS,
@@ -39,6 +40,8 @@ struct Active {
     models: heapless::Vec<AnyModel<f32>, 8>,
     /// Per material with tables: where its nodes are and its precomputed constants.
     tables: heapless::Vec<Option<(TableRef, TableConsts)>, 8>,
+    /// Per material with a fitted table: where it is.
+    fitted: heapless::Vec<Option<FittedRef>, 8>,
     crc: u32,
 }
 
@@ -52,7 +55,9 @@ impl Active {
     fn from_decoded(blob: Blob, src: &[u8]) -> Option<Active> {
         let mut models = heapless::Vec::new();
         let mut tables = heapless::Vec::new();
+        let mut fitted = heapless::Vec::new();
         for m in &blob.materials {
+            fitted.push(m.fitted).ok()?;
             models.push(m.model().ok()?).ok()?;
             let t = match m.table {
                 Some(r) => Some((r, m.table(src)?.consts())),
@@ -69,6 +74,7 @@ impl Active {
             blob,
             models,
             tables,
+            fitted,
             crc,
         })
     }
@@ -80,11 +86,13 @@ impl Active {
         Active::from_bytes(&buf[..n])
     }
 
-    /// Evaluates material `id`: through its tables if it has them, else the exact model.
+    /// Evaluates material `id`: through its lookup tables if it has them, as its base model
+    /// times its correction if it has a fitted table, else the exact model.
     /// Out-of-domain inputs are refused, never clamped.
     fn eval(&self, id: u8, input: Input, x: [f32; 3]) -> Result<f32, ErrorCode> {
         let i = usize::from(id);
-        let (Some(model), Some(table)) = (self.models.get(i), self.tables.get(i)) else {
+        let (Some(model), Some(table), Some(fitted)) = (self.models.get(i), self.tables.get(i), self.fitted.get(i))
+        else {
             return Err(ErrorCode::UnknownMaterial);
         };
         let g = match input {
@@ -92,10 +100,14 @@ impl Active {
             Input::Cosines => Geometry::try_from_cosines(x[0], x[1], x[2]),
         }
         .map_err(|_| ErrorCode::OutOfDomain)?;
-        let table = table.and_then(|(r, c)| SixTable::from_parts(c, r.bytes(&self.bytes[..self.len])?));
-        let f = match table {
-            Some(t) => t.eval(&g),
-            None => model.eval(&g),
+        let blob = &self.bytes[..self.len];
+        let table = table.and_then(|(r, c)| SixTable::from_parts(c, r.bytes(blob)?));
+        // Checked when the blob was decoded; `new` again is a header read (O(1)).
+        let fitted = fitted.and_then(|r| FittedTable::new(r.bytes(blob)?).ok());
+        let f = match (table, fitted) {
+            (Some(t), _) => t.eval(&g),
+            (None, Some(table)) => Corrected { base: *model, table }.eval(&g),
+            (None, None) => model.eval(&g),
         };
         if f.is_finite() {
             Ok(f)

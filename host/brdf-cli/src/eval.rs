@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
 use brdf_core::batch::{Batch, BatchError};
+use brdf_core::fitted::{Corrected, FittedTable};
 use brdf_core::{AnyModel, Brdf, Float, ModelKind, MAX_PARAMS};
 use clap::{Args, ValueEnum};
 
@@ -24,7 +25,9 @@ pub struct EvalCmd {
     #[arg(long, allow_hyphen_values = true, requires = "model")]
     params: Option<String>,
     /// A fit result as `brdf fit --json` or `brdf select --chosen` writes it (or a
-    /// hand-written `{"model": ..., "params": {...}}`): its model and parameters.
+    /// hand-written `{"model": ..., "params": {...}}`): its model and parameters, and its
+    /// fitted table when it carries one (`f = f_model * exp(t)`, the device's arithmetic in
+    /// f32, the same table in f64).
     #[arg(long, value_name = "FIT.json", conflicts_with_all = ["model", "params"])]
     fit: Option<PathBuf>,
     /// Which fit of a batch result (`brdf fit --json` on several datasets), from 0.
@@ -81,13 +84,15 @@ pub fn evaluate_chunk<T: Float>(
 
 impl EvalCmd {
     pub fn run(self) -> Result<()> {
+        let mut table: Option<Vec<u8>> = None;
         let (kind, params) = match (&self.fit, self.model, &self.params) {
             (Some(path), _, _) => {
                 let shown = path.display().to_string();
                 let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {shown}"))?;
-                let (kind, params, _) = brdf_fit::report::FittedModel::one_of(&text, &shown, self.index)
+                let one = brdf_fit::report::FittedModel::one_of(&text, &shown, self.index)
                     .map_err(|e| anyhow!(e))?;
-                (kind, params)
+                table = one.table;
+                (one.model, one.params)
             }
             // (clap does not apply `requires = "fit"` once --model, which --fit excludes, is given.)
             (None, _, _) if self.index.is_some() => bail!("--index picks a fit of --fit; give --fit"),
@@ -96,9 +101,13 @@ impl EvalCmd {
         };
         let stdout = std::io::stdout();
         let out = stdout.lock();
+        let table = match &table {
+            Some(bytes) => Some(FittedTable::new(bytes).map_err(|e| anyhow!("fitted table: {e}"))?),
+            None => None,
+        };
         match self.precision {
-            Precision::F64 => self.eval::<f64>(kind, &params, out, f64_text, true),
-            Precision::F32 => self.eval::<f32>(kind, &params, out, f32_text, false),
+            Precision::F64 => self.eval::<f64>(kind, &params, table, out, f64_text, true),
+            Precision::F32 => self.eval::<f32>(kind, &params, table, out, f32_text, false),
         }
     }
 
@@ -106,12 +115,14 @@ impl EvalCmd {
         &self,
         kind: ModelKind,
         params: &[f64; MAX_PARAMS],
+        table: Option<FittedTable<'_>>,
         out: impl Write,
         text: fn(T) -> String,
         use_batch: bool,
     ) -> Result<()> {
         let model: AnyModel<T> = build(kind, params)?;
-        let batch = use_batch.then(|| Batch::new(&model));
+        // A fitted table goes through the scalar path (the core's batch kernels are analytic).
+        let batch = (use_batch && table.is_none()).then(|| Batch::new(&model));
         let mut reader = AngleReader::open(&self.angles, &self.output_column)?;
         let mut writer = AngleWriter::new(out, &reader, &self.output_column)?;
         let mut chunk = Chunk::default();
@@ -120,7 +131,11 @@ impl EvalCmd {
         while reader.next_chunk(&mut chunk)? > 0 {
             directions.clear();
             directions.extend(chunk.degrees().iter().map(|&d| radians::<T>(d)));
-            if let Err(e) = evaluate_chunk(&model, batch.as_ref(), &directions, &mut values) {
+            if let Some(table) = table {
+                let corrected = Corrected { base: model, table };
+                values.clear();
+                values.extend(directions.iter().map(|&[ti, tr, phi]| corrected.eval_angles(ti, tr, phi)));
+            } else if let Err(e) = evaluate_chunk(&model, batch.as_ref(), &directions, &mut values) {
                 let line = match e {
                     BatchError::Domain { index, .. } => chunk.line(index),
                     _ => chunk.line(0),

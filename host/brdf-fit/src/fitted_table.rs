@@ -24,7 +24,7 @@ use std::f64::consts::PI;
 
 use rayon::prelude::*;
 use brdf_core::Geometry;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::data::Point;
@@ -565,6 +565,53 @@ impl FittedTable {
         let mut out = vec![0u8; self.shape.encoded_len()];
         brdf_core::fitted::encode_fitted(self.shape, &self.ln_f, &self.covered, &mut out)?;
         Ok(out)
+    }
+}
+
+/// A fitted table as a fit result carries it (`fitted_table` in `brdf select --chosen`'s
+/// JSON; read back by `brdf eval --fit`, `brdf pack` and `brdf.eval_fit`): the device's bytes,
+/// which are the table, and what a reader wants to know about them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TableRecord {
+    /// Nodes along `theta_h`, `theta_d`, `phi_d` (as in the bytes).
+    pub nodes: [usize; 3],
+    /// The smoothness the table was fitted with.
+    pub smoothness: f64,
+    /// Fraction of cells the data constrain (as in the bytes).
+    pub coverage: f64,
+    /// The table as a device holds it ([`brdf_core::fitted`]), in hex. The model of the fit
+    /// result is its base.
+    pub bytes: String,
+}
+
+impl TableRecord {
+    /// The record of `table`.
+    pub fn new(table: &FittedTable) -> Result<TableRecord, brdf_core::fitted::FittedError> {
+        let bytes = table.to_bytes()?;
+        let t = brdf_core::fitted::FittedTable::new(&bytes)?;
+        let s = t.shape();
+        Ok(TableRecord {
+            nodes: [s.theta_h, s.theta_d, s.phi_d],
+            smoothness: table.smoothness,
+            coverage: t.coverage(),
+            bytes: hex::encode(&bytes),
+        })
+    }
+
+    /// The device bytes, checked: hex, a valid table ([`brdf_core::fitted::FittedTable::new`])
+    /// whose shape is `nodes`. The error says which.
+    pub fn decode(&self) -> Result<Vec<u8>, String> {
+        let bytes = hex::decode(&self.bytes).map_err(|e| format!("fitted_table.bytes: not hex: {e}"))?;
+        let t = brdf_core::fitted::FittedTable::new(&bytes).map_err(|e| format!("fitted_table.bytes: {e}"))?;
+        let s = t.shape();
+        if [s.theta_h, s.theta_d, s.phi_d] != self.nodes {
+            return Err(format!(
+                "fitted_table: nodes {:?} but the bytes hold a {} x {} x {} table",
+                self.nodes, s.theta_h, s.theta_d, s.phi_d
+            ));
+        }
+        Ok(bytes)
     }
 }
 

@@ -127,6 +127,14 @@ pub enum PackError {
         /// What the core refused.
         error: TableError,
     },
+    /// A fit's fitted table is not a valid table.
+    #[error("{origin}: {message}")]
+    FittedTable {
+        /// File and fit index.
+        origin: String,
+        /// What is wrong with it.
+        message: String,
+    },
     /// The encoded blob would not fit in a slot.
     #[error(
         "the blob would be {0} bytes, more than a slot's {MAX_BLOB_LEN}: use fewer materials or fewer table nodes"
@@ -219,6 +227,8 @@ pub fn pack(
         }
     }
     let mut materials: Vec<Material> = Vec::new();
+    // Per material: its fitted table's bytes, if it has one.
+    let mut fitted_tables: Vec<Option<Vec<u8>>> = Vec::new();
     // Where each material came from, for messages.
     let mut origin_of: Vec<String> = Vec::new();
     for source in sources {
@@ -246,6 +256,30 @@ pub fn pack(
             // f32 rounding; both are exact at the bounds (brdf_core::ranges).
             let m = Material::from_params(r.model, &params).map_err(refused)?;
             let name = r.model.name();
+            let fitted = r.table_bytes().map_err(|message| PackError::FittedTable {
+                origin: origin.clone(),
+                message,
+            })?;
+            if materials.len() == MAX_MATERIALS {
+                return Err(PackError::TooManyMaterials);
+            }
+            if let Some(bytes) = fitted {
+                let m = m.with_fitted(&bytes).map_err(|e| PackError::FittedTable {
+                    origin: origin.clone(),
+                    message: e.to_string(),
+                })?;
+                say(
+                    Level::Warning,
+                    format!(
+                        "note: {origin} ({name} times a fitted table): a measured correction, \
+                         evaluated as tabulated; no energy bound is claimed for it"
+                    ),
+                );
+                materials.push(m);
+                fitted_tables.push(Some(bytes));
+                origin_of.push(origin);
+                continue;
+            }
             match m.model().map_err(refused)?.energy_bound() {
                 Some(b) if b <= 1.0 => {}
                 Some(b) => say(
@@ -257,20 +291,18 @@ pub fn pack(
                     format!("warning: {origin} ({name}): the model has no energy bound"),
                 ),
             }
-            if materials.len() == MAX_MATERIALS {
-                return Err(PackError::TooManyMaterials);
-            }
             if let Some(text) = f32_beyond_claim(&m).map_err(refused)? {
                 say(Level::Warning, format!("warning: {origin} ({name}): {text}"));
             }
             materials.push(m);
+            fitted_tables.push(None);
             origin_of.push(origin);
         }
     }
-    let mut tables: Vec<Option<Vec<u8>>> = vec![None; materials.len()];
+    let mut tables = fitted_tables;
     if let Some(nodes) = options.table_nodes {
         for (i, (m, t)) in materials.iter_mut().zip(&mut tables).enumerate() {
-            if m.six_params().is_none() {
+            if m.six_params().is_none() || m.fitted.is_some() {
                 continue;
             }
             let mut bytes = vec![0u8; table_len(nodes)];

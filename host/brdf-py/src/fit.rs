@@ -300,8 +300,15 @@ pub(crate) type SelectArgs = (f64, f64, f64, bool, u32);
 #[pyfunction]
 #[pyo3(signature = (text, origin, index=None))]
 pub(crate) fn fitted(text: &str, origin: &str, index: Option<usize>) -> PyResult<(String, String)> {
-    let (kind, p, _) =
-        brdf_fit::report::FittedModel::one_of(text, origin, index).map_err(PyValueError::new_err)?;
+    let one = brdf_fit::report::FittedModel::one_of(text, origin, index).map_err(PyValueError::new_err)?;
+    if one.table.is_some() {
+        return Err(PyValueError::new_err(format!(
+            "{origin}: fit {}: a fitted table (base model times a measured correction): evaluate it \
+             with `brdf eval --fit`; the Python package evaluates analytic fits only so far",
+            one.index
+        )));
+    }
+    let (kind, p) = (one.model, one.params);
     let params = kind
         .param_names()
         .iter()

@@ -5,6 +5,7 @@
 //! call per (aspect, material) (`crate::queries::QueryBatch::sigma`), so that a batch (SIMD)
 //! evaluation in the core replaces the loop here without touching the callers.
 
+use brdf_core::fitted::{Corrected, FittedTable};
 use brdf_core::table::{SixTable, TableConsts};
 use brdf_core::{AnyModel, Brdf};
 
@@ -21,6 +22,14 @@ pub enum Evaluator {
         /// The material's table constants.
         consts: TableConsts,
         /// The node bytes, as they travel in a blob.
+        bytes: Vec<u8>,
+    },
+    /// A base model times a fitted table in f32 from the cosines rounded to f32: the device's
+    /// path for a fitted table (`brdf_core::fitted::Corrected`).
+    Corrected {
+        /// The base model, as flashed.
+        base: AnyModel<f32>,
+        /// The table's bytes, as they travel in a blob.
         bytes: Vec<u8>,
     },
 }
@@ -63,5 +72,19 @@ pub fn eval_batch(e: &Evaluator, cos_theta_i: &[f64], cos_theta_r: &[f64], cos_p
                 }
             }
         }
+        Evaluator::Corrected { base, bytes } => match FittedTable::new(bytes) {
+            Ok(table) => {
+                let m = Corrected { base: *base, table };
+                for (((&i, &r), &p), o) in q {
+                    *o = f64::from(m.eval_cosines(i as f32, r as f32, p as f32));
+                }
+            }
+            // Bytes that are not a table evaluate to NaN (never a plausible value).
+            Err(_) => {
+                for (_, o) in q {
+                    *o = f64::NAN;
+                }
+            }
+        },
     }
 }

@@ -11,7 +11,7 @@
 //! rungs whose error meets the budget, the cheapest per lookup, then the smallest, then the
 //! most accurate; when none meets the budget, it names the most accurate eligible one.
 
-use brdf_core::cost::{exact_instructions, TABLE_INSTRUCTIONS};
+use brdf_core::cost::{exact_instructions, FITTED_INSTRUCTIONS, TABLE_INSTRUCTIONS};
 use brdf_core::table::{table_len, SixTable, TABLE_SIZES};
 use brdf_core::{ModelKind, MAX_PARAMS};
 use brdf_wire::blob::{encoded_len, Material, MAX_BLOB_LEN};
@@ -140,6 +140,38 @@ pub fn rungs(label: &str, kind: ModelKind, params: &[f64; MAX_PARAMS]) -> Result
         ));
     }
     Ok(out)
+}
+
+/// The fitted-table rung over `base` (a material whose model is the table's base and which
+/// carries the table, [`Material::with_fitted`]) with the table's `bytes`: named
+/// `{base model} + table`, reciprocal by construction, bounded where its base is.
+pub fn fitted_rung(base: Material, bytes: Vec<u8>) -> Result<Rung, String> {
+    let kind = base.kind;
+    let label = format!("{} + table", kind.name());
+    let model = base.model().map_err(|e| format!("{label}: {e}"))?;
+    if base.fitted.map(|f| usize::from(f.len)) != Some(bytes.len()) {
+        return Err(format!("{label}: the material does not carry these table bytes"));
+    }
+    let blob_bytes = encoded_len(&[base]);
+    Ok(Rung {
+        name: label,
+        model: kind.name(),
+        nodes: None,
+        params: base.params[..kind.param_count()]
+            .iter()
+            .map(|&p| f64::from(p))
+            .collect(),
+        device_instructions: exact_instructions(kind) + FITTED_INSTRUCTIONS,
+        bytes: base.encoded_len(),
+        blob_bytes,
+        fits_blob: blob_bytes <= MAX_BLOB_LEN,
+        reciprocal: model.reciprocal(),
+        bounded: model.bounded_at_grazing(),
+        kind,
+        material: base,
+        table: Some(bytes.clone()),
+        eval: Evaluator::Corrected { base: model, bytes },
+    })
 }
 
 /// The one rule for a budget (`brdf select --budget`, `brdf.select`, `brdf.select_scene`): a

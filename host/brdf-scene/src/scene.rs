@@ -28,6 +28,12 @@ use serde::Deserialize;
 use thiserror::Error;
 use toml::Spanned;
 
+/// Why a scene refuses a fitted table (rather than using its base model alone, which would be
+/// a different material).
+const FITTED_TABLE_NOT_IN_SCENES: &str = "a fitted table (base model times a measured correction); \
+    scenes evaluate analytic models only so far: give the analytic fit (`brdf select` without \
+    the table, or `brdf fit`)";
+
 use crate::mesh::{Mesh, MeshError, Origin};
 use crate::occlusion::Occluder;
 
@@ -551,9 +557,15 @@ fn resolve_material(
         let shown = path.display().to_string();
         let text = std::fs::read_to_string(&path)
             .map_err(|err| field(fit.span(), "fit", format!("{shown}: {err}")))?;
-        let (kind, p, k) =
-            FittedModel::one_of(&text, &shown, index).map_err(|m| field(fit.span(), "fit", m))?;
-        return Ok((build(kind, &p, fit.span(), "fit")?, Source::Fit(path, k)));
+        let one = FittedModel::one_of(&text, &shown, index).map_err(|m| field(fit.span(), "fit", m))?;
+        if one.table.is_some() {
+            return Err(field(
+                fit.span(),
+                "fit",
+                format!("{shown}: fit {}: {FITTED_TABLE_NOT_IN_SCENES}", one.index),
+            ));
+        }
+        return Ok((build(one.model, &one.params, fit.span(), "fit")?, Source::Fit(path, one.index)));
     }
     let blob = e.blob.as_ref().expect("exactly one source is given");
     let path = dir.join(blob.get_ref());
@@ -580,6 +592,13 @@ fn resolve_material(
             format!("{shown} holds {n} materials; there is no index {k}"),
         ));
     };
+    if m.fitted.is_some() {
+        return Err(field(
+            blob.span(),
+            "blob",
+            format!("{shown}: material {k}: {FITTED_TABLE_NOT_IN_SCENES}"),
+        ));
+    }
     let mut p = [0.0; MAX_PARAMS];
     for (dst, src) in p.iter_mut().zip(m.params) {
         *dst = f64::from(src);

@@ -48,6 +48,7 @@ fn material(kind: ModelKind, params: &[f32]) -> Material {
         kind,
         params: p,
         table: None,
+        fitted: None,
     }
 }
 

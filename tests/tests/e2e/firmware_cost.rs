@@ -1,7 +1,7 @@
 //! The device cost figures `brdf select` ranks by (`brdf_core::cost`) against a fresh count
 //! under QEMU (`firmware/core-cost/src/bin/cost.rs`, `-icount shift=0`: exact and repeatable).
 
-use brdf_core::cost::{exact_instructions, COST_DRIFT, TABLE_INSTRUCTIONS};
+use brdf_core::cost::{exact_instructions, COST_DRIFT, FITTED_INSTRUCTIONS, TABLE_INSTRUCTIONS};
 use brdf_core::ModelKind;
 
 #[test]
@@ -35,6 +35,10 @@ fn device_cost_constants_match_a_fresh_count() {
         (
             "six table 256 from cosines, rebound per query",
             TABLE_INSTRUCTIONS,
+        ),
+        (
+            "lambert + fitted table from cosines, rebound per query",
+            exact_instructions(ModelKind::Lambert) + FITTED_INSTRUCTIONS,
         ),
     ];
     for (name, constant) in expected {

@@ -11,6 +11,7 @@
 #![no_std]
 #![no_main]
 
+use brdf_core::fitted::{encode_fitted, Corrected, FittedShape, FittedTable};
 use brdf_core::table::{fill_six_table, table_len, SixTable};
 use brdf_core::{Brdf, FiveParam, Lambert, Minnaert, Model, SixParam, SixParamCos2};
 use core::hint::black_box;
@@ -191,5 +192,32 @@ fn main() -> ! {
     measure(19, "geometry alone from cosines", &ticks, |x| {
         cosines(&GeometryOnly, x)
     });
+    // A 20 x 19 x 5 fitted table over Lambert, as the firmware serves EVAL: the table's header
+    // re-read from the blob bytes per query.
+    const SHAPE: FittedShape = FittedShape {
+        theta_h: 20,
+        theta_d: 19,
+        phi_d: 5,
+    };
+    let mut values = [0.0f64; SHAPE.cells()];
+    let mut covered = [false; SHAPE.cells()];
+    for (k, (v, c)) in values.iter_mut().zip(covered.iter_mut()).enumerate() {
+        *v = ((k % 23) as f64 - 11.0) / 7.0;
+        *c = k % 3 != 0;
+    }
+    let mut fitted = [0u8; SHAPE.encoded_len()];
+    if encode_fitted(SHAPE, &values, &covered, &mut fitted).is_err() {
+        exit(false);
+    }
+    let fitted = &fitted[..];
+    measure(
+        20,
+        "lambert + fitted table from cosines, rebound per query",
+        &ticks,
+        |x| match FittedTable::new(black_box(fitted)) {
+            Ok(table) => cosines(&Corrected { base: lambert, table }, x),
+            Err(_) => f32::NAN,
+        },
+    );
     exit(true)
 }

@@ -239,6 +239,11 @@ pub struct FitReport {
     /// (a bound above would make the fit depend on the data's units), so an uncalibrated
     /// dataset can fit weights no device accepts: such a fit cannot be packed.
     pub outside_ranges: Vec<String>,
+    /// A correction tabulated over this model (`brdf select --chosen` when a fitted table
+    /// was chosen): the representation is then `f = f_model * exp(t)`, and `metrics` above
+    /// are the base model's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fitted_table: Option<crate::fitted_table::TableRecord>,
 }
 
 /// Why a fit result could not be read back.
@@ -323,6 +328,23 @@ pub struct FittedModel {
     pub model: ModelKind,
     /// Parameters by name, paper order and signs (`b` negative).
     pub params: Ordered<f64>,
+    /// A correction tabulated over the model ([`FitReport::fitted_table`]).
+    #[serde(default)]
+    pub fitted_table: Option<crate::fitted_table::TableRecord>,
+}
+
+/// One fit of a fit-result file: its model, parameters in paper order and, for a fitted
+/// table, the table's device bytes (checked).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OneFit {
+    /// The model (the base, with a table).
+    pub model: ModelKind,
+    /// Parameters in paper order (unused entries 0).
+    pub params: [f64; MAX_PARAMS],
+    /// The fitted table's bytes ([`brdf_core::fitted`]), if any.
+    pub table: Option<Vec<u8>>,
+    /// Index of the fit in the file.
+    pub index: usize,
 }
 
 /// The parameters of `kind` from a name-to-value map, in paper order (unused entries 0), or
@@ -398,7 +420,7 @@ impl FittedModel {
         text: &str,
         origin: &str,
         index: Option<usize>,
-    ) -> Result<(ModelKind, [f64; MAX_PARAMS], usize), String> {
+    ) -> Result<OneFit, String> {
         let fits = FittedModel::from_json(text, origin).map_err(|e| e.to_string())?;
         let n = fits.len();
         if n == 0 {
@@ -419,7 +441,21 @@ impl FittedModel {
         let p = fits[k]
             .params_array()
             .map_err(|p| format!("{origin}: parameter `{p}` missing"))?;
-        Ok((fits[k].model, p, k))
+        let table = fits[k]
+            .table_bytes()
+            .map_err(|e| format!("{origin}: fit {k}: {e}"))?;
+        Ok(OneFit {
+            model: fits[k].model,
+            params: p,
+            table,
+            index: k,
+        })
+    }
+
+    /// The fitted table's device bytes, checked ([`crate::fitted_table::TableRecord::decode`]),
+    /// if the fit carries one.
+    pub fn table_bytes(&self) -> Result<Option<Vec<u8>>, String> {
+        self.fitted_table.as_ref().map(|t| t.decode()).transpose()
     }
 
     /// The model in f64, refused naming the parameter when one is missing or outside its
@@ -442,6 +478,7 @@ impl FitReport {
         FittedModel {
             model: self.model,
             params: self.params.clone(),
+            fitted_table: self.fitted_table.clone(),
         }
     }
 
@@ -531,5 +568,6 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         uncertainty: uncertainty(problem, outcome, distinct_directions(dataset, k + 1)),
         energy: energy_of(kind, params, &incidences),
         outside_ranges,
+        fitted_table: None,
     }
 }
