@@ -53,6 +53,13 @@ pub const FITTED_LN_LIMIT: f32 = 80.0;
 /// trilinear weight: the nearer half of its stencil was measured.
 pub const COVERED_SHARE: f64 = 0.5;
 
+/// Largest difference of an axis value ([`axes`]) computed in f32 from what f64 computes
+/// from the same f32 input: `theta_h` and `theta_d` within a few ulp (measured 2e-9 and
+/// 1e-7); the folded `phi_d` axis, `sqrt(1 - |cos phi_d|)`, within `sqrt(2 * 2^-24)` = 3.5e-4
+/// where `|cos phi_d|` rounds next to 1 (in the plane of incidence), the square root
+/// amplifying one rounding.
+pub const F32_AXIS_ERROR: [f64; 3] = [1e-6, 1e-6, 4e-4];
+
 /// Grid nodes per axis of a fitted table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FittedShape {
@@ -131,7 +138,7 @@ pub fn axes<T: Float>(g: &Geometry<T>) -> [T; 3] {
     let v = unit(omcg).sqrt();
     // sin^2(theta_h) sin^2(theta_d), each as (1 - cos)(1 + cos): no cancellation.
     let s2 = (omca * (T::ONE + g.cos_alpha())) * (omcg * (T::ONE + g.cos_gamma()));
-    let num = (g.cos_theta_i() - g.cos_theta_r()).abs();
+    let num = g.cos_theta_i_minus_cos_theta_r().abs();
     let den = T::TWO * s2.sqrt();
     // |cos phi_d|; 1 (phi_d = 0) where undefined or rounded beyond 1 (NaN compares false).
     let c = if num < den { num / den } else { T::ONE };
@@ -237,6 +244,44 @@ impl<'t> FittedTable<'t> {
     pub fn cell_covered(&self, c: usize) -> bool {
         let at = FITTED_HEADER_LEN + 2 * self.shape.cells() + c / 8;
         self.bytes.get(at).is_some_and(|b| b >> (c % 8) & 1 == 1)
+    }
+
+    /// The largest relative difference between this table's correction evaluated in f32 and
+    /// in f64 from the same input: per axis, [`F32_AXIS_ERROR`] times the axis's node count
+    /// less one times the largest step between neighbouring cells along it, plus the f32
+    /// arithmetic of the interpolation and `exp` (1e-6 of `1 + max |t|`).
+    pub fn f32_max_rel(&self) -> f64 {
+        let FittedShape {
+            theta_h: nh,
+            theta_d: nd,
+            phi_d: np,
+        } = self.shape;
+        let at = |i: usize, j: usize, k: usize| self.cell((i * nd + j) * np + k);
+        let mut steps = [0.0f64; 3];
+        let mut largest = 0.0f64;
+        for i in 0..nh {
+            for j in 0..nd {
+                for k in 0..np {
+                    let t = at(i, j, k);
+                    largest = largest.max(t.abs());
+                    if i + 1 < nh {
+                        steps[0] = steps[0].max((at(i + 1, j, k) - t).abs());
+                    }
+                    if j + 1 < nd {
+                        steps[1] = steps[1].max((at(i, j + 1, k) - t).abs());
+                    }
+                    if k + 1 < np {
+                        steps[2] = steps[2].max((at(i, j, k + 1) - t).abs());
+                    }
+                }
+            }
+        }
+        let n = [nh, nd, np];
+        let mut dt = 1e-6 * (1.0 + largest);
+        for a in 0..3 {
+            dt += F32_AXIS_ERROR[a] * (n[a] - 1) as f64 * steps[a];
+        }
+        libm::expm1(dt)
     }
 
     /// Fraction of cells the data constrain.

@@ -39,12 +39,13 @@ pub struct Geometry<T> {
     one_minus_cos_gamma: T,
     cos_alpha: T,
     one_minus_cos_alpha: T,
+    cos_i_minus_cos_r: T,
 }
 
 impl<T: Float> Geometry<T> {
     /// From the three sums of squares described in the module documentation.
     #[inline]
-    fn from_parts(cos_theta_i: T, cos_theta_r: T, sin2_gamma: T, cos2_gamma: T, p: T) -> Self {
+    fn from_parts(cos_theta_i: T, cos_theta_r: T, sin2_gamma: T, cos2_gamma: T, p: T, diff: T) -> Self {
         if cos2_gamma == T::ZERO {
             // wi = -wr: both directions on the horizon (or so close that cos^2(gamma)
             // underflows); the facet angles are undefined and every model gives 0 there.
@@ -55,6 +56,7 @@ impl<T: Float> Geometry<T> {
                 one_minus_cos_gamma: T::ONE,
                 cos_alpha: T::ONE,
                 one_minus_cos_alpha: T::ZERO,
+                cos_i_minus_cos_r: T::ZERO,
             };
         }
         let cos_gamma = cos2_gamma.sqrt();
@@ -68,6 +70,7 @@ impl<T: Float> Geometry<T> {
             one_minus_cos_gamma,
             cos_alpha,
             one_minus_cos_alpha,
+            cos_i_minus_cos_r: diff,
         }
     }
 
@@ -103,7 +106,14 @@ impl<T: Float> Geometry<T> {
         let four = T::TWO + T::TWO;
         let diff = cos_hs * sin_hd;
         let p = four * (diff * diff + ss * (cos_hp * cos_hp));
-        Self::from_parts(cos_i, cos_r, sin2_gamma, cos2_gamma, p)
+        // cos ti - cos tr = -2 sin((ti+tr)/2) sin((ti-tr)/2): accurate where both cosines
+        // round to the same value (near normal incidence and view).
+        let cos_diff = if theta_i >= T::FRAC_PI_2 || theta_r >= T::FRAC_PI_2 {
+            cos_i - cos_r
+        } else {
+            -(T::TWO * sin_hs * sin_hd)
+        };
+        Self::from_parts(cos_i, cos_r, sin2_gamma, cos2_gamma, p, cos_diff)
     }
 
     /// From `cos theta_i`, `cos theta_r` and `cos phi` — the device path, with no
@@ -126,7 +136,7 @@ impl<T: Float> Geometry<T> {
     #[inline]
     pub fn from_cosines(cos_theta_i: T, cos_theta_r: T, cos_phi: T) -> Self {
         let (sin2_gamma, cos2_gamma, p) = cosine_sums(cos_theta_i, cos_theta_r, cos_phi, T::sqrt);
-        Self::from_parts(cos_theta_i, cos_theta_r, sin2_gamma, cos2_gamma, p)
+        Self::from_parts(cos_theta_i, cos_theta_r, sin2_gamma, cos2_gamma, p, cos_theta_i - cos_theta_r)
     }
 
     /// From unit vectors `wi` (towards the source) and `wr` (towards the receiver), `z` along
@@ -140,7 +150,7 @@ impl<T: Float> Geometry<T> {
         let quarter = T::HALF * T::HALF;
         let sin2_gamma = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) * quarter;
         let cos2_gamma = (p + s[2] * s[2]) * quarter;
-        Self::from_parts(wi[2], wr[2], sin2_gamma, cos2_gamma, p)
+        Self::from_parts(wi[2], wr[2], sin2_gamma, cos2_gamma, p, d[2])
     }
 
     /// [`Geometry::from_angles`] for checked input: every value finite, zeniths in
@@ -200,6 +210,13 @@ impl<T: Float> Geometry<T> {
     #[inline]
     pub fn one_minus_cos_alpha(&self) -> T {
         self.one_minus_cos_alpha
+    }
+    /// `cos theta_i - cos theta_r`, from angles without the cancellation of the two rounded
+    /// cosines (`-2 sin((ti + tr)/2) sin((ti - tr)/2)`); from cosines or vectors their
+    /// difference, exact (Sterbenz) where it is small.
+    #[inline]
+    pub fn cos_theta_i_minus_cos_theta_r(&self) -> T {
+        self.cos_i_minus_cos_r
     }
     /// Both directions strictly above the horizon. False for NaN input.
     #[inline]

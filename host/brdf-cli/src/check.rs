@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
 use brdf_core::accuracy::compare_above;
+use brdf_core::fitted::Corrected;
 use brdf_core::tolerance::{table_max_rel, F32_FLOOR_OF_MAX, F32_MAX_REL, TABLE_MAX_ZENITH_DEG};
 use brdf_core::{AnyModel, Brdf};
 use brdf_wire::blob::{table1_blob, MAX_BLOB_LEN};
@@ -160,13 +161,13 @@ impl CheckCmd {
         let (mut link, loaded) = self.device.connect()?;
         // Without --blob the device must run the built-in Table 1, the only set the host
         // then knows.
-        let (blob, expected_crc) = match loaded {
+        let (blob, expected_crc, blob_bytes) = match loaded {
             Some(b) => b,
             None => {
                 let default = table1_blob();
                 let mut buf = [0u8; MAX_BLOB_LEN];
                 let n = default.encode(&mut buf).map_err(|e| anyhow!("{e}"))?;
-                (default, brdf_wire::blob::blob_crc(&buf[..n]))
+                (default, brdf_wire::blob::blob_crc(&buf[..n]), buf[..n].to_vec())
             }
         };
         // The device's active blob must be exactly the one checked against.
@@ -229,18 +230,25 @@ impl CheckCmd {
             let host = AnyModel::<f64>::new(mat.kind, &p64).with_context(|| {
                 format!("{}: material {m} ({})", self.device.blob_name(), mat.kind.name())
             })?;
+            // A fitted table's reference is the same table in f64 over its f64 base.
+            let fitted = mat.fitted_table(&blob_bytes).map(|table| Corrected { base: host, table });
             // A tabulated material is held to its table's bound within the promised zenith
-            // range; beyond it the errors are reported, not judged.
-            let promise = match mat.table {
-                None => Some((F32_MAX_REL, 90.0)),
-                Some(t) => table_max_rel(usize::from(t.nodes)).map(|b| (b, TABLE_MAX_ZENITH_DEG)),
+            // range; beyond it the errors are reported, not judged. A fitted table is held to
+            // its own f32 bound (`FittedTable::f32_max_rel`) on top of its base's.
+            let promise = match (mat.table, &fitted) {
+                (_, Some(f)) => Some((F32_MAX_REL + f.table.f32_max_rel(), 90.0)),
+                (None, None) => Some((F32_MAX_REL, 90.0)),
+                (Some(t), None) => table_max_rel(usize::from(t.nodes)).map(|b| (b, TABLE_MAX_ZENITH_DEG)),
             };
             let mut results = Vec::new();
             for (name, xs) in dirs.iter().filter(|d| !d.1.is_empty()) {
                 let dev = link.eval(m as u8, Input::Angles, xs)?;
                 let exact: Vec<f64> = xs
                     .iter()
-                    .map(|x| host.eval_angles(x[0].into(), x[1].into(), x[2].into()))
+                    .map(|x| match &fitted {
+                        Some(f) => f.eval_angles(x[0].into(), x[1].into(), x[2].into()),
+                        None => host.eval_angles(x[0].into(), x[1].into(), x[2].into()),
+                    })
                     .collect();
                 let limit = promise.map_or(-1.0, |p| p.1.to_radians() as f32);
                 let inside = |x: &[f32; 3]| x[0] <= limit && x[1] <= limit;
@@ -304,7 +312,7 @@ impl CheckCmd {
                     r.mean_abs,
                     r.max_rel,
                     r.mean_rel,
-                    r.tolerance.map_or("-".to_owned(), |t| format!("{t:e}")),
+                    r.tolerance.map_or("-".to_owned(), |t| brdf_core::Compact(t).to_string()),
                     match (r.tolerance, r.within_tolerance) {
                         (None, _) => "reported",
                         (_, true) => "ok",

@@ -52,7 +52,7 @@ pub struct DeviceArgs {
 impl DeviceArgs {
     /// Opens the transport, LOADs `--blob` if given, and returns the link with that blob and
     /// its CRC.
-    pub fn connect(&self) -> Result<(Device, Option<(Blob, u32)>)> {
+    pub fn connect(&self) -> Result<(Device, Option<(Blob, u32, Vec<u8>)>)> {
         let timeout = self.timeout;
         let transport: Box<dyn Transport> = if self.qemu {
             let elf = self.elf.clone().unwrap_or_else(default_elf);
@@ -72,7 +72,7 @@ impl DeviceArgs {
                 let blob = Blob::decode(&bytes).map_err(|e| anyhow!("{}: {e}", path.display()))?;
                 link.load(&bytes)
                     .with_context(|| format!("the device refused {}", path.display()))?;
-                Some((blob, brdf_wire::blob::blob_crc(&bytes)))
+                Some((blob, brdf_wire::blob::blob_crc(&bytes), bytes))
             }
             None => None,
         };

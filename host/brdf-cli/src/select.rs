@@ -46,8 +46,9 @@ pub struct SelectCmd {
     /// Write the chosen representation as a parameter blob.
     #[arg(short = 'o', long)]
     output: Option<PathBuf>,
-    /// Write the fit the chosen representation comes from, as `brdf fit --json` prints it
-    /// (for `brdf pack`; add `--table-nodes N` there for a table rung). Not with --scene.
+    /// Write the fit the chosen representation comes from, as `brdf fit --json` prints it,
+    /// with its fitted table when that was chosen (for `brdf eval --fit` and `brdf pack`; add
+    /// `--table-nodes N` there for a six-parameter table rung). Not with --scene.
     #[arg(long, value_name = "FILE.json", conflicts_with = "scene")]
     chosen: Option<PathBuf>,
     /// Sequence number of the blob written with -o.
@@ -120,7 +121,9 @@ impl SelectCmd {
                     s.reason
                 );
             };
-            let text = serde_json::to_string_pretty(&s.candidates[i])?;
+            let mut fit = s.candidates[i].clone();
+            fit.fitted_table = s.chosen_table.clone();
+            let text = serde_json::to_string_pretty(&fit)?;
             std::fs::write(path, text + "\n").with_context(|| format!("cannot write {}", path.display()))?;
         }
         for n in &s.notes {

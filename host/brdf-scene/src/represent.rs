@@ -13,7 +13,9 @@ use brdf_wire::blob::Material;
 use serde::Serialize;
 
 use crate::eval::{eval_batch, Evaluator};
-use crate::ladder::{choose, rungs, Choice, Rung};
+use crate::ladder::{choose, fitted_rung, rungs, Choice, Rung};
+use brdf_core::{Brdf, MAX_PARAMS};
+use brdf_fit::fitted_table::{trimmed_rms_rel, FittedTable, TableRecord, DEFAULT_SHAPE};
 
 /// One way the device could answer lookups for this data: a rung of the ladder with its
 /// error against the data.
@@ -24,23 +26,27 @@ pub struct Representation {
     pub rung: Rung,
     /// Host nanoseconds per f32 lookup from cosines, measured in this run.
     pub host_ns: f64,
-    /// RMS relative error against the data over the domain (training error: the model was
-    /// fitted to these points).
+    /// RMS relative error against the data over the domain, the largest 2% left out as in
+    /// `cv_rms_rel` (training error: the model was fitted to these points).
     pub rms_rel: f64,
-    /// Held-out error: the RMS relative error at every point of the domain, each predicted by
-    /// the model refitted without its fold ([`CV_FOLDS`]-fold cross-validation). What
-    /// `brdf select` chooses by. `None` when some fold could not be refitted (fewer distinct
+    /// Held-out error: the RMS relative error over the points of the domain, each predicted
+    /// by the model refitted without its fold ([`CV_FOLDS`]-fold cross-validation), the
+    /// largest 2% left out (`brdf_fit::fitted_table::trimmed_rms_rel`: one dropout reading in
+    /// fifty must not decide). What `brdf select` chooses by. `None` when some fold could not be refitted (fewer distinct
     /// directions than parameters left, or parameters no device material takes).
     pub cv_rms_rel: Option<f64>,
     /// Largest relative error against the data over the domain.
     pub max_rel: f64,
     /// Max relative error of the table against the exact model at the data points.
     pub table_vs_exact: Option<f64>,
+    /// For a fitted table: the fraction of its cells the data constrain (a query elsewhere
+    /// gets the smoothness term's extrapolation).
+    pub coverage: Option<f64>,
 }
 
-/// Every representation of every fitted model, with its error against the data over the
-/// domain and its cost.
-pub fn representations(reports: &[FitReport], domain: &Dataset) -> Result<Vec<Representation>, String> {
+/// A rung measured against the data over the domain (training error, host time), not yet
+/// cross-validated.
+fn measured(rung: Rung, domain: &Dataset, coverage: Option<f64>) -> Representation {
     let n = domain.points.len();
     let col = |f: fn(&brdf_fit::Point) -> f64| -> Vec<f64> { domain.points.iter().map(f).collect() };
     let (ci, cr, cp) = (
@@ -48,18 +54,37 @@ pub fn representations(reports: &[FitReport], domain: &Dataset) -> Result<Vec<Re
         col(|p| p.theta_r.cos()),
         col(|p| p.phi.cos()),
     );
-    let cos32: Vec<[f32; 3]> = (0..n)
-        .map(|k| [ci[k] as f32, cr[k] as f32, cp[k] as f32])
-        .collect();
     let mut values = vec![0.0; n];
-    let host_ns = |e: &Evaluator, out: &mut Vec<f64>| -> f64 {
-        let reps = (200_000 / n.max(1)).max(1);
-        let t = std::time::Instant::now();
-        for _ in 0..reps {
-            eval_batch(e, &ci, &cr, &cp, std::hint::black_box(out));
-        }
-        t.elapsed().as_secs_f64() * 1e9 / (reps * n.max(1)) as f64
-    };
+    let reps = (200_000 / n.max(1)).max(1);
+    let t = std::time::Instant::now();
+    for _ in 0..reps {
+        eval_batch(&rung.eval, &ci, &cr, &cp, std::hint::black_box(&mut values));
+    }
+    let host_ns = t.elapsed().as_secs_f64() * 1e9 / (reps * n.max(1)) as f64;
+    let rel: Vec<f64> = values
+        .iter()
+        .zip(&domain.points)
+        .map(|(f, p)| ((f - p.brdf) / p.brdf).abs())
+        .collect();
+    Representation {
+        rung,
+        host_ns,
+        rms_rel: trimmed_rms_rel(&rel),
+        cv_rms_rel: None,
+        max_rel: rel.iter().copied().fold(0.0, f64::max),
+        table_vs_exact: None,
+        coverage,
+    }
+}
+
+/// Every representation of every fitted model, with its error against the data over the
+/// domain and its cost.
+pub fn representations(reports: &[FitReport], domain: &Dataset) -> Result<Vec<Representation>, String> {
+    let cos32: Vec<[f32; 3]> = domain
+        .points
+        .iter()
+        .map(|p| [p.theta_i.cos() as f32, p.theta_r.cos() as f32, p.phi.cos() as f32])
+        .collect();
     let mut reprs = Vec::new();
     for r in reports {
         let params = r
@@ -67,14 +92,6 @@ pub fn representations(reports: &[FitReport], domain: &Dataset) -> Result<Vec<Re
             .map_err(|p| format!("{}: no parameter `{p}`", r.dataset))?;
         let label = r.model.name();
         for rung in rungs(label, r.model, &params).map_err(|e| format!("{}: {e}", r.dataset))? {
-            let ns = host_ns(&rung.eval, &mut values);
-            let rel: Vec<f64> = values
-                .iter()
-                .zip(&domain.points)
-                .map(|(f, p)| ((f - p.brdf) / p.brdf).abs())
-                .collect();
-            let rms = (rel.iter().map(|r| r * r).sum::<f64>() / rel.len() as f64).sqrt();
-            let max = rel.iter().copied().fold(0.0, f64::max);
             let table_vs_exact = match (&rung.eval, rung.material.six_params()) {
                 (Evaluator::Table { consts, bytes }, Some(p)) => {
                     let table =
@@ -85,16 +102,46 @@ pub fn representations(reports: &[FitReport], domain: &Dataset) -> Result<Vec<Re
                 _ => None,
             };
             reprs.push(Representation {
-                rung,
-                host_ns: ns,
-                rms_rel: rms,
-                cv_rms_rel: None,
-                max_rel: max,
                 table_vs_exact,
+                ..measured(rung, domain, None)
             });
         }
     }
     Ok(reprs)
+}
+
+/// Fewest points a fitted table is offered for: below this, cross-validation is
+/// leave-one-out, and each of `n` refits would choose its smoothness by its own inner
+/// cross-validation (about 80 s at 49 points); and a table of [`DEFAULT_SHAPE`]'s 1,900
+/// cells on fewer than 50 points is shaped by its smoothness term far more than by the data.
+pub const TABLE_MIN_POINTS: usize = CV_LEAVE_ONE_OUT_BELOW;
+
+/// The base model of a fitted table: Lambert, so that the table alone carries the shape (as
+/// measured in docs/model-comparison.md) and a 20 x 19 x 5 table with its base fits one
+/// flash slot (a six-parameter base would not).
+pub const TABLE_BASE: ModelKind = ModelKind::Lambert;
+
+/// The fitted-table rung over the base fit `base_params` (a [`TABLE_BASE`] fit to `train`):
+/// the table fitted to `ln(f / f_base)` at `train`'s points with its smoothness chosen by
+/// cross-validation on them, and its record for `--chosen`.
+pub fn table_rung(train: &Dataset, base_params: &[f64; MAX_PARAMS]) -> Result<(Rung, TableRecord), String> {
+    let name = &train.name;
+    let base = Material::from_params(TABLE_BASE, base_params)
+        .map_err(|e| format!("{name}: table base: {e}"))?;
+    let model = base.model().map_err(|e| format!("{name}: table base: {e}"))?;
+    let base_ln: Vec<f64> = train
+        .points
+        .iter()
+        .map(|p| f64::from(model.eval_angles(p.theta_i as f32, p.theta_r as f32, p.phi as f32)).ln())
+        .collect();
+    let table = FittedTable::fit_cv(&train.points, &base_ln, DEFAULT_SHAPE)
+        .map_err(|e| format!("{name}: fitted table: {e}"))?;
+    let record = TableRecord::new(&table).map_err(|e| format!("{name}: fitted table: {e}"))?;
+    let bytes = table.to_bytes().map_err(|e| format!("{name}: fitted table: {e}"))?;
+    let material = base
+        .with_fitted(&bytes)
+        .map_err(|e| format!("{name}: fitted table: {e}"))?;
+    Ok((fitted_rung(material, bytes)?, record))
 }
 
 /// Folds of the cross-validation `brdf select` judges representations by: every point is held
@@ -143,6 +190,7 @@ pub fn cv_folds(n: usize) -> Vec<usize> {
 fn cross_validate(
     domain: &Dataset,
     settings: &(dyn Fn(ModelKind) -> brdf_fit::FitSettings + Sync),
+    with_table: bool,
     reprs: &mut [Representation],
 ) {
     use rayon::prelude::*;
@@ -150,8 +198,8 @@ fn cross_validate(
     let jobs: Vec<(usize, ModelKind)> = (0..cv_fold_count(domain.points.len()))
         .flat_map(|f| ModelKind::LADDER.into_iter().map(move |k| (f, k)))
         .collect();
-    // Per job: (rung name, sum of squared relative errors, points) for every rung it built.
-    let sums: Vec<Vec<(String, f64, usize)>> = jobs
+    // Per job: (rung name, relative error at each held-out point) for every rung it built.
+    let errors: Vec<Vec<(String, Vec<f64>)>> = jobs
         .par_iter()
         .map(|&(f, kind)| {
             let split = |held: bool| Dataset {
@@ -176,9 +224,14 @@ fn cross_validate(
             let Ok(params) = fit.params_array() else {
                 return Vec::new();
             };
-            let Ok(built) = rungs(kind.name(), kind, &params) else {
+            let Ok(mut built) = rungs(kind.name(), kind, &params) else {
                 return Vec::new();
             };
+            if with_table && kind == TABLE_BASE {
+                if let Ok((r, _)) = table_rung(&train, &params) {
+                    built.push(r);
+                }
+            }
             let col = |g: fn(&brdf_fit::Point) -> f64| -> Vec<f64> { test.points.iter().map(g).collect() };
             let (ci, cr, cp) = (
                 col(|p| p.theta_i.cos()),
@@ -190,33 +243,32 @@ fn cross_validate(
                 .into_iter()
                 .map(|rung| {
                     eval_batch(&rung.eval, &ci, &cr, &cp, &mut values);
-                    let sum: f64 = values
+                    let rel: Vec<f64> = values
                         .iter()
                         .zip(&test.points)
                         .map(|(v, p)| {
-                            let e = (v - p.brdf) / p.brdf;
+                            let e = ((v - p.brdf) / p.brdf).abs();
                             if e.is_finite() {
-                                e * e
+                                e
                             } else {
                                 f64::INFINITY
                             }
                         })
-                        .sum();
-                    (rung.name, sum, test.points.len())
+                        .collect();
+                    (rung.name, rel)
                 })
                 .collect()
         })
         .collect();
     let n = domain.points.len();
     for r in reprs.iter_mut() {
-        let (mut sum, mut count) = (0.0, 0);
-        for (name, s, c) in sums.iter().flatten() {
-            if *name == r.rung.name {
-                sum += s;
-                count += c;
-            }
-        }
-        r.cv_rms_rel = (count == n).then(|| (sum / n as f64).sqrt());
+        let all: Vec<f64> = errors
+            .iter()
+            .flatten()
+            .filter(|(name, _)| *name == r.rung.name)
+            .flat_map(|(_, rel)| rel.iter().copied())
+            .collect();
+        r.cv_rms_rel = (all.len() == n).then(|| trimmed_rms_rel(&all));
     }
 }
 
@@ -318,6 +370,10 @@ pub struct DataSelection {
     pub within_budget: bool,
     /// Index in `candidates` of the fit the chosen representation comes from (`--chosen`).
     pub chosen_fit: Option<usize>,
+    /// The fitted table, when the chosen representation is one (its base is
+    /// `candidates[chosen_fit]`; `--chosen` writes them together).
+    #[serde(skip)]
+    pub chosen_table: Option<TableRecord>,
     /// Why it was chosen, or why nothing was.
     pub reason: String,
     /// Models of the ladder left out (the data cannot determine them), with why.
@@ -374,7 +430,26 @@ pub fn select_data(
         }
     }
     let mut reprs = representations(&candidates, domain)?;
-    cross_validate(domain, settings, &mut reprs);
+    // The fitted table over the base model's fit to the whole domain.
+    let with_table = domain.points.len() >= TABLE_MIN_POINTS;
+    let mut table_record = None;
+    if with_table {
+        if let Some(base) = candidates.iter().find(|c| c.model == TABLE_BASE) {
+            let params = base
+                .params_array()
+                .map_err(|p| format!("{}: no parameter `{p}`", base.dataset))?;
+            let (rung, record) = table_rung(domain, &params)?;
+            let coverage = record.coverage;
+            reprs.push(measured(rung, domain, Some(coverage)));
+            table_record = Some(record);
+        }
+    } else {
+        notes.push(format!(
+            "fitted table: not offered: {} points, fewer than {TABLE_MIN_POINTS}",
+            domain.points.len()
+        ));
+    }
+    cross_validate(domain, settings, with_table, &mut reprs);
     let all: Vec<&Rung> = reprs.iter().map(|r| &r.rung).collect();
     // A rung that could not be cross-validated is never within a budget nor the closest.
     let errors: Vec<f64> = reprs
@@ -417,6 +492,9 @@ pub fn select_data(
     }
     let material = chosen.map(|i| (reprs[i].rung.material, reprs[i].rung.table.clone()));
     let chosen_fit = chosen.and_then(|i| candidates.iter().position(|c| c.model == reprs[i].rung.kind));
+    let chosen_table = chosen
+        .filter(|&i| reprs[i].rung.material.fitted.is_some())
+        .and_then(|_| table_record);
     Ok(DataSelection {
         dataset: domain.name.clone(),
         budget,
@@ -427,6 +505,7 @@ pub fn select_data(
         chosen: chosen.map(|i| reprs[i].rung.name.clone()),
         within_budget,
         chosen_fit,
+        chosen_table,
         reason,
         notes,
         candidates,
