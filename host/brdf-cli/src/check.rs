@@ -312,7 +312,7 @@ impl CheckCmd {
                     r.mean_abs,
                     r.max_rel,
                     r.mean_rel,
-                    r.tolerance.map_or("-".to_owned(), |t| brdf_core::Compact(t).to_string()),
+                    r.tolerance.map_or("-".to_owned(), |t| format!("{t:.1e}")),
                     match (r.tolerance, r.within_tolerance) {
                         (None, _) => "reported",
                         (_, true) => "ok",
