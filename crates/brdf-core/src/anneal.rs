@@ -18,8 +18,9 @@
 //! The values are those of evaluating the basis models afresh, bit for bit
 //! ([`Model::eval_factor`]).
 //!
-//! RAM: the samples are `size_of::<Sample<f32>>() = 28` bytes each, so `Samples<f32, 256>`
-//! is 7,176 bytes on a 64-bit host and 7,172 on the Cortex-M4 (a 4-byte length; pinned by
+//! RAM: the samples are `size_of::<Sample<f32>>() = 32` bytes each (a [`Geometry`] of seven
+//! values and the reading), so `Samples<f32, 256>` is 8,200 bytes on a 64-bit host and 8,196
+//! on the Cortex-M4 (a 4-byte length; pinned by
 //! the test `ram_is_pinned` and printed by `bench/firmware_cost.sh`). The caches are
 //! `2 (MAX_TERM_FACTORS + 2) N` values on the stack: 12 KiB for f32 and N = 256.
 //!
@@ -841,8 +842,8 @@ mod tests {
 
     #[test]
     fn ram_is_pinned() {
-        assert_eq!(core::mem::size_of::<Sample<f32>>(), 28);
-        assert_eq!(core::mem::size_of::<Samples<f32, 256>>(), 28 * 256 + 8);
+        assert_eq!(core::mem::size_of::<Sample<f32>>(), 32);
+        assert_eq!(core::mem::size_of::<Samples<f32, 256>>(), 32 * 256 + 8);
     }
 
     #[test]

@@ -13,12 +13,16 @@
 //!
 //! | axis | value in `[0, 1]` | near |
 //! |---|---|---|
-//! | `theta_h` | `(1 - cos theta_h)^(1/4)` | `sqrt(theta_h / sqrt 2)`: nodes dense at the mirror direction, where lobes change fastest |
+//! | `theta_h` | `(1 - cos theta_h)^(1/4)`, smooth below 0.03° ([`THETA_H_KNEE`]) | `sqrt(theta_h / sqrt 2)`: nodes dense at the mirror direction, where lobes change fastest |
 //! | `theta_d` | `sqrt(1 - cos theta_d)` | `theta_d / sqrt 2` |
-//! | `phi_d` (folded) | `sqrt(1 - |cos phi_d|)`, `|cos phi_d| = |cos theta_i - cos theta_r| / (2 sin theta_h sin theta_d)` | `phi_d / sqrt 2` |
+//! | `phi_d` | `sin^2 phi_d = 1 - cos^2 phi_d`, `|cos phi_d| = |cos theta_i - cos theta_r| / (2 sin theta_h sin theta_d)` | nodes at 0, 30, 45, 60, 90 degrees for five |
 //!
-//! `phi_d` is folded into `[0, pi/2]` by isotropy and reciprocity, so a fitted table is
-//! exactly reciprocal: every axis is symmetric in the two directions in floating point too.
+//! An isotropic, reciprocal BRDF is even in `phi_d` about both 0 and `pi/2` (`phi_d`, `-phi_d`
+//! and `pi - phi_d` are the same pair of directions), and so is `sin^2 phi_d`: interpolation
+//! along it keeps that symmetry without a kink, the fold costs nothing, and the axis is well
+//! conditioned everywhere (a square-root axis would amplify one rounding of `|cos phi_d|`
+//! near 1 a thousandfold). Every axis is symmetric in the two directions in floating point
+//! too, so a fitted table is exactly reciprocal.
 //! Where `phi_d` is undefined (`theta_h = 0` or `theta_d = 0`, where an isotropic BRDF does
 //! not depend on it) it is taken as 0.
 //!
@@ -54,11 +58,17 @@ pub const FITTED_LN_LIMIT: f32 = 80.0;
 pub const COVERED_SHARE: f64 = 0.5;
 
 /// Largest difference of an axis value ([`axes`]) computed in f32 from what f64 computes
-/// from the same f32 input: `theta_h` and `theta_d` within a few ulp (measured 2e-9 and
-/// 1e-7); the folded `phi_d` axis, `sqrt(1 - |cos phi_d|)`, within `sqrt(2 * 2^-24)` = 3.5e-4
-/// where `|cos phi_d|` rounds next to 1 (in the plane of incidence), the square root
-/// amplifying one rounding.
-pub const F32_AXIS_ERROR: [f64; 3] = [1e-6, 1e-6, 4e-4];
+/// from the same f32 input: a few ulp of 1 on each axis (measured up to 1e-7 on
+/// `theta_d`; `test axes_are_the_rusinkiewicz_half_angle_sines_and_reciprocal` holds them
+/// to this), ten times that for room.
+pub const F32_AXIS_ERROR: [f64; 3] = [1e-6, 1e-6, 1e-6];
+
+/// The `theta_h` axis is `(1 - cos theta_h)^(1/4)` (nodes dense at the mirror direction)
+/// except within `1 - cos theta_h` of about `THETA_H_KNEE^4` = 1e-7 (`theta_h` below 0.03°),
+/// where it turns smooth: the fourth root's infinite slope at 0 would make the mirror
+/// direction's value hang on the last bit of the input (one f32 rounding of `phi = pi` moved
+/// a metal's peak by 0.7%), and a BRDF is even in `theta_h` there.
+pub const THETA_H_KNEE: f32 = 0.017_782_794;
 
 /// Grid nodes per axis of a fitted table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -115,7 +125,9 @@ impl core::fmt::Display for FittedError {
                 f,
                 "fitted table axes must have {MIN_FITTED_NODES} to {MAX_FITTED_NODES} nodes"
             ),
-            FittedError::Reserved => write!(f, "fitted table: a reserved field or unused coverage bit is set"),
+            FittedError::Reserved => {
+                write!(f, "fitted table: a reserved field or unused coverage bit is set")
+            }
             FittedError::Range => write!(
                 f,
                 "fitted table: its ln range is not finite, not increasing or beyond +-{FITTED_LN_LIMIT}"
@@ -133,8 +145,21 @@ impl core::error::Error for FittedError {}
 pub fn axes<T: Float>(g: &Geometry<T>) -> [T; 3] {
     let omca = g.one_minus_cos_alpha();
     let omcg = g.one_minus_cos_gamma();
-    let unit = |x: T| if x > T::ONE { T::ONE } else if x > T::ZERO { x } else { T::ZERO };
-    let u = unit(omca).sqrt().sqrt();
+    let unit = |x: T| {
+        if x > T::ONE {
+            T::ONE
+        } else if x > T::ZERO {
+            x
+        } else {
+            T::ZERO
+        }
+    };
+    // ((1 - cos theta_h)^2 + e^2)^(1/8), e = THETA_H_KNEE^4, shifted and scaled to [0, 1].
+    let knee = T::from_f32(THETA_H_KNEE);
+    let k2 = knee * knee;
+    let e = k2 * k2;
+    let s = unit(omca);
+    let u = unit(((s * s + e * e).sqrt().sqrt().sqrt() - knee) / (T::ONE - knee));
     let v = unit(omcg).sqrt();
     // sin^2(theta_h) sin^2(theta_d), each as (1 - cos)(1 + cos): no cancellation.
     let s2 = (omca * (T::ONE + g.cos_alpha())) * (omcg * (T::ONE + g.cos_gamma()));
@@ -142,7 +167,7 @@ pub fn axes<T: Float>(g: &Geometry<T>) -> [T; 3] {
     let den = T::TWO * s2.sqrt();
     // |cos phi_d|; 1 (phi_d = 0) where undefined or rounded beyond 1 (NaN compares false).
     let c = if num < den { num / den } else { T::ONE };
-    [u, v, (T::ONE - c).sqrt()]
+    [u, v, T::ONE - c * c]
 }
 
 /// The 8 cells of a point's trilinear stencil and their weights (summing to 1).
@@ -402,10 +427,16 @@ mod tests {
         let n = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
         let h = [s[0] / n, s[1] / n, s[2] / n];
         let th = h[2].clamp(-1.0, 1.0).acos();
-        let td = (wi[0] * h[0] + wi[1] * h[1] + wi[2] * h[2]).clamp(-1.0, 1.0).acos();
+        let td = (wi[0] * h[0] + wi[1] * h[1] + wi[2] * h[2])
+            .clamp(-1.0, 1.0)
+            .acos();
         // phi_d: the angle between wi and the normal, both projected off h.
         let ci = wi[2];
-        let pi_ = [wi[0] - td.cos() * h[0], wi[1] - td.cos() * h[1], wi[2] - td.cos() * h[2]];
+        let pi_ = [
+            wi[0] - td.cos() * h[0],
+            wi[1] - td.cos() * h[1],
+            wi[2] - td.cos() * h[2],
+        ];
         let pn = [-th.cos() * h[0], -th.cos() * h[1], 1.0 - th.cos() * h[2]];
         let dot = pi_[0] * pn[0] + pi_[1] * pn[1] + pi_[2] * pn[2];
         let norm = (pi_.iter().map(|x| x * x).sum::<f64>() * pn.iter().map(|x| x * x).sum::<f64>()).sqrt();
@@ -423,7 +454,9 @@ mod tests {
             let [th, td, pd] = rusinkiewicz(ti, tr, phi);
             let g = Geometry::<f64>::from_angles(ti, tr, phi);
             let [u, v, w] = axes(&g);
-            let want = [(1.0 - th.cos()).powf(0.25), (1.0 - td.cos()).sqrt(), (1.0 - pd.cos()).sqrt()];
+            let knee = f64::from(THETA_H_KNEE);
+            let smooth = (((1.0 - th.cos()).powi(2) + knee.powi(8)).powf(0.125) - knee) / (1.0 - knee);
+            let want = [smooth, (1.0 - td.cos()).sqrt(), pd.sin().powi(2)];
             for (m, (a, b)) in [u, v, w].iter().zip(want).enumerate() {
                 // phi_d is ill-conditioned where theta_h or theta_d vanish; the check skips
                 // those (below 0.05 rad).
@@ -435,24 +468,52 @@ mod tests {
             let g2 = Geometry::<f32>::from_angles(tr as f32, ti as f32, phi as f32);
             let g1 = Geometry::<f32>::from_angles(ti as f32, tr as f32, phi as f32);
             assert_eq!(axes(&g1), axes(&g2), "reciprocal in f32 at {ti} {tr} {phi}");
+            // f32 against f64 from the same f32 input, here and at the places where an axis
+            // could lose it: near normal, near the mirror, in the plane, near grazing.
+            let (a, b, c) = (ti as f32, tr as f32, phi as f32);
+            let tiny = a * 1e-3;
+            for (x, y, z) in [
+                (a, b, c),
+                (tiny, tiny * 0.4, c),
+                (a, a + tiny * 1e-2, core::f32::consts::PI + tiny * 1e-2),
+                (a, b, core::f32::consts::PI),
+                (a, b, 0.0),
+                (1.5707, b, c),
+            ] {
+                let x32 = axes(&Geometry::<f32>::from_angles(x, y, z));
+                let x64 = axes(&Geometry::<f64>::from_angles(x.into(), y.into(), z.into()));
+                for m in 0..3 {
+                    let e = (f64::from(x32[m]) - x64[m]).abs();
+                    assert!(e <= F32_AXIS_ERROR[m], "axis {m} at {x} {y} {z}: {e:e}");
+                }
+            }
             assert!([u, v, w].iter().all(|x| (0.0..=1.0).contains(x)));
         }
         // Degenerate: mirror (theta_h = 0) and retro (theta_d = 0) stay finite.
-        for g in [Geometry::<f32>::from_cosines(0.6, 0.6, -1.0), Geometry::<f32>::from_cosines(0.6, 0.6, 1.0)] {
+        for g in [
+            Geometry::<f32>::from_cosines(0.6, 0.6, -1.0),
+            Geometry::<f32>::from_cosines(0.6, 0.6, 1.0),
+        ] {
             assert!(axes(&g).iter().all(|x| x.is_finite()), "{:?}", axes(&g));
         }
     }
 
     fn values(shape: FittedShape) -> (vec::Vec<f64>, vec::Vec<bool>) {
         let c = shape.cells();
-        ((0..c).map(|k| -1.0 + 0.01 * k as f64).collect(), (0..c).map(|k| k % 3 == 0).collect())
+        (
+            (0..c).map(|k| -1.0 + 0.01 * k as f64).collect(),
+            (0..c).map(|k| k % 3 == 0).collect(),
+        )
     }
 
     #[test]
     fn encode_round_trips_and_corrects_the_base() {
         let (v, cov) = values(SHAPE);
         let mut buf = vec![0u8; SHAPE.encoded_len()];
-        assert_eq!(encode_fitted(SHAPE, &v, &cov, &mut buf).unwrap(), SHAPE.encoded_len());
+        assert_eq!(
+            encode_fitted(SHAPE, &v, &cov, &mut buf).unwrap(),
+            SHAPE.encoded_len()
+        );
         let t = FittedTable::new(&buf).unwrap();
         for c in 0..SHAPE.cells() {
             assert!((t.cell(c) - v[c]).abs() < 2e-5, "{c}");
@@ -489,19 +550,40 @@ mod tests {
         assert_eq!(bad(&|c| c[2] = 65), FittedError::Shape);
         assert_eq!(bad(&|c| c[3] = 1), FittedError::Reserved);
         assert_eq!(bad(&|c| c[13] = 1), FittedError::Reserved);
-        assert_eq!(bad(&|c| c[4..8].copy_from_slice(&f32::NAN.to_le_bytes())), FittedError::Range);
-        assert_eq!(bad(&|c| c[8..12].copy_from_slice(&0f32.to_le_bytes())), FittedError::Range);
-        assert_eq!(bad(&|c| c[8..12].copy_from_slice(&1f32.to_le_bytes())), FittedError::Range);
+        assert_eq!(
+            bad(&|c| c[4..8].copy_from_slice(&f32::NAN.to_le_bytes())),
+            FittedError::Range
+        );
+        assert_eq!(
+            bad(&|c| c[8..12].copy_from_slice(&0f32.to_le_bytes())),
+            FittedError::Range
+        );
+        assert_eq!(
+            bad(&|c| c[8..12].copy_from_slice(&1f32.to_le_bytes())),
+            FittedError::Range
+        );
         // 90 cells: bits 2..8 of the last coverage byte are unused.
         assert_eq!(bad(&|c| *c.last_mut().unwrap() |= 0x80), FittedError::Reserved);
         let mut short = [0u8; 8];
-        assert_eq!(encode_fitted(SHAPE, &v, &cov, &mut short).unwrap_err(), FittedError::Length(8));
-        assert_eq!(encode_fitted(SHAPE, &v[1..], &cov, &mut buf).unwrap_err(), FittedError::Values);
+        assert_eq!(
+            encode_fitted(SHAPE, &v, &cov, &mut short).unwrap_err(),
+            FittedError::Length(8)
+        );
+        assert_eq!(
+            encode_fitted(SHAPE, &v[1..], &cov, &mut buf).unwrap_err(),
+            FittedError::Values
+        );
         let mut nan = v.clone();
         nan[3] = f64::NAN;
-        assert_eq!(encode_fitted(SHAPE, &nan, &cov, &mut buf).unwrap_err(), FittedError::Values);
+        assert_eq!(
+            encode_fitted(SHAPE, &nan, &cov, &mut buf).unwrap_err(),
+            FittedError::Values
+        );
         let mut huge = v.clone();
         huge[3] = 200.0;
-        assert_eq!(encode_fitted(SHAPE, &huge, &cov, &mut buf).unwrap_err(), FittedError::Range);
+        assert_eq!(
+            encode_fitted(SHAPE, &huge, &cov, &mut buf).unwrap_err(),
+            FittedError::Range
+        );
     }
 }

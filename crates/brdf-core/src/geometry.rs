@@ -136,7 +136,14 @@ impl<T: Float> Geometry<T> {
     #[inline]
     pub fn from_cosines(cos_theta_i: T, cos_theta_r: T, cos_phi: T) -> Self {
         let (sin2_gamma, cos2_gamma, p) = cosine_sums(cos_theta_i, cos_theta_r, cos_phi, T::sqrt);
-        Self::from_parts(cos_theta_i, cos_theta_r, sin2_gamma, cos2_gamma, p, cos_theta_i - cos_theta_r)
+        Self::from_parts(
+            cos_theta_i,
+            cos_theta_r,
+            sin2_gamma,
+            cos2_gamma,
+            p,
+            cos_theta_i - cos_theta_r,
+        )
     }
 
     /// From unit vectors `wi` (towards the source) and `wr` (towards the receiver), `z` along

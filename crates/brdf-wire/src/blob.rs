@@ -456,7 +456,11 @@ impl Blob {
             m.model().map_err(|_| BlobError::Params(i))?;
             if nodes == FITTED_WORD {
                 if version < 3 || at + FITTED_HEADER_LEN > body {
-                    return Err(if version < 3 { BlobError::Table(i) } else { BlobError::Length });
+                    return Err(if version < 3 {
+                        BlobError::Table(i)
+                    } else {
+                        BlobError::Length
+                    });
                 }
                 let shape = FittedShape {
                     theta_h: usize::from(bytes[at]),
@@ -666,7 +670,10 @@ mod fitted_tests {
         let cov: std::vec::Vec<bool> = (0..cells).map(|k| k % 5 != 0).collect();
         let mut t = std::vec![0u8; SHAPE.encoded_len()];
         encode_fitted(SHAPE, &v, &cov, &mut t).unwrap();
-        let m = Material::from_params(ModelKind::Lambert, &[0.4]).unwrap().with_fitted(&t).unwrap();
+        let m = Material::from_params(ModelKind::Lambert, &[0.4])
+            .unwrap()
+            .with_fitted(&t)
+            .unwrap();
         let mut materials = heapless::Vec::new();
         materials.push(m).unwrap();
         (
@@ -685,7 +692,11 @@ mod fitted_tests {
         let n = b.encode_with_tables(&[Some(&t)], &mut buf).unwrap();
         assert_eq!(n, b.encoded_len());
         assert!(n <= MAX_BLOB_LEN, "{n}");
-        assert_eq!(u16::from_le_bytes([buf[4], buf[5]]), 3, "version 3 when a fitted table is present");
+        assert_eq!(
+            u16::from_le_bytes([buf[4], buf[5]]),
+            3,
+            "version 3 when a fitted table is present"
+        );
         let d = Blob::decode(&buf[..n]).unwrap();
         let r = d.materials[0].fitted.unwrap();
         assert_eq!((usize::from(r.len), r.offset), (t.len(), 24));
@@ -701,7 +712,10 @@ mod fitted_tests {
         assert_eq!(b.encode(&mut buf).unwrap_err(), BlobError::Table(0));
         let mut bad = t.clone();
         bad[3] = 1;
-        assert_eq!(b.encode_with_tables(&[Some(&bad)], &mut buf).unwrap_err(), BlobError::Table(0));
+        assert_eq!(
+            b.encode_with_tables(&[Some(&bad)], &mut buf).unwrap_err(),
+            BlobError::Table(0)
+        );
         let n = b.encode_with_tables(&[Some(&t)], &mut buf).unwrap();
 
         let resign = |c: &mut [u8]| {
@@ -735,7 +749,10 @@ mod fitted_tests {
         let mut both = b.clone();
         both.materials[0].table = Some(TableRef { nodes: 16, offset: 0 });
         let mut big = std::vec![0u8; 2 * MAX_BLOB_LEN];
-        assert_eq!(both.encode_with_tables(&[Some(&t)], &mut big).unwrap_err(), BlobError::Table(0));
+        assert_eq!(
+            both.encode_with_tables(&[Some(&t)], &mut big).unwrap_err(),
+            BlobError::Table(0)
+        );
         // A blob without fitted tables is still written as version 2.
         let mut buf2 = [0u8; MAX_BLOB_LEN];
         let n2 = table1_blob().encode(&mut buf2).unwrap();

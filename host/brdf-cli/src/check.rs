@@ -231,7 +231,9 @@ impl CheckCmd {
                 format!("{}: material {m} ({})", self.device.blob_name(), mat.kind.name())
             })?;
             // A fitted table's reference is the same table in f64 over its f64 base.
-            let fitted = mat.fitted_table(&blob_bytes).map(|table| Corrected { base: host, table });
+            let fitted = mat
+                .fitted_table(&blob_bytes)
+                .map(|table| Corrected { base: host, table });
             // A tabulated material is held to its table's bound within the promised zenith
             // range; beyond it the errors are reported, not judged. A fitted table is held to
             // its own f32 bound (`FittedTable::f32_max_rel`) on top of its base's.

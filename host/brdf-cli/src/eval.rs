@@ -134,7 +134,11 @@ impl EvalCmd {
             if let Some(table) = table {
                 let corrected = Corrected { base: model, table };
                 values.clear();
-                values.extend(directions.iter().map(|&[ti, tr, phi]| corrected.eval_angles(ti, tr, phi)));
+                values.extend(
+                    directions
+                        .iter()
+                        .map(|&[ti, tr, phi]| corrected.eval_angles(ti, tr, phi)),
+                );
             } else if let Err(e) = evaluate_chunk(&model, batch.as_ref(), &directions, &mut values) {
                 let line = match e {
                     BatchError::Domain { index, .. } => chunk.line(index),

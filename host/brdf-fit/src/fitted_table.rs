@@ -22,8 +22,8 @@
 
 use std::f64::consts::PI;
 
-use rayon::prelude::*;
 use brdf_core::Geometry;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -415,7 +415,11 @@ pub struct FittedTable {
 }
 
 /// Checks the points and returns their stencils and targets `ln brdf - base_ln`.
-fn prepare(points: &[Point], base_ln: &[f64], shape: FittedShape) -> Result<(Vec<Stencil>, Vec<f64>), TableError> {
+fn prepare(
+    points: &[Point],
+    base_ln: &[f64],
+    shape: FittedShape,
+) -> Result<(Vec<Stencil>, Vec<f64>), TableError> {
     assert_eq!(points.len(), base_ln.len(), "one base value per point");
     if points.len() < MIN_POINTS {
         return Err(TableError::TooFewPoints {
@@ -430,7 +434,10 @@ fn prepare(points: &[Point], base_ln: &[f64], shape: FittedShape) -> Result<(Vec
         });
     }
     if let Some((p, b)) = points.iter().zip(base_ln).find(|(_, b)| !b.is_finite()) {
-        return Err(TableError::Base { line: p.line, value: *b });
+        return Err(TableError::Base {
+            line: p.line,
+            value: *b,
+        });
     }
     let stencils = points
         .iter()
@@ -472,7 +479,12 @@ impl FittedTable {
     /// # Panics
     /// If `shape` is not valid ([`FittedShape::is_valid`]), `base_ln` has another length
     /// than `points`, or `smoothness` is negative or not finite.
-    pub fn fit(points: &[Point], base_ln: &[f64], shape: FittedShape, smoothness: f64) -> Result<Self, TableError> {
+    pub fn fit(
+        points: &[Point],
+        base_ln: &[f64],
+        shape: FittedShape,
+        smoothness: f64,
+    ) -> Result<Self, TableError> {
         assert!(
             smoothness.is_finite() && smoothness >= 0.0,
             "smoothness must be >= 0: {smoothness}"
@@ -603,7 +615,8 @@ impl TableRecord {
     /// whose shape is `nodes`. The error says which.
     pub fn decode(&self) -> Result<Vec<u8>, String> {
         let bytes = hex::decode(&self.bytes).map_err(|e| format!("fitted_table.bytes: not hex: {e}"))?;
-        let t = brdf_core::fitted::FittedTable::new(&bytes).map_err(|e| format!("fitted_table.bytes: {e}"))?;
+        let t =
+            brdf_core::fitted::FittedTable::new(&bytes).map_err(|e| format!("fitted_table.bytes: {e}"))?;
         let s = t.shape();
         if [s.theta_h, s.theta_d, s.phi_d] != self.nodes {
             return Err(format!(
@@ -618,8 +631,8 @@ impl TableRecord {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::f64::consts::FRAC_PI_2;
     use brdf_core::accuracy::splitmix64_unit;
+    use std::f64::consts::FRAC_PI_2;
 
     /// Held-out trimmed RMS relative error the synthetic test must stay under. Measured
     /// 0.0075 (training 0.0053, smoothness 10^-2.5 chosen; the worst of 300 held-out
@@ -819,10 +832,7 @@ mod tests {
         ] {
             let system = System::new(shape);
             let pts = random_directions(30, 9);
-            let stencils: Vec<Stencil> = pts
-                .iter()
-                .map(|&[a, b, c]| stencil(shape, a, b, c))
-                .collect();
+            let stencils: Vec<Stencil> = pts.iter().map(|&[a, b, c]| stencil(shape, a, b, c)).collect();
             let ln_y: Vec<f64> = pts.iter().map(|&[a, b, c]| synthetic(a, b, c).ln()).collect();
             let w = vec![1.0; 30];
             let x = system.solve(&stencils, &ln_y, &w, 0.3);

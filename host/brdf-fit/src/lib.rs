@@ -20,6 +20,7 @@ pub mod embedded;
 pub mod fit;
 pub mod fitted_table;
 pub mod grid;
+pub mod holdout;
 pub mod import;
 pub mod kernel;
 pub mod lm;

@@ -126,8 +126,8 @@ pub const TABLE_BASE: ModelKind = ModelKind::Lambert;
 /// cross-validation on them, and its record for `--chosen`.
 pub fn table_rung(train: &Dataset, base_params: &[f64; MAX_PARAMS]) -> Result<(Rung, TableRecord), String> {
     let name = &train.name;
-    let base = Material::from_params(TABLE_BASE, base_params)
-        .map_err(|e| format!("{name}: table base: {e}"))?;
+    let base =
+        Material::from_params(TABLE_BASE, base_params).map_err(|e| format!("{name}: table base: {e}"))?;
     let model = base.model().map_err(|e| format!("{name}: table base: {e}"))?;
     let base_ln: Vec<f64> = train
         .points
@@ -137,7 +137,9 @@ pub fn table_rung(train: &Dataset, base_params: &[f64; MAX_PARAMS]) -> Result<(R
     let table = FittedTable::fit_cv(&train.points, &base_ln, DEFAULT_SHAPE)
         .map_err(|e| format!("{name}: fitted table: {e}"))?;
     let record = TableRecord::new(&table).map_err(|e| format!("{name}: fitted table: {e}"))?;
-    let bytes = table.to_bytes().map_err(|e| format!("{name}: fitted table: {e}"))?;
+    let bytes = table
+        .to_bytes()
+        .map_err(|e| format!("{name}: fitted table: {e}"))?;
     let material = base
         .with_fitted(&bytes)
         .map_err(|e| format!("{name}: fitted table: {e}"))?;

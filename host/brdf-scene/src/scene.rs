@@ -565,7 +565,10 @@ fn resolve_material(
                 format!("{shown}: fit {}: {FITTED_TABLE_NOT_IN_SCENES}", one.index),
             ));
         }
-        return Ok((build(one.model, &one.params, fit.span(), "fit")?, Source::Fit(path, one.index)));
+        return Ok((
+            build(one.model, &one.params, fit.span(), "fit")?,
+            Source::Fit(path, one.index),
+        ));
     }
     let blob = e.blob.as_ref().expect("exactly one source is given");
     let path = dir.join(blob.get_ref());

@@ -251,3 +251,95 @@ fn firmware_serves_tabulated_materials_like_the_host() {
     assert_eq!((active, materials), (crc, 2));
     assert_ne!(active, crc_default);
 }
+
+/// A fitted table over Lambert (a blob of version 3) is served by the device bit for bit as
+/// the host's f32 path computes it, from cosines and from angles, beside an analytic
+/// material; the largest table that fits a slot loads.
+#[test]
+fn firmware_serves_a_fitted_table_like_the_host() {
+    use brdf_core::fitted::{encode_fitted, Corrected, FittedShape, FittedTable};
+
+    let Some(elf) = firmware() else { return };
+    let mut dev = Link::new(Qemu::spawn(&elf).unwrap());
+    let shape = FittedShape {
+        theta_h: 20,
+        theta_d: 19,
+        phi_d: 5,
+    };
+    // A rough correction with a mirror peak along theta_h and a phi_d ramp.
+    let values: Vec<f64> = (0..shape.cells())
+        .map(|c| {
+            let (i, j, k) = (
+                c / (shape.theta_d * shape.phi_d),
+                c / shape.phi_d % shape.theta_d,
+                c % shape.phi_d,
+            );
+            3.0 * (-(i as f64) / 3.0).exp() - 0.05 * j as f64 + 0.1 * k as f64
+        })
+        .collect();
+    let covered: Vec<bool> = (0..shape.cells()).map(|c| c % 4 != 0).collect();
+    let mut bytes = vec![0u8; shape.encoded_len()];
+    encode_fitted(shape, &values, &covered, &mut bytes).unwrap();
+    let lambert = brdf_wire::blob::Material::from_params(ModelKind::Lambert, &[0.3])
+        .unwrap()
+        .with_fitted(&bytes)
+        .unwrap();
+    let mut blob = table1_blob();
+    blob.materials.truncate(1);
+    blob.materials.insert(0, lambert).unwrap();
+    blob.sequence = 9;
+    let mut buf = vec![0u8; 2 * MAX_BLOB_LEN];
+    // With khaki beside it the blob is too large for one slot: refused before it is sent.
+    assert!(blob.encoded_len() > MAX_BLOB_LEN);
+    blob.materials.truncate(1);
+    let n = blob.encode_with_tables(&[Some(&bytes)], &mut buf).unwrap();
+    assert!(n <= MAX_BLOB_LEN);
+    let crc = dev.load(&buf[..n]).unwrap();
+    assert_eq!(crc, brdf_wire::blob::blob_crc(&buf[..n]));
+
+    let host = Corrected {
+        base: lambert.model().unwrap(),
+        table: FittedTable::new(&bytes).unwrap(),
+    };
+    let mut rng = SplitMix(31);
+    let angles: Vec<[f32; 3]> = (0..8 * MAX_BATCH)
+        .map(|_| {
+            [
+                rng.uniform(0.0, 1.5) as f32,
+                rng.uniform(0.0, 1.5) as f32,
+                rng.uniform(0.0, std::f64::consts::TAU) as f32,
+            ]
+        })
+        .collect();
+    let device = dev.eval(0, Input::Angles, &angles).unwrap();
+    for (x, d) in angles.iter().zip(&device) {
+        assert_eq!(
+            d.to_bits(),
+            host.eval_angles(x[0], x[1], x[2]).to_bits(),
+            "at {x:?}"
+        );
+    }
+    let cosines: Vec<[f32; 3]> = angles
+        .iter()
+        .map(|x| [x[0].cos(), x[1].cos(), x[2].cos()])
+        .collect();
+    let device = dev.eval(0, Input::Cosines, &cosines).unwrap();
+    for (x, d) in cosines.iter().zip(&device) {
+        assert_eq!(
+            d.to_bits(),
+            host.eval_cosines(x[0], x[1], x[2]).to_bits(),
+            "at {x:?}"
+        );
+    }
+    // The correction is not the base model: a table the device ignored would fail here.
+    let base = lambert.model().unwrap();
+    assert!(angles.iter().zip(&device).any(|(x, d)| (d / base.eval_cosines(
+        x[0].cos(),
+        x[1].cos(),
+        x[2].cos()
+    ) - 1.0)
+        .abs()
+        > 0.5));
+    let (_, _, active, materials) = dev.info().unwrap();
+    assert_eq!((active, materials), (crc, 1));
+}

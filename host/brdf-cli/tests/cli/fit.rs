@@ -325,8 +325,17 @@ fn select_names_the_cheapest_representation_and_writes_its_blob() {
         .min_by(|a, b| cv(a).total_cmp(&cv(b)))
         .unwrap();
     assert_eq!(v["chosen"], best["name"]);
-    let fit: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&chosen).unwrap()).unwrap();
+    let mut fit: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&chosen).unwrap()).unwrap();
     assert_eq!(fit["model"], best["model"]);
+    // A fitted table is written with its base fit; any other rung is its fit alone.
+    let table = fit.as_object_mut().unwrap().remove("fitted_table");
+    assert_eq!(
+        table.is_some(),
+        best["name"] == "lambert + table",
+        "{}",
+        best["name"]
+    );
     let i = v["chosen_fit"].as_u64().unwrap() as usize;
     assert_eq!(fit, v["candidates"][i]);
     let packed = dir.path().join("packed.bin");
@@ -512,7 +521,15 @@ fn every_fitting_command_refuses_repeated_directions() {
         .collect();
     assert_eq!(models, ["lambert"]);
     let notes = v["notes"].as_array().unwrap();
-    assert_eq!(notes.len(), 4, "{notes:?}");
+    // Four models not fitted, and no fitted table for 8 points.
+    assert_eq!(notes.len(), 5, "{notes:?}");
+    assert!(
+        notes[4]
+            .as_str()
+            .unwrap()
+            .starts_with("fitted table: not offered"),
+        "{notes:?}"
+    );
     assert!(
         notes[0].as_str().unwrap().starts_with("minnaert: not fitted: "),
         "{notes:?}"

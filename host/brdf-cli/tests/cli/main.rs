@@ -8,6 +8,7 @@ mod bench;
 mod check;
 mod eval;
 mod fit;
+mod fitted;
 mod report;
 mod scene;
 

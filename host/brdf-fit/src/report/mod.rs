@@ -416,11 +416,7 @@ impl FittedModel {
     /// `index`-th of a batch (`brdf eval --fit`, a scene file's `fit =`, `brdf.eval_fit`).
     /// Returns its model, its parameters in paper order and its index; the error says how
     /// many fits the text holds and which indices exist.
-    pub fn one_of(
-        text: &str,
-        origin: &str,
-        index: Option<usize>,
-    ) -> Result<OneFit, String> {
+    pub fn one_of(text: &str, origin: &str, index: Option<usize>) -> Result<OneFit, String> {
         let fits = FittedModel::from_json(text, origin).map_err(|e| e.to_string())?;
         let n = fits.len();
         if n == 0 {

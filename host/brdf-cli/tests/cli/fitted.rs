@@ -1,0 +1,259 @@
+//! The fitted-table rung end to end: `brdf select` offers it and judges it by held-out error,
+//! `--chosen` writes it, `brdf eval --fit`, `brdf pack` and `brdf check --qemu` serve it, and
+//! every reader refuses a damaged one by name.
+
+use crate::brdf;
+
+fn ok(args: &[&str]) -> String {
+    let out = brdf(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+fn fails(args: &[&str]) -> String {
+    let out = brdf(args);
+    assert!(!out.status.success(), "{args:?} succeeded");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn repo(path: &str) -> String {
+    format!("{}/../../{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The trimmed RMS relative error (`brdf_fit::fitted_table::trimmed_rms_rel`) of `eval --fit`
+/// output (column `f`) against the data's `brdf` column.
+fn trimmed_error(csv: &str) -> f64 {
+    let mut rows = csv.lines();
+    let header: Vec<&str> = rows.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (y, f) = (col("brdf"), col("f"));
+    let rel: Vec<f64> = rows
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            (v[f] / v[y] - 1.0).abs()
+        })
+        .collect();
+    brdf_fit::fitted_table::trimmed_rms_rel(&rel)
+}
+
+#[test]
+fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).display().to_string();
+    // MERL's aluminium, in plane: a metal no analytic rung fits within 30%.
+    ok(&[
+        "import",
+        "merl-inplane",
+        &repo("data/measured/merl-aluminium-inplane/aluminum_brdf.csv"),
+        "-o",
+        &p("al.csv"),
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "select",
+        &p("al.csv"),
+        "--budget",
+        "0.1%",
+        "--chosen",
+        &p("chosen.json"),
+        "-o",
+        &p("select.bin"),
+        "--json",
+    ]))
+    .unwrap();
+    let reprs = v["representations"].as_array().unwrap();
+    let cv = |r: &serde_json::Value| r["cv_rms_rel"].as_f64().unwrap_or(f64::INFINITY);
+    let table = reprs.iter().find(|r| r["name"] == "lambert + table").unwrap();
+    let coverage = table["coverage"].as_f64().unwrap();
+    assert!(
+        coverage > 0.0 && coverage < 1.0,
+        "in-plane data cover part of the grid: {coverage}"
+    );
+    assert_eq!(table["fits_blob"], true);
+    // The table is the most accurate held out, by a wide margin over every analytic rung.
+    let best_analytic = reprs
+        .iter()
+        .filter(|r| r["name"] != "lambert + table")
+        .map(cv)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        cv(table) < 0.5 * best_analytic,
+        "table {} vs {best_analytic}",
+        cv(table)
+    );
+    assert_eq!(v["chosen"], "lambert + table", "{}", v["reason"]);
+
+    // --chosen: the base fit with its table; eval --fit reproduces the training error.
+    let chosen: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(p("chosen.json")).unwrap()).unwrap();
+    assert_eq!(chosen["model"], "lambert");
+    assert_eq!(chosen["fitted_table"]["nodes"], serde_json::json!([20, 19, 5]));
+    let evaluated = ok(&[
+        "eval",
+        "--fit",
+        &p("chosen.json"),
+        &p("al.csv"),
+        "--output-column",
+        "f",
+    ]);
+    let train = trimmed_error(&evaluated);
+    let reported = table["rms_rel"].as_f64().unwrap();
+    // eval --fit is the f64 path, select measured the device's f32 path: each value within
+    // the table's f32 bound (2.1e-3 relative here), so the errors within that of each other.
+    assert!((train - reported).abs() < 3e-3, "{train} vs {reported}");
+    let f32_out = ok(&[
+        "eval",
+        "--fit",
+        &p("chosen.json"),
+        &p("al.csv"),
+        "--output-column",
+        "f",
+        "--precision",
+        "f32",
+    ]);
+    let hex = chosen["fitted_table"]["bytes"].as_str().unwrap();
+    let table_bytes = hex::decode(hex).unwrap();
+    let bound = brdf_core::fitted::FittedTable::new(&table_bytes)
+        .unwrap()
+        .f32_max_rel()
+        + brdf_core::tolerance::F32_MAX_REL;
+    assert!(bound < 0.01, "{bound}");
+    let column = |csv: &str| -> Vec<f64> {
+        csv.lines()
+            .skip(1)
+            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+            .collect()
+    };
+    let (f64s, f32s) = (column(&evaluated), column(&f32_out));
+    assert_eq!(f64s.len(), f32s.len());
+    let worst = f64s
+        .iter()
+        .zip(&f32s)
+        .map(|(a, b)| (b / a - 1.0).abs())
+        .fold(0.0, f64::max);
+    assert!(worst <= bound, "f32 against f64: {worst:e} > {bound:e}");
+
+    // pack makes the blob select wrote; the device serves it within its bound.
+    ok(&["pack", &p("chosen.json"), "-o", &p("pack.bin")]);
+    assert_eq!(
+        std::fs::read(p("pack.bin")).unwrap(),
+        std::fs::read(p("select.bin")).unwrap()
+    );
+    let bytes = std::fs::read(p("pack.bin")).unwrap();
+    let blob = brdf_wire::blob::Blob::decode(&bytes).unwrap();
+    assert!(blob.materials[0].fitted.is_some());
+    if brdf_tests::qemu::firmware().is_some() {
+        ok(&[
+            "check",
+            "--qemu",
+            "--blob",
+            &p("pack.bin"),
+            "--directions",
+            "2000",
+            "--edge",
+            "100",
+        ]);
+    }
+
+    // Damaged tables are refused by name, by every reader.
+    let text = std::fs::read_to_string(p("chosen.json")).unwrap();
+    let damaged = |what: &str, new: String, said: &str| {
+        let path = p(&format!("{what}.json"));
+        std::fs::write(&path, new).unwrap();
+        for args in [
+            vec![
+                "eval",
+                "--fit",
+                path.as_str(),
+                &p("al.csv"),
+                "--output-column",
+                "f",
+            ],
+            vec!["pack", path.as_str(), "-o", &p("x.bin")],
+        ] {
+            let err = fails(&args);
+            assert!(err.contains(said), "{what}: {args:?}: {err}");
+        }
+    };
+    // A reserved header byte set (hex digits 6..8 are byte 3).
+    damaged(
+        "reserved",
+        text.replacen(hex, &format!("{}01{}", &hex[..6], &hex[8..]), 1),
+        "fitted_table.bytes: fitted table: a reserved field",
+    );
+    damaged(
+        "not-hex",
+        text.replacen(hex, &format!("zz{}", &hex[2..]), 1),
+        "fitted_table.bytes: not hex",
+    );
+    damaged(
+        "short",
+        text.replacen(hex, &hex[..hex.len() - 2], 1),
+        "fitted_table.bytes",
+    );
+    damaged(
+        "nodes",
+        text.replacen("[\n      20,", "[\n      21,", 1),
+        "fitted_table: nodes [21, 19, 5] but the bytes hold a 20 x 19 x 5 table",
+    );
+    damaged(
+        "unknown-key",
+        text.replacen("\"smoothness\"", "\"smoothnes\"", 1),
+        "unknown field `smoothnes`",
+    );
+    // A scene refuses it rather than using the base model alone.
+    let scene = p("scene.toml");
+    let bundled = std::fs::read_to_string(repo("data/scenes/target.toml")).unwrap();
+    let hull = "model = \"six\"\nparams = \"kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2\"";
+    assert!(bundled.contains(hull));
+    std::fs::write(
+        &scene,
+        bundled
+            .replace(
+                "mesh = \"target.obj\"",
+                &format!("mesh = \"{}\"", repo("data/scenes/target.obj")),
+            )
+            .replace(hull, &format!("fit = \"{}\"", p("chosen.json"))),
+    )
+    .unwrap();
+    let err = fails(&["scene", "lrcs", &scene]);
+    assert!(err.contains("fitted table"), "{err}");
+}
+
+#[test]
+fn small_data_get_no_table_and_are_told_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = ok(&[
+        "synth",
+        "--model",
+        "lambert",
+        "--params",
+        "rho0=0.5",
+        "--theta-i",
+        "0,30",
+        "--step",
+        "20",
+        "--noise",
+        "1%",
+    ]);
+    let n = text.lines().filter(|l| !l.starts_with('#')).count() - 1;
+    let path = dir.path().join("few.csv");
+    std::fs::write(&path, &text).unwrap();
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["select", path.to_str().unwrap(), "--json"])).unwrap();
+    let has_table = v["representations"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|r| r["name"] == "lambert + table");
+    let note = v["notes"].as_array().unwrap().iter().any(|s| {
+        s.as_str()
+            .is_some_and(|s| s.contains("fitted table: not offered"))
+    });
+    assert!(n < brdf_scene::represent::TABLE_MIN_POINTS, "{n} points");
+    assert!(!has_table);
+    assert!(note, "{}", v["notes"]);
+}

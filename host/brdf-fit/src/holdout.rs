@@ -1,0 +1,113 @@
+//! The held-out protocol of docs/model-comparison.md, shared by its two studies
+//! (`cargo run --release -p brdf-fit --example table_holdout`, `cargo run --release -p
+//! brdf-scene --example select_holdout`): the bundled measurements it runs on, five fixed
+//! outer folds (each predicted from the other 80%), and the yardstick a representation must
+//! beat: inverse-distance interpolation of `ln f` between the 4 nearest training points in
+//! `(theta_h, theta_d, theta_i + theta_r, |theta_i - theta_r|)`, which any analyst can build
+//! in ten lines. Errors are [`crate::fitted_table::trimmed_rms_rel`].
+
+use std::path::Path;
+
+use crate::data::DataError;
+use crate::data::{Dataset, Point};
+use crate::fitted_table::coordinates;
+use crate::import::{import, Channel, Format};
+
+/// Outer folds: each holds out 20% of the points.
+pub const OUTER_FOLDS: usize = 5;
+
+/// Neighbours of the yardstick.
+pub const NEIGHBOURS: usize = 4;
+
+/// The outer fold of point `i` (a fixed shuffle, the same for every study).
+pub fn outer_fold(i: usize) -> usize {
+    (brdf_core::accuracy::splitmix64(&mut (i as u64 ^ 0x0ddc_0ffe_e5ee_d000)) % OUTER_FOLDS as u64) as usize
+}
+
+/// The points of `d` in fold `f` (`held`) or outside it.
+pub fn split(d: &Dataset, f: usize, held: bool) -> Vec<Point> {
+    d.points
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| (outer_fold(*i) == f) == held)
+        .map(|(_, p)| *p)
+        .collect()
+}
+
+fn features(p: &Point) -> [f64; 4] {
+    let [th, td, _] = coordinates(p.theta_i, p.theta_r, p.phi);
+    [th, td, p.theta_i + p.theta_r, (p.theta_i - p.theta_r).abs()]
+}
+
+/// The yardstick's prediction at `q` from `train` (an exact hit: that point's value).
+///
+/// # Panics
+/// If `train` is empty.
+pub fn nearest_neighbours(train: &[Point], q: &Point) -> f64 {
+    let fq = features(q);
+    let mut best: Vec<(f64, f64)> = Vec::with_capacity(NEIGHBOURS + 1);
+    for p in train {
+        let f = features(p);
+        let d = f
+            .iter()
+            .zip(&fq)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            .sqrt();
+        if best.len() < NEIGHBOURS || d < best[best.len() - 1].0 {
+            best.push((d, p.brdf.ln()));
+            best.sort_by(|a, b| a.0.total_cmp(&b.0));
+            best.truncate(NEIGHBOURS);
+        }
+    }
+    if best[0].0 < 1e-12 {
+        return best[0].1.exp();
+    }
+    let (num, den) = best
+        .iter()
+        .fold((0.0, 0.0), |(n, d), &(dist, ly)| (n + ly / dist, d + 1.0 / dist));
+    (num / den).exp()
+}
+
+/// The bundled measurements under `root` (`data/measured`), one dataset per channel or
+/// wavelength: Cornell's garnet red and krylon blue (R, G, B), NIST's PTFE at four
+/// wavelengths, MERL's aluminium in plane.
+pub fn bundled(root: &Path) -> Result<Vec<(String, Dataset)>, DataError> {
+    let mut sets = Vec::new();
+    let cornell = root.join("cornell-medium-gloss-paints");
+    for (file, paint) in [
+        ("garnet_red_RGB.astm", "garnet"),
+        ("krylon_blue_RGB.astm", "krylon"),
+    ] {
+        for (ch, c) in [(Channel::R, "R"), (Channel::G, "G"), (Channel::B, "B")] {
+            let d = import(&cornell.join(file), Format::Cornell, ch)?;
+            sets.extend(d.datasets.into_iter().map(|d| (format!("{paint} {c}"), d)));
+        }
+    }
+    let ptfe = import(
+        &root.join("ptfe-germer-nist/PTFE.data.csv"),
+        Format::Nist,
+        Channel::R,
+    )?;
+    for d in ptfe.datasets {
+        let wavelength = d
+            .name
+            .rsplit('=')
+            .next()
+            .unwrap_or("")
+            .trim_end_matches(']')
+            .to_owned();
+        sets.push((format!("ptfe {wavelength} um"), d));
+    }
+    let merl = import(
+        &root.join("merl-aluminium-inplane/aluminum_brdf.csv"),
+        Format::MerlInPlane,
+        Channel::R,
+    )?;
+    sets.extend(
+        merl.datasets
+            .into_iter()
+            .map(|d| ("merl aluminium".to_owned(), d)),
+    );
+    Ok(sets)
+}
