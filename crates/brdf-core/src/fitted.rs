@@ -478,7 +478,7 @@ mod tests {
                 (a, a + tiny * 1e-2, core::f32::consts::PI + tiny * 1e-2),
                 (a, b, core::f32::consts::PI),
                 (a, b, 0.0),
-                (1.5707, b, c),
+                (1.5, b, c),
             ] {
                 let x32 = axes(&Geometry::<f32>::from_angles(x, y, z));
                 let x64 = axes(&Geometry::<f64>::from_angles(x.into(), y.into(), z.into()));
