@@ -49,10 +49,13 @@ pub struct DeviceArgs {
     blob: Option<PathBuf>,
 }
 
+/// A blob loaded with `--blob`: decoded, its CRC and its bytes.
+pub type LoadedBlob = (Blob, u32, Vec<u8>);
+
 impl DeviceArgs {
     /// Opens the transport, LOADs `--blob` if given, and returns the link with that blob and
     /// its CRC.
-    pub fn connect(&self) -> Result<(Device, Option<(Blob, u32, Vec<u8>)>)> {
+    pub fn connect(&self) -> Result<(Device, Option<LoadedBlob>)> {
         let timeout = self.timeout;
         let transport: Box<dyn Transport> = if self.qemu {
             let elf = self.elf.clone().unwrap_or_else(default_elf);

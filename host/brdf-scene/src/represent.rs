@@ -79,7 +79,13 @@ fn measured(rung: Rung, domain: &Dataset, coverage: Option<f64>) -> Representati
 
 /// Every representation of every fitted model, with its error against the data over the
 /// domain and its cost.
-pub fn representations(reports: &[FitReport], domain: &Dataset) -> Result<Vec<Representation>, String> {
+/// A fit whose parameters no device accepts (an uncalibrated weight far beyond its range)
+/// gives no representation; it is named in `notes`, and the others are still compared.
+pub fn representations(
+    reports: &[FitReport],
+    domain: &Dataset,
+    notes: &mut Vec<String>,
+) -> Result<Vec<Representation>, String> {
     let cos32: Vec<[f32; 3]> = domain
         .points
         .iter()
@@ -91,7 +97,14 @@ pub fn representations(reports: &[FitReport], domain: &Dataset) -> Result<Vec<Re
             .params_array()
             .map_err(|p| format!("{}: no parameter `{p}`", r.dataset))?;
         let label = r.model.name();
-        for rung in rungs(label, r.model, &params).map_err(|e| format!("{}: {e}", r.dataset))? {
+        let built = match rungs(label, r.model, &params) {
+            Ok(b) => b,
+            Err(e) => {
+                notes.push(format!("{e}; left out"));
+                continue;
+            }
+        };
+        for rung in built {
             let table_vs_exact = match (&rung.eval, rung.material.six_params()) {
                 (Evaluator::Table { consts, bytes }, Some(p)) => {
                     let table =
@@ -431,7 +444,7 @@ pub fn select_data(
             Err(e) => return Err(e.to_string()),
         }
     }
-    let mut reprs = representations(&candidates, domain)?;
+    let mut reprs = representations(&candidates, domain, &mut notes)?;
     // The fitted table over the base model's fit to the whole domain.
     let with_table = domain.points.len() >= TABLE_MIN_POINTS;
     let mut table_record = None;
@@ -496,7 +509,7 @@ pub fn select_data(
     let chosen_fit = chosen.and_then(|i| candidates.iter().position(|c| c.model == reprs[i].rung.kind));
     let chosen_table = chosen
         .filter(|&i| reprs[i].rung.material.fitted.is_some())
-        .and_then(|_| table_record);
+        .and(table_record);
     Ok(DataSelection {
         dataset: domain.name.clone(),
         budget,
@@ -535,5 +548,46 @@ mod cv_tests {
             let runs = f.windows(2).filter(|w| w[0] == w[1]).count();
             assert!(runs < n / 2 || k == n, "{n}: {runs} neighbours share a fold");
         }
+    }
+}
+
+#[cfg(test)]
+mod unrepresentable_tests {
+    use super::*;
+    use brdf_fit::{FitRequest, FitSettings, Point};
+
+    /// A fit whose weight no device accepts (an uncalibrated measurement, `kb` = 2e18 on a
+    /// fold of Cornell's garnet blue) is left out with a note; it used to abort the whole
+    /// selection.
+    #[test]
+    fn an_unrepresentable_fit_is_left_out_with_a_note() {
+        let points: Vec<Point> = (0..40)
+            .map(|k| Point {
+                theta_i: 0.02 * k as f64,
+                theta_r: 0.5 + 0.01 * k as f64,
+                phi: 0.1 * k as f64,
+                brdf: 0.1 + 0.001 * k as f64,
+                sigma: None,
+                weight: None,
+                line: k + 2,
+            })
+            .collect();
+        let d = Dataset {
+            name: "d.csv".into(),
+            points,
+        };
+        let s = FitSettings::from_options(&FitRequest::new(ModelKind::Lambert)).unwrap();
+        let mut reports = brdf_fit::fit_all(&s, std::slice::from_ref(&d)).unwrap();
+        let mut bad = reports[0].clone();
+        bad.params.0[0].1 = 2e18;
+        reports.push(bad);
+        let mut notes = Vec::new();
+        let reprs = representations(&reports, &d, &mut notes).unwrap();
+        assert_eq!(reprs.len(), 1, "only the good fit's rung");
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0].contains("not representable on the device") && notes[0].contains("left out"),
+            "{notes:?}"
+        );
     }
 }
