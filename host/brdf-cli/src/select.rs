@@ -114,15 +114,13 @@ impl SelectCmd {
             _ => {}
         }
         if let Some(path) = &self.chosen {
-            let Some(i) = s.chosen_fit else {
+            let Some(fit) = s.chosen_report() else {
                 bail!(
                     "no representation could be chosen; {} not written: {}",
                     path.display(),
                     s.reason
                 );
             };
-            let mut fit = s.candidates[i].clone();
-            fit.fitted_table = s.chosen_table.clone();
             let text = serde_json::to_string_pretty(&fit)?;
             std::fs::write(path, text + "\n").with_context(|| format!("cannot write {}", path.display()))?;
         }

@@ -33,7 +33,12 @@ pub(crate) fn radians<T: Float>(deg: &[f64]) -> Vec<T> {
 
 /// `brdf eval` on arrays: f64 through the batch path, f32 through the scalar path (the
 /// firmware's arithmetic); on all cores when `parallel` (each value the same bit for bit).
+///
+/// With `table` (a fitted table's device bytes, as `fitted` returns them) the model is its
+/// base and every value is `f_model * exp(t)` (`brdf_core::fitted::Corrected`), in both
+/// precisions through the scalar path.
 #[pyfunction]
+#[pyo3(signature = (model, params, theta_i, theta_r, phi, precision, parallel, table=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn eval_angles<'py>(
     py: Python<'py>,
@@ -44,6 +49,7 @@ pub(crate) fn eval_angles<'py>(
     phi: PyReadonlyArray1<'py, f64>,
     precision: &str,
     parallel: bool,
+    table: Option<&[u8]>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use rayon::prelude::*;
     let kind = parse_kind(model)?;
@@ -52,6 +58,30 @@ pub(crate) fn eval_angles<'py>(
         slice(&theta_r, "theta_r")?,
         slice(&phi, "phi")?,
     ];
+    let table = match table {
+        Some(bytes) => Some(
+            brdf_core::fitted::FittedTable::new(bytes)
+                .map_err(|e| PyValueError::new_err(format!("fitted table: {e}")))?,
+        ),
+        None => None,
+    };
+    if let Some(table) = table {
+        return match precision {
+            "f64" => {
+                let base: AnyModel<f64> = build(kind, params)?;
+                let out = py.detach(|| corrected(base, table, cols, kind, parallel))?;
+                Ok(PyArray1::from_vec(py, out).into_any())
+            }
+            "f32" => {
+                let base: AnyModel<f32> = build(kind, params)?;
+                let out = py.detach(|| corrected(base, table, cols, kind, parallel))?;
+                Ok(PyArray1::from_vec(py, out).into_any())
+            }
+            other => Err(PyValueError::new_err(format!(
+                "unknown precision `{other}` (expected f64 or f32)"
+            ))),
+        };
+    }
     match precision {
         "f64" => {
             let m: AnyModel<f64> = build(kind, params)?;
@@ -90,6 +120,33 @@ pub(crate) fn eval_angles<'py>(
             "unknown precision `{other}` (expected f64 or f32)"
         ))),
     }
+}
+
+/// A base model times a fitted table at angles in degrees (the scalar path, on all cores when
+/// `parallel`), with `brdf eval`'s checks.
+fn corrected<T: Float + Send + Sync>(
+    base: AnyModel<T>,
+    table: brdf_core::fitted::FittedTable<'_>,
+    cols: [&[f64]; 3],
+    kind: ModelKind,
+    parallel: bool,
+) -> Result<Vec<T>, Failure> {
+    use rayon::prelude::*;
+    check_degrees(cols)?;
+    let [a, b, c] = cols.map(radians::<T>);
+    let m = brdf_core::fitted::Corrected { base, table };
+    let one = |i: usize| m.eval_angles(a[i], b[i], c[i]);
+    let out: Vec<T> = if parallel {
+        (0..a.len())
+            .into_par_iter()
+            .with_min_len(par::PAR_CHUNK)
+            .map(one)
+            .collect()
+    } else {
+        (0..a.len()).map(one).collect()
+    };
+    finite(&out, kind)?;
+    Ok(out)
 }
 
 /// Directional-hemispherical reflectance at incidences `theta_i` (degrees) through the batch

@@ -281,10 +281,11 @@ pub(crate) fn dataset(name: String, settings: &Settings, columns: Columns<'_, '_
 }
 
 /// What `select_path` and `select_arrays` return, as `pack` does: `((selection JSON,
-/// candidate reports as JSON, blob or None) or None, notes, error or None)`; the notes found
+/// candidate reports as JSON, blob or None, the chosen fit as `--chosen` writes it or None)
+/// or None, notes, error or None)`; the notes found
 /// before a failure are returned with it, as the CLI prints them before its error.
 pub(crate) type Selected<'py> = (
-    Option<(String, Vec<String>, Option<Bound<'py, PyBytes>>)>,
+    Option<(String, Vec<String>, Option<Bound<'py, PyBytes>>, Option<String>)>,
     Vec<String>,
     Option<String>,
 );
@@ -295,19 +296,18 @@ pub(crate) type Selected<'py> = (
 pub(crate) type SelectArgs = (f64, f64, f64, bool, u32);
 
 /// The model and parameters of one fit in `text` (`brdf_fit::report::FittedModel::one_of`,
-/// as `brdf eval --fit` reads it): the model's name and the parameters as `kb=...,kr=...`
-/// (each value printed to round-trip exactly).
+/// as `brdf eval --fit` reads it): the model's name, the parameters as `kb=...,kr=...`
+/// (each value printed to round-trip exactly) and, for a fitted table, its device bytes
+/// (checked), which `eval_angles` takes as `table`.
 #[pyfunction]
 #[pyo3(signature = (text, origin, index=None))]
-pub(crate) fn fitted(text: &str, origin: &str, index: Option<usize>) -> PyResult<(String, String)> {
+pub(crate) fn fitted<'py>(
+    py: Python<'py>,
+    text: &str,
+    origin: &str,
+    index: Option<usize>,
+) -> PyResult<(String, String, Option<Bound<'py, pyo3::types::PyBytes>>)> {
     let one = brdf_fit::report::FittedModel::one_of(text, origin, index).map_err(PyValueError::new_err)?;
-    if one.table.is_some() {
-        return Err(PyValueError::new_err(format!(
-            "{origin}: fit {}: a fitted table (base model times a measured correction): evaluate it \
-             with `brdf eval --fit`; the Python package evaluates analytic fits only so far",
-            one.index
-        )));
-    }
     let (kind, p) = (one.model, one.params);
     let params = kind
         .param_names()
@@ -316,5 +316,6 @@ pub(crate) fn fitted(text: &str, origin: &str, index: Option<usize>) -> PyResult
         .map(|(n, v)| format!("{n}={v:?}"))
         .collect::<Vec<_>>()
         .join(",");
-    Ok((kind.name().to_owned(), params))
+    let table = one.table.map(|b| pyo3::types::PyBytes::new(py, &b));
+    Ok((kind.name().to_owned(), params, table))
 }

@@ -56,13 +56,18 @@ pub(crate) fn select_dataset<'py>(
             .map(serde_json::to_string_pretty)
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| e.to_string())?;
-        Ok((text, candidates, blob, s.notes))
+        let chosen = s
+            .chosen_report()
+            .map(|f| serde_json::to_string_pretty(&f))
+            .transpose()
+            .map_err(|e| e.to_string())?;
+        Ok((text, candidates, blob, chosen, s.notes))
     })?;
     Ok(match work {
-        Ok((text, candidates, blob, left_out)) => {
+        Ok((text, candidates, blob, chosen, left_out)) => {
             notes.extend(left_out);
             (
-                Some((text, candidates, blob.map(|b| PyBytes::new(py, &b.bytes)))),
+                Some((text, candidates, blob.map(|b| PyBytes::new(py, &b.bytes)), chosen)),
                 notes,
                 None,
             )

@@ -123,3 +123,28 @@ def test_errors_are_the_cli_messages(cli, root, tmp_path):
 def test_options_of_the_wrong_type_are_refused(root, kwargs, match):
     with pytest.raises(TypeError, match=match):
         brdf.select(str(root / KHAKI), **kwargs)
+
+
+def test_a_chosen_fitted_table_evaluates_as_the_cli(cli, root, tmp_path):
+    # MERL's aluminium: the fitted table is chosen; `chosen_fit` carries it (it used to be
+    # the bare Lambert base, which eval_fit would have evaluated without the table).
+    data = tmp_path / "al.csv"
+    cli("import", "merl-inplane", root / "data/measured/merl-aluminium-inplane/aluminum_brdf.csv", "-o", data)
+    chosen = tmp_path / "chosen.json"
+    cli("select", data, "--budget", "0.1%", "--chosen", chosen)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        s = brdf.select(str(data), budget=0.001)
+    assert s.chosen == "lambert + table"
+    assert json.loads(s.chosen_fit.to_json())["fitted_table"] == json.loads(chosen.read_text())["fitted_table"]
+    angles = tmp_path / "angles.csv"
+    angles.write_text("theta_i,theta_r,phi\n30,30,180\n30,31,180\n60,20,90\n10,70,0\n")
+    want = [float(l.split(",")[-1]) for l in cli("eval", "--fit", chosen, angles).stdout.split()[1:]]
+    ti, tr, phi = [30, 30, 60, 10], [30, 31, 20, 70], [180, 180, 90, 0]
+    got = brdf.eval_fit(s.chosen_fit, ti, tr, phi)
+    assert list(got) == want
+    assert list(brdf.eval_fit(str(chosen), ti, tr, phi)) == want
+    base = brdf.eval("lambert", s.chosen_fit.params, ti, tr, phi)
+    assert abs(got[0] / base[0] - 1) > 1.0, "the table corrects the base at the mirror"
+    f32 = brdf.eval_fit(s.chosen_fit, ti, tr, phi, precision="f32")
+    assert f32.dtype.name == "float32" and all(abs(a / b - 1) < 1e-2 for a, b in zip(f32, want))

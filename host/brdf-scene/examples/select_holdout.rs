@@ -22,9 +22,7 @@ fn chosen_error(train: &Dataset, test: &[brdf_fit::Point]) -> (f64, String) {
     let base = FitSettings::from_options(&FitRequest::new(ModelKind::Six)).expect("default settings");
     let kept = DataDomain::new(train, 90.0, 90.0);
     let s = select_data(&kept, &|kind| FitSettings { kind, ..base }, 0.001, false).expect("select");
-    let i = s.chosen_fit.expect("a representation is chosen");
-    let mut fit = s.candidates[i].clone();
-    fit.fitted_table = s.chosen_table.clone();
+    let fit = s.chosen_report().expect("a representation is chosen");
     // Written and read back as `--chosen` and `brdf eval --fit` do.
     let text = serde_json::to_string_pretty(&fit).unwrap();
     let one = FittedModel::one_of(&text, "chosen.json", None).unwrap();
@@ -71,11 +69,12 @@ fn main() {
                     .map(|p| (nearest_neighbours(&train.points, p) / p.brdf - 1.0).abs())
                     .collect::<Vec<_>>(),
             );
-            names.push(chosen);
+            if !names.contains(&chosen) {
+                names.push(chosen);
+            }
         }
         let k = OUTER_FOLDS as f64;
         let (ec, en) = (ec / k, en / k);
-        names.dedup();
         ratios.push(ec / en);
         println!(
             "| {name} | {} | {} | {ec:.3} | {en:.3} | {:.2} |",

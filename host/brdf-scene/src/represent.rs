@@ -401,6 +401,16 @@ pub struct DataSelection {
     pub material: Option<(Material, Option<Vec<u8>>)>,
 }
 
+impl DataSelection {
+    /// The fit the chosen representation comes from, with its fitted table when that was
+    /// chosen: what `brdf select --chosen` writes and `brdf.select(...).chosen_fit` is.
+    pub fn chosen_report(&self) -> Option<FitReport> {
+        let mut fit = self.candidates.get(self.chosen_fit?)?.clone();
+        fit.fitted_table = self.chosen_table.clone();
+        Some(fit)
+    }
+}
+
 /// Fits every model of [`ModelKind::LADDER`] to the points `kept` with `settings(kind)`,
 /// measures every representation against the data and by cross-validation, and chooses among
 /// them ([`choose`]) by the held-out error: the cheapest within the budget or, when none is,

@@ -132,8 +132,9 @@ def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, 
 def eval_fit(fit, theta_i, theta_r, phi, *, index: Optional[int] = None, precision: str = "f64", parallel: bool = True):
     """The BRDF (1/sr) of a fit result at angles in degrees, as ``brdf eval --fit``:
     ``fit`` is a :class:`FitResult`, or a path to what ``brdf fit --json`` or ``brdf select
-    --chosen`` writes (or a hand-written ``{"model": ..., "params": {...}}``); ``index``
-    picks one fit of a batch. Otherwise as :func:`eval`.
+    --chosen`` writes (or a hand-written ``{"model": ..., "params": {...}}``), a fitted
+    table included (its base model times the tabulated correction, as ``brdf eval --fit``);
+    ``index`` picks one fit of a batch. Otherwise as :func:`eval`.
     """
     if isinstance(fit, FitResult):
         if index is not None:
@@ -149,8 +150,18 @@ def eval_fit(fit, theta_i, theta_r, phi, *, index: Optional[int] = None, precisi
         except UnicodeDecodeError as e:
             raise ValueError(f"{path}: not UTF-8 text (byte {e.start})") from None
         origin = path
-    model, params = _brdf.fitted(text, origin, _whole("index", index))
-    return eval(model, params, theta_i, theta_r, phi, precision=precision, parallel=parallel)
+    model, params, table = _brdf.fitted(text, origin, _whole("index", index))
+    if table is None:
+        return eval(model, params, theta_i, theta_r, phi, precision=precision, parallel=parallel)
+    # A fitted table (`brdf select --chosen`): its base model times the tabulated correction.
+    _precision(precision)
+    names = ("theta_i", "theta_r", "phi")
+    shape, cols = _columns(names, (theta_i, theta_r, phi))
+    try:
+        out = _brdf.eval_angles(model, params, *cols, precision, _flag("parallel", parallel), table)
+    except _brdf.ElementError as e:
+        raise _located(names, shape, e) from None
+    return _shaped(out, shape)
 
 
 def eval_cosines(model: str, params: Union[str, Mapping[str, float]], cos_theta_i, cos_theta_r, cos_phi, *, precision: str = "f64", parallel: bool = True):
@@ -404,7 +415,8 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
 class Selection:
     """What ``brdf select DATA --json`` reports: every model of the ladder fitted over the
     angular domain, every device representation of each (exact in f32, six-parameter tables
-    of 64, 256 and 1024 nodes) with its error against the data, its Cortex-M4F instructions
+    of 64, 256 and 1024 nodes, and from 50 points the fitted table ``lambert + table``) with
+    its error against the data, its Cortex-M4F instructions
     per lookup, this host's ns (measured in the call) and its blob size, its held-out error
     (``cv_rms_rel``: 5-fold cross-validation) beside its training error (``rms_rel``), and the
     one chosen by the held-out error.
@@ -412,7 +424,8 @@ class Selection:
     Attributes: ``chosen`` (the representation's name: the cheapest within the budget, or the
     most accurate when none is; None only when nothing could be cross-validated),
     ``within_budget`` (whether it meets the budget), ``reason`` (why),
-    ``chosen_fit`` (the :class:`FitResult` it comes from, or None), ``candidates`` (a
+    ``chosen_fit`` (the :class:`FitResult` it comes from, with its fitted table when that was
+    chosen, as ``brdf select --chosen`` writes it; or None), ``candidates`` (a
     :class:`FitResult` per model of the ladder),
     ``representations`` (a dict per representation), ``blob`` (the chosen representation as
     the parameter blob ``brdf select -o`` writes, or None), ``report`` (the whole JSON as a
@@ -420,7 +433,7 @@ class Selection:
     seed (its ``host_ns`` and ``seconds`` fields are timings of this run).
     """
 
-    def __init__(self, text: str, candidates: Sequence[str], blob: Optional[bytes]):
+    def __init__(self, text: str, candidates: Sequence[str], blob: Optional[bytes], chosen: Optional[str]):
         self._text = text
         self.report: Dict[str, Any] = json.loads(text)
         r = self.report
@@ -431,9 +444,8 @@ class Selection:
         self.within_budget: bool = r["within_budget"]
         self.reason: str = r["reason"]
         self.candidates: List[FitResult] = [FitResult(c) for c in candidates]
-        self.chosen_fit: Optional[FitResult] = (
-            None if r["chosen_fit"] is None else self.candidates[r["chosen_fit"]]
-        )
+        # As `brdf select --chosen` writes it: with its fitted table when that was chosen.
+        self.chosen_fit: Optional[FitResult] = None if chosen is None else FitResult(chosen)
         self.representations: List[Dict[str, Any]] = r["representations"]
         self.blob: Optional[bytes] = blob
 
@@ -496,8 +508,8 @@ def select(
         warnings.warn(note, stacklevel=2)
     if error is not None:
         raise ValueError(error)
-    text, candidates, blob = done
-    return Selection(text, candidates, blob)
+    text, candidates, blob, chosen = done
+    return Selection(text, candidates, blob, chosen)
 
 
 def read(path, format: Optional[str] = None, channel: Optional[str] = None, *, skip_invalid: bool = False):
