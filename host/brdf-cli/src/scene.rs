@@ -107,6 +107,18 @@ impl LrcsCmd {
                  does the sweep see only back faces?"
             );
         }
+        for (k, m) in scene.materials.iter().enumerate() {
+            let share = result.outside_coverage(k);
+            if m.table.is_some() && share > 0.0 {
+                eprintln!(
+                    "warning: material {k} ({}, a fitted table): {:.1}% of its sigma over the sweep comes \
+                     from directions its measurements did not cover (the table's smoothness term \
+                     extrapolated there)",
+                    m.part,
+                    100.0 * share
+                );
+            }
+        }
         let mut out = sink(&self.output)?;
         if self.json {
             let j = LrcsReport::new(self.scene.display().to_string(), &scene, &result);

@@ -83,7 +83,7 @@ fn main() {
             let models: Vec<Evaluator> = scene
                 .materials
                 .iter()
-                .map(|m| Evaluator::Exact(m.model))
+                .map(|m| m.evaluator())
                 .collect();
             let t = Instant::now();
             let mut scratch = Vec::new();

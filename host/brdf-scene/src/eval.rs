@@ -24,6 +24,14 @@ pub enum Evaluator {
         /// The node bytes, as they travel in a blob.
         bytes: Vec<u8>,
     },
+    /// A base model times a fitted table in f64 from f64 cosines: a fitted table's reference
+    /// (scenes, `brdf eval --fit`).
+    ExactCorrected {
+        /// The base model.
+        base: AnyModel<f64>,
+        /// The table's bytes, as they travel in a blob.
+        bytes: Vec<u8>,
+    },
     /// A base model times a fitted table in f32 from the cosines rounded to f32: the device's
     /// path for a fitted table (`brdf_core::fitted::Corrected`).
     Corrected {
@@ -32,6 +40,18 @@ pub enum Evaluator {
         /// The table's bytes, as they travel in a blob.
         bytes: Vec<u8>,
     },
+}
+
+impl Evaluator {
+    /// The fitted table of a corrected evaluator (the table's coverage is what scenes flag).
+    pub fn fitted_table(&self) -> Option<FittedTable<'_>> {
+        match self {
+            Evaluator::ExactCorrected { bytes, .. } | Evaluator::Corrected { bytes, .. } => {
+                FittedTable::new(bytes).ok()
+            }
+            _ => None,
+        }
+    }
 }
 
 /// `f_r` (1/sr) at each query: `out[k] = f(cos_theta_i[k], cos_theta_r[k], cos_phi[k])`.
@@ -72,6 +92,19 @@ pub fn eval_batch(e: &Evaluator, cos_theta_i: &[f64], cos_theta_r: &[f64], cos_p
                 }
             }
         }
+        Evaluator::ExactCorrected { base, bytes } => match FittedTable::new(bytes) {
+            Ok(table) => {
+                let m = Corrected { base: *base, table };
+                for (((&i, &r), &p), o) in q {
+                    *o = m.eval_cosines(i, r, p);
+                }
+            }
+            Err(_) => {
+                for (_, o) in q {
+                    *o = f64::NAN;
+                }
+            }
+        },
         Evaluator::Corrected { base, bytes } => match FittedTable::new(bytes) {
             Ok(table) => {
                 let m = Corrected { base: *base, table };

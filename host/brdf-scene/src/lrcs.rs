@@ -51,8 +51,15 @@ pub struct LrcsMaterial {
     pub part: String,
     /// Its model's name.
     pub model: &'static str,
-    /// Its parameters, in the model's order.
+    /// Its parameters, in the model's order (a fitted table's base).
     pub params: Vec<f64>,
+    /// Whether it carries a fitted table (the model is then its base).
+    pub fitted_table: bool,
+    /// With a fitted table: the share of the material's σ, summed over the sweep, that comes
+    /// from lookups outside the table's coverage (where it holds the smoothness term's
+    /// extrapolation, not a measurement).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outside_coverage: Option<f64>,
 }
 
 impl<'a> LrcsReport<'a> {
@@ -71,10 +78,13 @@ impl<'a> LrcsReport<'a> {
             materials: scene
                 .materials
                 .iter()
-                .map(|m| LrcsMaterial {
+                .enumerate()
+                .map(|(k, m)| LrcsMaterial {
                     part: m.part.clone(),
                     model: m.model.kind().name(),
                     params: m.model.to_params()[..m.model.kind().param_count()].to_vec(),
+                    fitted_table: m.table.is_some(),
+                    outside_coverage: m.table.as_ref().map(|_| result.outside_coverage(k)),
                 })
                 .collect(),
             seconds: result.seconds,
@@ -105,6 +115,27 @@ pub struct AspectSigma {
     pub by_material: Vec<f64>,
     /// Facets seen by both source and receiver.
     pub facets_seen: usize,
+    /// Each material's share of σ from lookups outside its fitted table's coverage, m² (0
+    /// for materials without one).
+    #[serde(skip)]
+    pub outside_coverage: Vec<f64>,
+}
+
+impl Lrcs {
+    /// The share of material `m`'s σ, summed over the sweep, from lookups outside its fitted
+    /// table's coverage (0 when it has none or is never seen).
+    pub fn outside_coverage(&self, m: usize) -> f64 {
+        let (mut out, mut all) = (0.0, 0.0);
+        for a in &self.aspects {
+            out += a.outside_coverage.get(m).copied().unwrap_or(0.0);
+            all += a.by_material.get(m).copied().unwrap_or(0.0);
+        }
+        if all > 0.0 {
+            out / all
+        } else {
+            0.0
+        }
+    }
 }
 
 /// σ at every aspect with each material's exact model (f64), in parallel over aspects;
@@ -113,7 +144,7 @@ pub fn lrcs(scene: &Scene, progress: &(dyn Fn() + Sync)) -> Lrcs {
     let models: Vec<Evaluator> = scene
         .materials
         .iter()
-        .map(|m| Evaluator::Exact(m.model))
+        .map(|m| m.evaluator())
         .collect();
     lrcs_with(scene, &models, progress)
 }
@@ -128,11 +159,16 @@ pub fn lrcs_with(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + Syn
             || (Vec::new(), Vec::new()),
             |(stack, scratch), a| {
                 let batches = aspect_queries(scene, a, stack);
-                let by_material: Vec<f64> = batches
+                let (by_material, outside_coverage): (Vec<f64>, Vec<f64>) = batches
                     .iter()
                     .zip(models)
-                    .map(|(b, m)| b.sigma(m, scratch))
-                    .collect();
+                    .map(|(b, m)| {
+                        let sigma = b.sigma(m, scratch);
+                        // `scratch` holds the values `sigma` summed.
+                        let outside = m.fitted_table().map_or(0.0, |t| b.outside_coverage(&t, scratch));
+                        (sigma, outside)
+                    })
+                    .unzip();
                 progress();
                 AspectSigma {
                     azimuth: a.azimuth_deg,
@@ -140,6 +176,7 @@ pub fn lrcs_with(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + Syn
                     lrcs: by_material.iter().fold(0.0, |s, m| s + m), // from +0, as `QueryBatch::sigma`
                     by_material,
                     facets_seen: batches.iter().map(QueryBatch::len).sum(),
+                    outside_coverage,
                 }
             },
         )

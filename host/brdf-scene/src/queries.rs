@@ -63,6 +63,20 @@ impl QueryBatch {
     }
 }
 
+impl QueryBatch {
+    /// `sum_k weight[k] f_r(k)` over the queries outside `table`'s coverage
+    /// (`brdf_core::fitted::FittedTable::covers`), `values` the `f_r` of every query (as
+    /// [`QueryBatch::sigma`] leaves them in its scratch).
+    pub fn outside_coverage(&self, table: &brdf_core::fitted::FittedTable<'_>, values: &[f64]) -> f64 {
+        (0..self.len())
+            .filter(|&k| {
+                let g = brdf_core::Geometry::from_cosines(self.cos_theta_i[k], self.cos_theta_r[k], self.cos_phi[k]);
+                !table.covers(&g)
+            })
+            .fold(0.0, |s, k| s + self.weight[k] * values[k])
+    }
+}
+
 /// The queries of one aspect, one [`QueryBatch`] per material (scene order). `stack` is scratch
 /// space for the occlusion rays.
 pub fn aspect_queries(scene: &Scene, aspect: &Aspect, stack: &mut Vec<usize>) -> Vec<QueryBatch> {

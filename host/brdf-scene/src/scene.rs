@@ -28,12 +28,6 @@ use serde::Deserialize;
 use thiserror::Error;
 use toml::Spanned;
 
-/// Why a scene refuses a fitted table (rather than using its base model alone, which would be
-/// a different material).
-const FITTED_TABLE_NOT_IN_SCENES: &str = "a fitted table (base model times a measured correction); \
-    scenes evaluate analytic models only so far: give the analytic fit (`brdf select` without \
-    the table, or `brdf fit`)";
-
 use crate::mesh::{Mesh, MeshError, Origin};
 use crate::occlusion::Occluder;
 
@@ -151,8 +145,12 @@ pub enum Source {
 pub struct SceneMaterial {
     /// The part it covers (`*` for the rest).
     pub part: String,
-    /// The model, f64.
+    /// The model, f64 (a fitted table's base when `table` is given).
     pub model: AnyModel<f64>,
+    /// A fitted table's device bytes (`brdf_core::fitted`): the material is then `model`
+    /// times the tabulated correction (a `brdf select --chosen` fit, or a blob material
+    /// that carries one).
+    pub table: Option<Vec<u8>>,
     /// Where the parameters came from.
     pub source: Source,
     /// Line of the entry's `part` in the scene file (0 for scenes built in memory).
@@ -165,8 +163,21 @@ impl SceneMaterial {
         SceneMaterial {
             part: part.to_owned(),
             model,
+            table: None,
             source: Source::Params,
             line: 0,
+        }
+    }
+
+    /// How σ evaluates this material: the exact f64 model, or its base times its fitted
+    /// table in f64.
+    pub fn evaluator(&self) -> crate::eval::Evaluator {
+        match &self.table {
+            Some(bytes) => crate::eval::Evaluator::ExactCorrected {
+                base: self.model,
+                bytes: bytes.clone(),
+            },
+            None => crate::eval::Evaluator::Exact(self.model),
         }
     }
 }
@@ -374,10 +385,11 @@ impl Scene {
         for entry in &parsed.materials {
             let e = entry.get_ref();
             let line = line_of(&text, e.part.span().start);
-            let (model, source) = resolve_material(e, dir, &field)?;
+            let (model, source, table) = resolve_material(e, dir, &field)?;
             materials.push(SceneMaterial {
                 part: e.part.get_ref().clone(),
                 model,
+                table,
                 source,
                 line,
             });
@@ -509,7 +521,7 @@ fn resolve_material(
     e: &MaterialEntry,
     dir: &Path,
     field: &dyn Fn(Range<usize>, &'static str, String) -> SceneError,
-) -> Result<(AnyModel<f64>, Source), SceneError> {
+) -> Result<(AnyModel<f64>, Source, Option<Vec<u8>>), SceneError> {
     let given = [
         e.model.is_some() || e.params.is_some(),
         e.fit.is_some(),
@@ -550,7 +562,7 @@ fn resolve_material(
             .map_err(|err| field(model.span(), "model", err.to_string()))?;
         let p = brdf_fit::params::parse_params(kind, params.get_ref())
             .map_err(|err| field(params.span(), "params", err.to_string()))?;
-        return Ok((build(kind, &p, params.span(), "params")?, Source::Params));
+        return Ok((build(kind, &p, params.span(), "params")?, Source::Params, None));
     }
     if let Some(fit) = &e.fit {
         let path = dir.join(fit.get_ref());
@@ -558,16 +570,10 @@ fn resolve_material(
         let text = std::fs::read_to_string(&path)
             .map_err(|err| field(fit.span(), "fit", format!("{shown}: {err}")))?;
         let one = FittedModel::one_of(&text, &shown, index).map_err(|m| field(fit.span(), "fit", m))?;
-        if one.table.is_some() {
-            return Err(field(
-                fit.span(),
-                "fit",
-                format!("{shown}: fit {}: {FITTED_TABLE_NOT_IN_SCENES}", one.index),
-            ));
-        }
         return Ok((
             build(one.model, &one.params, fit.span(), "fit")?,
             Source::Fit(path, one.index),
+            one.table,
         ));
     }
     let blob = e.blob.as_ref().expect("exactly one source is given");
@@ -595,16 +601,11 @@ fn resolve_material(
             format!("{shown} holds {n} materials; there is no index {k}"),
         ));
     };
-    if m.fitted.is_some() {
-        return Err(field(
-            blob.span(),
-            "blob",
-            format!("{shown}: material {k}: {FITTED_TABLE_NOT_IN_SCENES}"),
-        ));
-    }
+    // Blob::decode checked the table.
+    let table = m.fitted.and_then(|f| f.bytes(&bytes)).map(<[u8]>::to_vec);
     let mut p = [0.0; MAX_PARAMS];
     for (dst, src) in p.iter_mut().zip(m.params) {
         *dst = f64::from(src);
     }
-    Ok((build(m.kind, &p, blob.span(), "blob")?, Source::Blob(path, k)))
+    Ok((build(m.kind, &p, blob.span(), "blob")?, Source::Blob(path, k), table))
 }

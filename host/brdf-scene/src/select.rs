@@ -91,7 +91,7 @@ pub struct MaterialChoice {
     /// Its part (`*`: the other parts).
     pub part: String,
     /// The material's own model.
-    pub model: &'static str,
+    pub model: String,
     /// Queries it receives over the sweep.
     pub queries: usize,
     /// Aspects that see it.
@@ -267,8 +267,9 @@ fn fit_sample(
     out
 }
 
-/// The rungs of material `m`: its own model with its own parameters (as flashed), every
-/// other model of the ladder fitted to `points`, each with its tables where it has them.
+/// The rungs of material `m`: its own model with its own parameters (as flashed), or its
+/// fitted table as it is; every other model of the ladder fitted to `points`, each with its
+/// tables where it has them.
 fn drafts(
     scene: &Scene,
     m: usize,
@@ -276,11 +277,23 @@ fn drafts(
     opts: &SelectOptions,
     notes: &mut Vec<String>,
 ) -> Vec<Rung> {
-    let own = &scene.materials[m].model;
-    let own_kind = own.kind();
+    let material = &scene.materials[m];
+    let own = &material.model;
+    // A fitted table's base is not the material: every model of the ladder is fitted to it.
+    let own_kind = material.table.is_none().then(|| own.kind());
     let mut out = Vec::new();
+    if let Some(bytes) = &material.table {
+        let built = brdf_wire::blob::Material::from_params(own.kind(), &own.to_params())
+            .map_err(|e| e.to_string())
+            .and_then(|base| base.with_fitted(bytes).map_err(|e| e.to_string()))
+            .and_then(|base| crate::ladder::fitted_rung(base, bytes.clone()));
+        match built {
+            Ok(r) => out.push(r),
+            Err(e) => notes.push(e),
+        }
+    }
     for kind in ModelKind::LADDER {
-        let (label, params): (String, [f64; MAX_PARAMS]) = if kind == own_kind {
+        let (label, params): (String, [f64; MAX_PARAMS]) = if Some(kind) == own_kind {
             (kind.name().to_owned(), own.to_params())
         } else if points.len() < kind.param_count() + 1 {
             if !points.is_empty() {
@@ -314,7 +327,7 @@ pub fn select(scene: &Scene, domain: &SceneQueries, opts: &SelectOptions) -> Sce
     let exact: Vec<Evaluator> = scene
         .materials
         .iter()
-        .map(|m| Evaluator::Exact(m.model))
+        .map(|m| m.evaluator())
         .collect();
     let sigma = domain.sigma(&exact);
     let mut materials = Vec::new();
@@ -380,7 +393,10 @@ pub fn select(scene: &Scene, domain: &SceneQueries, opts: &SelectOptions) -> Sce
         materials.push(MaterialChoice {
             index: m,
             part: scene.material_label(m),
-            model: scene.materials[m].model.kind().name(),
+            model: match &scene.materials[m].table {
+                Some(_) => format!("{} + table", scene.materials[m].model.kind().name()),
+                None => scene.materials[m].model.kind().name().to_owned(),
+            },
             queries,
             aspects_seen: seen.len(),
             candidates,

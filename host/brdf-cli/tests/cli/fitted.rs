@@ -204,23 +204,54 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
         text.replacen("\"smoothness\"", "\"smoothnes\"", 1),
         "unknown field `smoothnes`",
     );
-    // A scene refuses it rather than using the base model alone.
+    // A scene evaluates it (base times table, f64) and says how much of the material's sigma
+    // comes from directions the in-plane measurements did not cover.
     let scene = p("scene.toml");
     let bundled = std::fs::read_to_string(repo("data/scenes/target.toml")).unwrap();
     let hull = "model = \"six\"\nparams = \"kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2\"";
     assert!(bundled.contains(hull));
-    std::fs::write(
-        &scene,
+    let with = |fit: &str| {
         bundled
-            .replace(
-                "mesh = \"target.obj\"",
-                &format!("mesh = \"{}\"", repo("data/scenes/target.obj")),
-            )
-            .replace(hull, &format!("fit = \"{}\"", p("chosen.json"))),
+            .replace("mesh = \"target.obj\"", &format!("mesh = \"{}\"", repo("data/scenes/target.obj")))
+            .replace(hull, fit)
+    };
+    std::fs::write(&scene, with(&format!("fit = \"{}\"", p("chosen.json")))).unwrap();
+    let out = brdf(&["scene", "lrcs", &scene, "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let hull_report = &report["materials"][0];
+    assert_eq!(hull_report["fitted_table"], true);
+    let outside = hull_report["outside_coverage"].as_f64().unwrap();
+    assert!(outside > 0.0 && outside < 1.0, "{outside}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("a fitted table") && err.contains("did not cover"), "{err}");
+    // Its sigma is the table's, not the base model's: the same scene with the bare base differs.
+    std::fs::write(
+        p("base.toml"),
+        with(&format!("model = \"lambert\"\nparams = \"rho0={}\"", chosen["params"]["rho0"])),
     )
     .unwrap();
-    let err = fails(&["scene", "lrcs", &scene]);
-    assert!(err.contains("fitted table"), "{err}");
+    let base: serde_json::Value = serde_json::from_str(&ok(&["scene", "lrcs", &p("base.toml"), "--json"])).unwrap();
+    let sigma = |r: &serde_json::Value| -> f64 {
+        r["aspects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|a| a["by_material"][0].as_f64().unwrap())
+            .sum()
+    };
+    assert!((sigma(&report) / sigma(&base) - 1.0).abs() > 0.1, "{} vs {}", sigma(&report), sigma(&base));
+    // select --scene offers the table as it is, beside the ladder fitted to it.
+    let sel: serde_json::Value =
+        serde_json::from_str(&ok(&["select", "--scene", &scene, "--budget", "1%", "--json"])).unwrap();
+    let names: Vec<&str> = sel["materials"][0]["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["name"].as_str().unwrap())
+        .collect();
+    assert!(names.contains(&"lambert + table"), "{names:?}");
+    assert_eq!(sel["materials"][0]["model"], "lambert + table");
 }
 
 #[test]
