@@ -115,7 +115,7 @@ pub(crate) fn interruptible<T: Send + 'static>(
         .spawn(move || {
             let _ = tx.send(work());
         })
-        .map_err(|e| PyValueError::new_err(format!("cannot start the fit: {e}")))?;
+        .map_err(|e| PyValueError::new_err(format!("cannot start the work thread: {e}")))?;
     let mut rx = rx;
     loop {
         // The receiver is `Send`, not `Sync`: it goes to the wait and comes back.
@@ -126,7 +126,7 @@ pub(crate) fn interruptible<T: Send + 'static>(
             Err(std::sync::mpsc::RecvTimeoutError::Timeout) => py.check_signals()?,
             Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
                 return Err(PyValueError::new_err(
-                    "the fit stopped without a result (it panicked)",
+                    "the work stopped without a result (it panicked)",
                 ))
             }
         }

@@ -1,4 +1,4 @@
-//! `brdf.scene_lrcs`, `brdf.scene_domain`, `brdf.select_scene`: the scene commands through the same library calls.
+//! `brdf.scene_lrcs`, `brdf.scene_domain`, `brdf.select_scene`: the scene commands through the same library calls, each interrupted at once by Ctrl-C.
 
 use super::*;
 
@@ -26,10 +26,11 @@ pub(crate) type SceneLrcs = (
 pub(crate) fn scene_lrcs(py: Python<'_>, path: String) -> PyResult<SceneLrcs> {
     use brdf_scene::lrcs::{lrcs, LrcsReport};
     let scene = scene_at(&path)?;
-    py.detach(|| {
+    // Ctrl-C raises at once (`interruptible`); an interrupted sweep ends in the background.
+    crate::fit::interruptible(py, move || -> Result<SceneLrcs, String> {
         let result = lrcs(&scene, &|| {});
         let text = serde_json::to_string_pretty(&LrcsReport::new(path, &scene, &result))
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            .map_err(|e| e.to_string())?;
         let a = &result.aspects;
         Ok((
             text,
@@ -40,7 +41,8 @@ pub(crate) fn scene_lrcs(py: Python<'_>, path: String) -> PyResult<SceneLrcs> {
             a.iter().map(|x| x.facets_seen).collect(),
             scene.materials.iter().map(|m| m.part.clone()).collect(),
         ))
-    })
+    })?
+    .map_err(PyValueError::new_err)
 }
 
 /// The scene's queries, as `brdf scene domain` writes them.
@@ -61,7 +63,7 @@ pub(crate) type SceneDomain = (
 #[pyfunction]
 pub(crate) fn scene_domain(py: Python<'_>, path: String) -> PyResult<SceneDomain> {
     let scene = scene_at(&path)?;
-    Ok(py.detach(|| {
+    crate::fit::interruptible(py, move || {
         let d = brdf_scene::queries::collect_queries(&scene, &|| {});
         let mut c: SceneDomain = Default::default();
         for r in brdf_scene::queries::rows(&scene, &d) {
@@ -76,7 +78,7 @@ pub(crate) fn scene_domain(py: Python<'_>, path: String) -> PyResult<SceneDomain
             c.8.push(r.weight);
         }
         c
-    }))
+    })
 }
 
 /// `brdf select --scene` through the same library calls (`brdf_scene::queries::collect_queries`,
@@ -105,12 +107,12 @@ pub(crate) fn select_scene<'py>(
         allow_nonphysical,
         ..SelectOptions::default()
     };
-    let (text, blob, note) = py.detach(|| {
+    let (text, blob, note) = crate::fit::interruptible(py, move || {
         let domain = brdf_scene::queries::collect_queries(&scene, &|| {});
         let s = select(&scene, &domain, &opts);
         let text = serde_json::to_string_pretty(&s).map_err(|e| e.to_string());
         (text, s.blob().map(<[u8]>::to_vec), s.blob_note.clone())
-    });
+    })?;
     let text = text.map_err(PyValueError::new_err)?;
     Ok((text, blob.map(|b| PyBytes::new(py, &b)), note))
 }

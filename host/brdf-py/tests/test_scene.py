@@ -102,3 +102,38 @@ def test_select_scene_refuses_a_bad_budget_and_scene(tmp_path):
         brdf.select_scene("data/scenes/target.toml", budget=0)
     with pytest.raises(ValueError, match="cannot use scene"):
         brdf.select_scene(tmp_path / "none.toml")
+
+
+def test_ctrl_c_interrupts_a_long_sweep(root, tmp_path):
+    """Ctrl-C raises KeyboardInterrupt during `brdf.scene_lrcs` at once (it was honoured only
+    when the sweep ended). The sweep below takes tens of seconds; the child must be gone
+    within a few seconds of the signal."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    text = (root / SCENE).read_text()
+    text = text.replace('mesh = "target.obj"', f'mesh = "{root / "data/scenes/target.obj"}"')
+    text = text.replace("azimuth_deg = [0, 360, 5]", "azimuth_deg = [0, 360, 0.1]")
+    text = text.replace("elevation_deg = [0, 31, 15]", "elevation_deg = [0, 90, 1]")
+    scene = tmp_path / "long.toml"
+    scene.write_text(text)
+    code = (
+        "import brdf\n"
+        "print('started', flush=True)\n"
+        f"brdf.scene_lrcs({str(scene)!r})\n"
+        "print('finished', flush=True)\n"
+    )
+    child = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    assert child.stdout.readline().strip() == "started"
+    time.sleep(1.0)
+    sent = time.monotonic()
+    child.send_signal(signal.SIGINT)
+    out, err = child.communicate(timeout=120)
+    took = time.monotonic() - sent
+    assert child.returncode != 0 and "KeyboardInterrupt" in err, (out, err)
+    assert "finished" not in out
+    assert took < 5.0, f"{took:.1f} s after Ctrl-C"
