@@ -80,11 +80,7 @@ fn main() {
             }
             // Split: the queries (geometry and rays) against the BRDF evaluation of them.
             let d = pool.install(|| collect_queries(&scene, &|| {}));
-            let models: Vec<Evaluator> = scene
-                .materials
-                .iter()
-                .map(|m| m.evaluator())
-                .collect();
+            let models: Vec<Evaluator> = scene.materials.iter().map(|m| m.evaluator()).collect();
             let t = Instant::now();
             let mut scratch = Vec::new();
             let mut total = 0.0;

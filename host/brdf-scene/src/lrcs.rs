@@ -141,11 +141,7 @@ impl Lrcs {
 /// σ at every aspect with each material's exact model (f64), in parallel over aspects;
 /// `progress` is called once per aspect done.
 pub fn lrcs(scene: &Scene, progress: &(dyn Fn() + Sync)) -> Lrcs {
-    let models: Vec<Evaluator> = scene
-        .materials
-        .iter()
-        .map(|m| m.evaluator())
-        .collect();
+    let models: Vec<Evaluator> = scene.materials.iter().map(|m| m.evaluator()).collect();
     lrcs_with(scene, &models, progress)
 }
 

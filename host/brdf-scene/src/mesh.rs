@@ -23,6 +23,17 @@ use thiserror::Error;
 /// noise; a real surface has no such facet.
 pub const DEGENERATE_SINE: f64 = 1e-10;
 
+/// Facets are coplanar when their normals agree to this (1 - cos of the angle between them)
+/// and their planes are this fraction of the mesh's diagonal apart: far tighter than any
+/// modelled offset (a decal lifted 1 mm off a 10 m hull is 1e-4), far looser than the
+/// rounding of an exporter's coordinates (1e-12 relative).
+pub const COPLANAR_REL: f64 = 1e-9;
+
+/// Two coplanar facets overlap when they interpenetrate deeper than this fraction of the
+/// smaller one's size (the square root of its area): facets that merely touch along an edge
+/// or at a vertex interpenetrate by rounding alone (1e-16 of their size).
+pub const OVERLAP_REL: f64 = 1e-6;
+
 /// A closed shell whose signed volume is within this fraction of its bounding box volume of
 /// zero encloses nothing (a two-sided sheet, two facets back to back) and has no inside to
 /// face; its orientation is not checked.
@@ -149,6 +160,24 @@ pub enum MeshError {
         from: [f64; 3],
         /// Edge end, m.
         to: [f64; 3],
+    },
+    /// Two facets facing the same way on the same plane overlap: the surface there would be
+    /// counted twice (a decal, or a part exported twice with another triangulation).
+    #[error(
+        "{file}: {a} and {b} lie on each other, facing the same way (in the same plane, \
+         overlapping {depth:.3e} m deep): the surface there would be counted twice; remove one \
+         (a decal on a hull must be cut out of it, or lifted off it)"
+    )]
+    Coincident {
+        /// Mesh file.
+        file: String,
+        /// First facet.
+        a: Origin,
+        /// Second facet.
+        b: Origin,
+        /// How far they interpenetrate (the least overlap of their projections on their
+        /// edges' normals), m.
+        depth: f64,
     },
     /// A closed shell wound inside out.
     #[error(
@@ -351,6 +380,7 @@ impl Mesh {
             origins,
         };
         mesh.check_winding()?;
+        mesh.check_coincident()?;
         Ok(mesh)
     }
 
@@ -371,6 +401,130 @@ impl Mesh {
     pub fn diagonal(&self) -> f64 {
         let (lo, hi) = self.bounds();
         v3::norm(v3::sub(hi, lo))
+    }
+
+    /// No two facets facing the same way overlap in the same plane ([`COPLANAR_REL`],
+    /// [`OVERLAP_REL`]). Facets are grouped by plane (normal and offset), then compared only
+    /// within a plane through a grid of cells about one facet wide, so the check is about
+    /// linear in the facet count.
+    fn check_coincident(&self) -> Result<(), MeshError> {
+        let diag = self.diagonal().max(f64::MIN_POSITIVE);
+        let tol = COPLANAR_REL * diag;
+        // Planes: normals rounded to 1e-4 (exporters' rounding leaves them 1e-12 apart), then
+        // offsets sorted within each.
+        let key = |n: [f64; 3]| n.map(|c| (c * 1e4).round() as i64);
+        let mut groups: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+        for (k, f) in self.facets.iter().enumerate() {
+            groups.entry(key(f.normal)).or_default().push(k);
+        }
+        let offset = |k: usize| v3::dot(self.facets[k].normal, self.facets[k].centroid);
+        for members in groups.values_mut() {
+            if members.len() < 2 {
+                continue;
+            }
+            members.sort_by(|&a, &b| offset(a).total_cmp(&offset(b)));
+            // Runs of facets whose offsets chain within `tol`: one plane each.
+            let mut start = 0;
+            for end in 1..=members.len() {
+                if end < members.len() && offset(members[end]) - offset(members[end - 1]) <= tol {
+                    continue;
+                }
+                let plane = &members[start..end];
+                if plane.len() > 1 {
+                    self.overlaps_in_plane(plane)?;
+                }
+                start = end;
+            }
+        }
+        Ok(())
+    }
+
+    /// The coincidence check within one plane: 2-D triangles (the plane's two axes of least
+    /// normal component) binned in a uniform grid, pairs sharing a cell tested by separating
+    /// axes.
+    fn overlaps_in_plane(&self, plane: &[usize]) -> Result<(), MeshError> {
+        let n = self.facets[plane[0]].normal;
+        let drop = (0..3)
+            .max_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs()))
+            .unwrap_or(2);
+        let (u, w) = match drop {
+            0 => (1, 2),
+            1 => (0, 2),
+            _ => (0, 1),
+        };
+        let tri = |k: usize| -> [[f64; 2]; 3] {
+            self.facets[k]
+                .vertices
+                .map(|i| [self.vertices[i as usize][u], self.vertices[i as usize][w]])
+        };
+        let tris: Vec<[[f64; 2]; 3]> = plane.iter().map(|&k| tri(k)).collect();
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        let mut edge_sum = 0.0;
+        for t in &tris {
+            for p in t {
+                for c in 0..2 {
+                    lo[c] = lo[c].min(p[c]);
+                    hi[c] = hi[c].max(p[c]);
+                }
+            }
+            edge_sum += (0..3)
+                .map(|e| {
+                    let (a, b) = (t[e], t[(e + 1) % 3]);
+                    (a[0] - b[0]).hypot(a[1] - b[1])
+                })
+                .fold(0.0, f64::max);
+        }
+        // Cells about as wide as the mean facet, at most 4 per facet along each axis of the plane.
+        let cell = (edge_sum / tris.len() as f64)
+            .max((hi[0] - lo[0]).max(hi[1] - lo[1]) / (4.0 * tris.len() as f64).sqrt())
+            .max(f64::MIN_POSITIVE);
+        let cells = |x: f64, c: usize| ((x - lo[c]) / cell).floor() as i64;
+        let boxes: Vec<[f64; 4]> = tris
+            .iter()
+            .map(|t| {
+                let (x, y) = (t.map(|p| p[0]), t.map(|p| p[1]));
+                [
+                    x[0].min(x[1]).min(x[2]),
+                    y[0].min(y[1]).min(y[2]),
+                    x[0].max(x[1]).max(x[2]),
+                    y[0].max(y[1]).max(y[2]),
+                ]
+            })
+            .collect();
+        let mut grid: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+        for (j, b) in boxes.iter().enumerate() {
+            for x in cells(b[0], 0)..=cells(b[2], 0) {
+                for y in cells(b[1], 1)..=cells(b[3], 1) {
+                    grid.entry((x, y)).or_default().push(j);
+                }
+            }
+        }
+        for (&at, list) in &grid {
+            for (i, &a) in list.iter().enumerate() {
+                for &b in &list[i + 1..] {
+                    let (ba, bb) = (boxes[a], boxes[b]);
+                    let (x0, y0) = (ba[0].max(bb[0]), ba[1].max(bb[1]));
+                    // Boxes apart, or the pair is met again in the cell where their common
+                    // box begins: tested there only.
+                    if x0 >= ba[2].min(bb[2]) || y0 >= ba[3].min(bb[3]) || (cells(x0, 0), cells(y0, 1)) != at
+                    {
+                        continue;
+                    }
+                    let (fa, fb) = (&self.facets[plane[a]], &self.facets[plane[b]]);
+                    let size = fa.area.min(fb.area).sqrt();
+                    let depth = overlap_depth(&tris[a], &tris[b]);
+                    if depth > OVERLAP_REL * size {
+                        return Err(MeshError::Coincident {
+                            file: self.file.display().to_string(),
+                            a: self.origins[plane[a.min(b)]],
+                            b: self.origins[plane[a.max(b)]],
+                            depth,
+                        });
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Consistent winding across shared edges; closed shells face outwards. An edge shared by
@@ -740,6 +894,30 @@ impl BufRead for LineCounter<'_> {
     }
 }
 
+/// The smallest overlap of two 2-D triangles' projections over the six edge normals (the
+/// separating axes of two triangles), in length units: 0 or less when they are disjoint or
+/// only touch. The normals are unit, so the overlap is a distance.
+fn overlap_depth(a: &[[f64; 2]; 3], b: &[[f64; 2]; 3]) -> f64 {
+    let mut depth = f64::INFINITY;
+    for t in [a, b] {
+        for e in 0..3 {
+            let (p, q) = (t[e], t[(e + 1) % 3]);
+            let (nx, ny) = (q[1] - p[1], p[0] - q[0]);
+            let len = nx.hypot(ny);
+            if len == 0.0 {
+                continue;
+            }
+            let proj = |s: &[[f64; 2]; 3]| {
+                let v = s.map(|r| (r[0] * nx + r[1] * ny) / len);
+                (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2]))
+            };
+            let ((a0, a1), (b0, b1)) = (proj(a), proj(b));
+            depth = depth.min(a1.min(b1) - a0.max(b0));
+        }
+    }
+    depth
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -908,5 +1086,84 @@ mod tests {
                    endloop\nendfacet\nendsolid t\n";
         std::fs::write(&p, format!("\u{feff}{stl}")).unwrap();
         assert_eq!(Mesh::load(&p).unwrap().facets.len(), 1);
+    }
+}
+
+#[cfg(test)]
+mod coincident_tests {
+    use super::*;
+
+    fn obj(text: &str) -> Result<Mesh, MeshError> {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.obj");
+        std::fs::write(&p, text).unwrap();
+        Mesh::load(&p)
+    }
+
+    /// A 2 x 2 plate (two triangles) facing +z, and a 1 x 1 decal on it at height `z`,
+    /// triangulated along its other diagonal, as its own part.
+    fn plate_and_decal(z: f64, decal_faces_up: bool) -> String {
+        let decal = if decal_faces_up {
+            "f 5 6 7\nf 5 7 8\n"
+        } else {
+            "f 5 7 6\nf 5 8 7\n"
+        };
+        format!(
+            "v 0 0 0\nv 2 0 0\nv 2 2 0\nv 0 2 0\nv 0.5 0.5 {z}\nv 1.5 0.5 {z}\nv 1.5 1.5 {z}\nv 0.5 1.5 {z}\n\
+             o plate\nf 1 2 3\nf 1 3 4\no decal\n{decal}"
+        )
+    }
+
+    #[test]
+    fn a_decal_on_a_hull_is_refused_naming_both_facets() {
+        // The decal lying on the plate was counted twice (sigma doubled there).
+        let e = obj(&plate_and_decal(0.0, true)).unwrap_err().to_string();
+        assert!(e.contains("lie on each other") && e.contains("line 1"), "{e}");
+        // Lifted 1 mm, it occludes the plate instead: accepted. Facing the other way (a
+        // two-sided sheet), accepted.
+        obj(&plate_and_decal(1e-3, true)).unwrap();
+        obj(&plate_and_decal(0.0, false)).unwrap();
+        // The same plate split into four triangles that only share edges: accepted.
+        obj("v 0 0 0\nv 2 0 0\nv 2 2 0\nv 0 2 0\nv 1 1 0\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\n").unwrap();
+        // A second copy of the plate triangulated along the other diagonal.
+        let twice =
+            "v 0 0 0\nv 2 0 0\nv 2 2 0\nv 0 2 0\nf 1 2 3\nf 1 3 4\nv 0 0 0.0\nv 2 0 0\nv 2 2 0\nv 0 2 0\n";
+        let e = obj(&format!("{twice}o copy\nf 2 3 4\nf 2 4 1\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("lie on each other") || e.contains("inconsistent winding"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn the_bundled_target_and_a_large_flat_plate_pass_quickly() {
+        let target = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/target.obj");
+        Mesh::load(&target).unwrap();
+        // 200 x 200 quads in one plane: 80,000 coplanar triangles, compared through the grid.
+        let n = 200;
+        let mut text = String::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                text.push_str(&format!("v {i} {j} 0\n"));
+            }
+        }
+        for j in 0..n {
+            for i in 0..n {
+                let a = j * (n + 1) + i + 1;
+                text.push_str(&format!(
+                    "f {a} {} {}\nf {a} {} {}\n",
+                    a + 1,
+                    a + n + 2,
+                    a + n + 2,
+                    a + n + 1
+                ));
+            }
+        }
+        let t = std::time::Instant::now();
+        let m = obj(&text).unwrap();
+        assert_eq!(m.facets.len(), 2 * n * n);
+        println!("{} coplanar facets checked in {:?}", m.facets.len(), t.elapsed());
     }
 }

@@ -70,7 +70,11 @@ impl QueryBatch {
     pub fn outside_coverage(&self, table: &brdf_core::fitted::FittedTable<'_>, values: &[f64]) -> f64 {
         (0..self.len())
             .filter(|&k| {
-                let g = brdf_core::Geometry::from_cosines(self.cos_theta_i[k], self.cos_theta_r[k], self.cos_phi[k]);
+                let g = brdf_core::Geometry::from_cosines(
+                    self.cos_theta_i[k],
+                    self.cos_theta_r[k],
+                    self.cos_phi[k],
+                );
                 !table.covers(&g)
             })
             .fold(0.0, |s, k| s + self.weight[k] * values[k])

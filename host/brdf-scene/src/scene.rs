@@ -607,5 +607,9 @@ fn resolve_material(
     for (dst, src) in p.iter_mut().zip(m.params) {
         *dst = f64::from(src);
     }
-    Ok((build(m.kind, &p, blob.span(), "blob")?, Source::Blob(path, k), table))
+    Ok((
+        build(m.kind, &p, blob.span(), "blob")?,
+        Source::Blob(path, k),
+        table,
+    ))
 }

@@ -324,11 +324,7 @@ fn drafts(
 /// Chooses, per material of `scene`, the cheapest representation within `opts.budget` over
 /// the queries of `domain` (from [`crate::queries::collect_queries`]), and encodes the chosen set.
 pub fn select(scene: &Scene, domain: &SceneQueries, opts: &SelectOptions) -> SceneSelection {
-    let exact: Vec<Evaluator> = scene
-        .materials
-        .iter()
-        .map(|m| m.evaluator())
-        .collect();
+    let exact: Vec<Evaluator> = scene.materials.iter().map(|m| m.evaluator()).collect();
     let sigma = domain.sigma(&exact);
     let mut materials = Vec::new();
     for m in 0..scene.materials.len() {

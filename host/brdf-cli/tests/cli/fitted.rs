@@ -212,7 +212,10 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
     assert!(bundled.contains(hull));
     let with = |fit: &str| {
         bundled
-            .replace("mesh = \"target.obj\"", &format!("mesh = \"{}\"", repo("data/scenes/target.obj")))
+            .replace(
+                "mesh = \"target.obj\"",
+                &format!("mesh = \"{}\"", repo("data/scenes/target.obj")),
+            )
             .replace(hull, fit)
     };
     std::fs::write(&scene, with(&format!("fit = \"{}\"", p("chosen.json")))).unwrap();
@@ -224,14 +227,21 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
     let outside = hull_report["outside_coverage"].as_f64().unwrap();
     assert!(outside > 0.0 && outside < 1.0, "{outside}");
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("a fitted table") && err.contains("did not cover"), "{err}");
+    assert!(
+        err.contains("a fitted table") && err.contains("did not cover"),
+        "{err}"
+    );
     // Its sigma is the table's, not the base model's: the same scene with the bare base differs.
     std::fs::write(
         p("base.toml"),
-        with(&format!("model = \"lambert\"\nparams = \"rho0={}\"", chosen["params"]["rho0"])),
+        with(&format!(
+            "model = \"lambert\"\nparams = \"rho0={}\"",
+            chosen["params"]["rho0"]
+        )),
     )
     .unwrap();
-    let base: serde_json::Value = serde_json::from_str(&ok(&["scene", "lrcs", &p("base.toml"), "--json"])).unwrap();
+    let base: serde_json::Value =
+        serde_json::from_str(&ok(&["scene", "lrcs", &p("base.toml"), "--json"])).unwrap();
     let sigma = |r: &serde_json::Value| -> f64 {
         r["aspects"]
             .as_array()
@@ -240,7 +250,12 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
             .map(|a| a["by_material"][0].as_f64().unwrap())
             .sum()
     };
-    assert!((sigma(&report) / sigma(&base) - 1.0).abs() > 0.1, "{} vs {}", sigma(&report), sigma(&base));
+    assert!(
+        (sigma(&report) / sigma(&base) - 1.0).abs() > 0.1,
+        "{} vs {}",
+        sigma(&report),
+        sigma(&base)
+    );
     // select --scene offers the table as it is, beside the ladder fitted to it.
     let sel: serde_json::Value =
         serde_json::from_str(&ok(&["select", "--scene", &scene, "--budget", "1%", "--json"])).unwrap();
