@@ -516,12 +516,15 @@ fn sweep(v: &Spanned<Vec<f64>>, lo: f64, hi: f64) -> Result<Vec<f64>, String> {
     Ok(out)
 }
 
+/// A material entry resolved: its model, where it came from, and a fitted table's bytes.
+type Resolved = (AnyModel<f64>, Source, Option<Vec<u8>>);
+
 /// The model of one `[[material]]` entry: exactly one of `model`+`params`, `fit`, `blob`.
 fn resolve_material(
     e: &MaterialEntry,
     dir: &Path,
     field: &dyn Fn(Range<usize>, &'static str, String) -> SceneError,
-) -> Result<(AnyModel<f64>, Source, Option<Vec<u8>>), SceneError> {
+) -> Result<Resolved, SceneError> {
     let given = [
         e.model.is_some() || e.params.is_some(),
         e.fit.is_some(),
