@@ -115,6 +115,8 @@ pub enum FittedError {
     Range,
     /// Values to encode that are not finite or do not match the shape.
     Values,
+    /// More bytes than a parameter blob holds (bytes given).
+    TooLarge(usize),
 }
 
 impl core::fmt::Display for FittedError {
@@ -133,25 +135,31 @@ impl core::fmt::Display for FittedError {
                 "fitted table: its ln range is not finite, not increasing or beyond +-{FITTED_LN_LIMIT}"
             ),
             FittedError::Values => write!(f, "fitted table: values not finite or not one per cell"),
+            FittedError::TooLarge(n) => write!(
+                f,
+                "fitted table of {n} bytes: more than a parameter blob holds (4096 bytes); use fewer nodes"
+            ),
         }
     }
 }
 
 impl core::error::Error for FittedError {}
 
-/// The three axis values of a direction pair, each in `[0, 1]` (see the module docs). Only
-/// meaningful above the horizon (the models return there before asking).
+/// The three axis values of a direction pair, each in `[0, 1]` (see the module docs); NaN
+/// for a geometry built from NaN. Only meaningful above the horizon (the models return
+/// there before asking).
 #[inline]
 pub fn axes<T: Float>(g: &Geometry<T>) -> [T; 3] {
     let omca = g.one_minus_cos_alpha();
     let omcg = g.one_minus_cos_gamma();
+    // Clamped to [0, 1]; NaN stays NaN.
     let unit = |x: T| {
         if x > T::ONE {
             T::ONE
-        } else if x > T::ZERO {
-            x
-        } else {
+        } else if x < T::ZERO {
             T::ZERO
+        } else {
+            x
         }
     };
     // ((1 - cos theta_h)^2 + e^2)^(1/8), e = THETA_H_KNEE^4, shifted and scaled to [0, 1].
@@ -165,8 +173,14 @@ pub fn axes<T: Float>(g: &Geometry<T>) -> [T; 3] {
     let s2 = (omca * (T::ONE + g.cos_alpha())) * (omcg * (T::ONE + g.cos_gamma()));
     let num = g.cos_theta_i_minus_cos_theta_r().abs();
     let den = T::TWO * s2.sqrt();
-    // |cos phi_d|; 1 (phi_d = 0) where undefined or rounded beyond 1 (NaN compares false).
-    let c = if num < den { num / den } else { T::ONE };
+    // |cos phi_d|; 1 (phi_d = 0) where undefined (0 / 0) or rounded beyond 1; NaN for NaN.
+    let c = if num < den {
+        num / den
+    } else if num >= den {
+        T::ONE
+    } else {
+        num + den
+    };
     [u, v, T::ONE - c * c]
 }
 
@@ -318,8 +332,13 @@ impl<'t> FittedTable<'t> {
     /// The correction `t = ln(f / f_base)` at `g` (above the horizon).
     #[inline]
     pub fn ln_correction<T: Float>(&self, g: &Geometry<T>) -> T {
+        let x = axes(g);
+        // A geometry that is not finite (NaN input) has no cell: NaN, never a plausible value.
+        if !(x[0].is_finite() && x[1].is_finite() && x[2].is_finite()) {
+            return x[0] + x[1] + x[2];
+        }
         let mut acc = T::ZERO;
-        for (c, w) in stencil(self.shape, axes(g)) {
+        for (c, w) in stencil(self.shape, x) {
             acc = acc + w * T::from_index(usize::from(self.q(c)));
         }
         T::from_f32(self.lo) + T::from_f32(self.step) * acc
@@ -528,6 +547,12 @@ mod tests {
         assert!(((got - want) / want).abs() < 1e-5, "{got} vs {want}");
         assert_eq!(m.eval(&Geometry::from_cosines(0.0, 0.5, 1.0)), 0.0);
         assert!(m.eval(&Geometry::from_cosines(f32::NAN, 0.5, 1.0)).is_nan());
+        // An azimuth that rounds to infinity in f32 gives NaN, not the value of cell 0 (the
+        // base alone does not depend on phi and stays finite there).
+        assert!(m.eval(&Geometry::from_angles(0.5, 0.5, f32::INFINITY)).is_nan());
+        assert!(base
+            .eval(&Geometry::from_angles(0.5, 0.5, f32::INFINITY))
+            .is_finite());
         assert_eq!(
             m.eval(&Geometry::from_cosines(0.3, 0.8, -0.4)),
             m.eval(&Geometry::from_cosines(0.8, 0.3, -0.4))

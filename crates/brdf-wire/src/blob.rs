@@ -202,6 +202,10 @@ impl Material {
     /// Gives this material (its model the base) the fitted table `bytes` ([`brdf_core::fitted`]),
     /// checked; pass the same bytes with the material to [`Blob::encode_with_tables`].
     pub fn with_fitted(mut self, bytes: &[u8]) -> Result<Material, brdf_core::fitted::FittedError> {
+        // A blob holds at most MAX_BLOB_LEN bytes; a longer table could not travel in one.
+        if bytes.len() > MAX_BLOB_LEN {
+            return Err(brdf_core::fitted::FittedError::TooLarge(bytes.len()));
+        }
         FittedTable::new(bytes)?;
         self.table = None;
         self.fitted = Some(FittedRef {

@@ -258,6 +258,32 @@ pub fn legend(r: &brdf_fit::report::FitReport) -> Result<brdf_plot::Fitted> {
     })
 }
 
+/// Whether `a` and `b` name the same file: the same inode when both exist (symbolic and hard
+/// links included), else the same path once `..`, `.` and symbolic links of the existing
+/// directories are resolved. Used to refuse an output that would overwrite an input or
+/// another output of the same command.
+pub fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return (x.dev(), x.ino()) == (y.dev(), y.ino());
+        }
+    }
+    fn resolved(p: &std::path::Path) -> Option<std::path::PathBuf> {
+        if let Ok(c) = std::fs::canonicalize(p) {
+            return Some(c);
+        }
+        let abs = std::path::absolute(p).ok()?;
+        let dir = std::fs::canonicalize(abs.parent()?).ok()?;
+        Some(dir.join(abs.file_name()?))
+    }
+    match (resolved(a), resolved(b)) {
+        (Some(x), Some(y)) => x == y,
+        _ => std::path::absolute(a).ok() == std::path::absolute(b).ok(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -49,9 +49,8 @@ pub struct FitCmd {
 impl FitCmd {
     pub fn run(self) -> Result<()> {
         if let Some(out) = &self.output {
-            let out_abs = std::path::absolute(out)?;
             for d in &self.data {
-                if std::path::absolute(d)? == out_abs {
+                if crate::common::same_file(d, out) {
                     bail!(
                         "-o {} is one of the data files: it would be overwritten",
                         out.display()

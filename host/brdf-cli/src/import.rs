@@ -31,6 +31,11 @@ pub struct ImportCmd {
 
 impl ImportCmd {
     pub fn run(self) -> Result<()> {
+        if let Some(out) = &self.output {
+            if crate::common::same_file(&self.input, out) {
+                anyhow::bail!("-o {} is the input: it would be overwritten", out.display());
+            }
+        }
         let channel =
             brdf_fit::import::channel_for(Some(self.format), self.channel).map_err(|e| anyhow::anyhow!(e))?;
         let imp = import_reporting(&self.input, self.format, channel)?;

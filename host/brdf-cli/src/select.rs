@@ -27,7 +27,9 @@ fn parse_budget(text: &str) -> Result<f64, String> {
 #[derive(Debug, Args)]
 pub struct SelectCmd {
     /// Largest acceptable error, above 0, e.g. 2% or 0.02: the held-out (cross-validated) RMS
-    /// relative error over the data's domain (when nothing meets it, the most accurate
+    /// relative error over the data's domain, the largest 2% of the held-out errors left out
+    /// (`rms rel %` of the representations is trimmed alike; the models' is not) (when nothing
+    /// meets it, the most accurate
     /// representation is chosen and written, with a warning); with --scene, the worst relative
     /// error of a material's σ at any aspect (when nothing meets it for a material, nothing
     /// is written).
@@ -76,11 +78,23 @@ pub struct SelectCmd {
 impl SelectCmd {
     pub fn run(self) -> Result<()> {
         if let (Some(o), Some(c)) = (&self.output, &self.chosen) {
-            if std::path::absolute(o)? == std::path::absolute(c)? {
+            if crate::common::same_file(o, c) {
                 bail!(
                     "-o and --chosen name the same file {}: one would overwrite the other",
                     o.display()
                 );
+            }
+        }
+        let inputs = [self.data.as_ref(), self.scene.as_ref()];
+        for (out, flag) in [(&self.output, "-o"), (&self.chosen, "--chosen")] {
+            if let Some(out) = out {
+                if let Some(input) = inputs.iter().flatten().find(|i| crate::common::same_file(i, out)) {
+                    bail!(
+                        "{flag} {} is the input {}: it would be overwritten",
+                        out.display(),
+                        input.display()
+                    );
+                }
             }
         }
         let Some(data) = self.data.clone() else {

@@ -209,6 +209,55 @@ fn f32_beyond_claim(m: &Material) -> Result<Option<String>, brdf_core::ParamErro
     }))
 }
 
+/// Zenith and azimuth steps (degrees) of the grid [`fitted_f32_beyond_bound`] checks.
+const FITTED_CHECK_STEP_DEG: (usize, usize) = (5, 15);
+
+/// A fitted-table material's f32 evaluation (the device's) against f64 over a grid of
+/// directions (zeniths 0 to 85 degrees, azimuths 0 to 180): a sentence when some value is not
+/// finite in f32, or differs by more than the table's f32 bound
+/// (`brdf_core::fitted::FittedTable::f32_max_rel` on top of [`F32_MAX_REL`]), which a table
+/// near the ends of its range does (f32 underflows to 0 or overflows); `None` otherwise.
+fn fitted_f32_beyond_bound(m: &Material, bytes: &[u8]) -> Result<Option<String>, brdf_core::ParamError> {
+    use brdf_core::fitted::{Corrected, FittedTable};
+    use brdf_core::Brdf;
+    let Ok(table) = FittedTable::new(bytes) else {
+        return Ok(Some("its table bytes are not a table".into()));
+    };
+    let p64: Vec<f64> = m.params[..m.kind.param_count()]
+        .iter()
+        .map(|&v| f64::from(v))
+        .collect();
+    let f32m = Corrected {
+        base: m.model()?,
+        table,
+    };
+    let f64m = Corrected {
+        base: brdf_core::AnyModel::<f64>::new(m.kind, &p64)?,
+        table,
+    };
+    let bound = F32_MAX_REL + table.f32_max_rel();
+    let (dz, dp) = FITTED_CHECK_STEP_DEG;
+    for ti in (0..90).step_by(dz) {
+        for tr in (0..90).step_by(dz) {
+            for phi in (0..=180).step_by(dp) {
+                // The same f32 input to both, as `brdf check` compares them.
+                let a = [ti, tr, phi].map(|d| f64::from(d).to_radians() as f32);
+                let want = f64m.eval_angles(a[0].into(), a[1].into(), a[2].into());
+                let got = f64::from(f32m.eval_angles(a[0], a[1], a[2]));
+                let off = !got.is_finite() || (want != 0.0 && (got / want - 1.0).abs() > bound);
+                if off {
+                    return Ok(Some(format!(
+                        "the device's f32 evaluation gives {got:e} where f64 gives {want:e} (theta_i \
+                         {ti}, theta_r {tr}, phi {phi} deg): beyond the table's f32 bound {bound:.1e}; \
+                         `brdf check` will fail"
+                    )));
+                }
+            }
+        }
+    }
+    Ok(None)
+}
+
 /// Packs every fit of `sources`, in order (an array adds each of its fits), into one blob.
 /// Parameters outside a model's ranges are refused; a material without a proof of energy
 /// conservation (`kb + kd > 1`, or no bound), or whose f32 evaluation errs beyond
@@ -275,6 +324,12 @@ pub fn pack(
                          evaluated as tabulated; no energy bound is claimed for it"
                     ),
                 );
+                if let Some(text) = fitted_f32_beyond_bound(&m, &bytes).map_err(refused)? {
+                    say(
+                        Level::Warning,
+                        format!("warning: {origin} ({name} + table): {text}"),
+                    );
+                }
                 materials.push(m);
                 fitted_tables.push(Some(bytes));
                 origin_of.push(origin);
@@ -300,6 +355,7 @@ pub fn pack(
         }
     }
     let mut tables = fitted_tables;
+    let mut tabulated = 0;
     if let Some(nodes) = options.table_nodes {
         for (i, (m, t)) in materials.iter_mut().zip(&mut tables).enumerate() {
             if m.six_params().is_none() || m.fitted.is_some() {
@@ -333,8 +389,14 @@ pub fn pack(
                 _ => say(Level::Info, measured),
             }
             *t = Some(bytes);
+            tabulated += 1;
         }
         match table_max_rel(nodes) {
+            // No six-parameter material without a fitted table: nothing was tabulated.
+            _ if tabulated == 0 => say(
+                Level::Warning,
+                format!("note: --table-nodes {nodes}: no material took lookup tables (six-parameter materials only)"),
+            ),
             Some(e) => say(
                 Level::Info,
                 format!(

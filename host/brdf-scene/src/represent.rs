@@ -463,10 +463,16 @@ pub fn select_data(
             let params = base
                 .params_array()
                 .map_err(|p| format!("{}: no parameter `{p}`", base.dataset))?;
-            let (rung, record) = table_rung(domain, &params)?;
-            let coverage = record.coverage;
-            reprs.push(measured(rung, domain, Some(coverage)));
-            table_record = Some(record);
+            // A base the device cannot take (an uncalibrated reading scale) leaves the table
+            // out, said in the notes, as any other unrepresentable fit.
+            match table_rung(domain, &params) {
+                Ok((rung, record)) => {
+                    let coverage = record.coverage;
+                    reprs.push(measured(rung, domain, Some(coverage)));
+                    table_record = Some(record);
+                }
+                Err(e) => notes.push(format!("{e}; fitted table left out")),
+            }
         }
     } else {
         notes.push(format!(

@@ -6,8 +6,10 @@
 //! part = "hull"                  # OBJ object or group name; "*" = every part no other entry names
 //! model = "six"                  # model and params as in `brdf eval` ...
 //! params = "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2"
-//! # ... or fit = "hull.json" (a `brdf fit --json` result; index = k for the k-th of a batch)
-//! # ... or blob = "params.bin" with index = 0 (a parameter blob's material; its tables are not used)
+//! # ... or fit = "hull.json" (a `brdf fit --json` or `brdf select --chosen` result, a fitted
+//! #     table included; index = k for the k-th of a batch)
+//! # ... or blob = "params.bin" with index = 0 (a parameter blob's material: its fitted table is
+//! #     used, its six-parameter lookup tables are not: sigma is computed in f64)
 //! [sensor]
 //! mode = "monostatic"            # or "bistatic" with separation_deg
 //! azimuth_deg = [0, 360, 5]      # start, stop (exclusive), step

@@ -303,3 +303,120 @@ fn small_data_get_no_table_and_are_told_why() {
     assert!(!has_table);
     assert!(note, "{}", v["notes"]);
 }
+
+#[test]
+fn outputs_never_overwrite_inputs_or_each_other() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).display().to_string();
+    let text = ok(&[
+        "synth",
+        "--model",
+        "lambert",
+        "--params",
+        "rho0=0.5",
+        "--theta-i",
+        "0,30",
+        "--step",
+        "20",
+    ]);
+    std::fs::write(p("d.csv"), &text).unwrap();
+    std::fs::create_dir(p("sub")).unwrap();
+    std::fs::write(p("out.bin"), b"x").unwrap();
+    std::os::unix::fs::symlink(p("out.bin"), p("link.bin")).unwrap();
+    // The same file by `..`, by a symbolic link, or the input itself: refused before any work.
+    for args in [
+        vec![
+            "select",
+            &p("d.csv"),
+            "-o",
+            &p("out.bin"),
+            "--chosen",
+            &p("sub/../out.bin"),
+        ],
+        vec![
+            "select",
+            &p("d.csv"),
+            "-o",
+            &p("out.bin"),
+            "--chosen",
+            &p("link.bin"),
+        ],
+        vec!["select", &p("d.csv"), "--chosen", &p("sub/../d.csv")],
+        vec!["fit", &p("d.csv"), "-o", &p("sub/../d.csv")],
+    ] {
+        let err = fails(&args);
+        assert!(err.contains("overwrit"), "{args:?}: {err}");
+    }
+    assert_eq!(std::fs::read(p("out.bin")).unwrap(), b"x");
+    assert_eq!(std::fs::read_to_string(p("d.csv")).unwrap(), text);
+    let merl = repo("data/measured/merl-aluminium-inplane/aluminum_brdf.csv");
+    std::fs::copy(&merl, p("al.csv")).unwrap();
+    let err = fails(&["import", "merl-inplane", &p("al.csv"), "-o", &p("sub/../al.csv")]);
+    assert!(err.contains("would be overwritten"), "{err}");
+}
+
+#[test]
+fn a_table_the_device_cannot_take_is_left_out_or_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).display().to_string();
+    // Readings 4000 times too large: Lambert's rho0 beyond the device's 100. With 50 points
+    // the table over it used to abort the selection; it is left out with a note.
+    let text = ok(&[
+        "synth",
+        "--model",
+        "lambert",
+        "--params",
+        "rho0=0.5",
+        "--theta-i",
+        "0,20,40,60",
+        "--step",
+        "10",
+    ]);
+    let mut rows = text.lines();
+    let mut scaled = format!("{}\n", rows.next().unwrap());
+    for l in rows {
+        let (head, v) = l.rsplit_once(',').unwrap();
+        scaled.push_str(&format!("{head},{}\n", v.parse::<f64>().unwrap() * 4000.0));
+    }
+    std::fs::write(p("big.csv"), &scaled).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&ok(&["select", &p("big.csv"), "--json"])).unwrap();
+    assert!(v["n"].as_u64().unwrap() >= 50, "{}", v["n"]);
+    let notes = v["notes"].to_string();
+    assert!(
+        notes.contains("fitted table left out") && notes.contains("rho0"),
+        "{notes}"
+    );
+
+    // A table whose every cell is -80: in f32 the device underflows to 0 where f64 does not;
+    // pack says so (`brdf check` would fail).
+    use brdf_core::fitted::{encode_fitted, FittedShape};
+    let shape = FittedShape {
+        theta_h: 4,
+        theta_d: 3,
+        phi_d: 2,
+    };
+    let mut bytes = vec![0u8; shape.encoded_len()];
+    encode_fitted(
+        shape,
+        &vec![-80.0; shape.cells()],
+        &vec![true; shape.cells()],
+        &mut bytes,
+    )
+    .unwrap();
+    let fit = |coverage: f64| {
+        serde_json::json!({
+            "model": "lambert",
+            "params": {"rho0": 1e-20},
+            "fitted_table": {"nodes": [4, 3, 2], "smoothness": 1.0, "coverage": coverage, "bytes": hex::encode(&bytes)}
+        })
+        .to_string()
+    };
+    std::fs::write(p("under.json"), fit(1.0)).unwrap();
+    let out = brdf(&["pack", &p("under.json"), "-o", &p("under.bin")]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("the device's f32 evaluation gives 0e0"), "{err}");
+    // A coverage that is not the bytes' is refused.
+    std::fs::write(p("cov.json"), fit(0.5)).unwrap();
+    let err = fails(&["pack", &p("cov.json"), "-o", &p("cov.bin")]);
+    assert!(err.contains("coverage 0.5 but the bytes cover 1"), "{err}");
+}
