@@ -51,7 +51,6 @@ pub(crate) fn eval_angles<'py>(
     parallel: bool,
     table: Option<&[u8]>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use rayon::prelude::*;
     let kind = parse_kind(model)?;
     let cols = [
         slice(&theta_i, "theta_i")?,
@@ -98,22 +97,7 @@ pub(crate) fn eval_angles<'py>(
         }
         "f32" => {
             let m: AnyModel<f32> = build(kind, params)?;
-            let out = py.detach(|| -> Result<Vec<f32>, Failure> {
-                check_degrees(cols)?;
-                let [a, b, c] = cols.map(radians::<f32>);
-                let one = |i: usize| m.eval_angles(a[i], b[i], c[i]);
-                let out: Vec<f32> = if parallel {
-                    (0..a.len())
-                        .into_par_iter()
-                        .with_min_len(par::PAR_CHUNK)
-                        .map(one)
-                        .collect()
-                } else {
-                    (0..a.len()).map(one).collect()
-                };
-                finite(&out, kind)?;
-                Ok(out)
-            })?;
+            let out = py.detach(|| scalar_angles(&m, cols, kind, parallel))?;
             Ok(PyArray1::from_vec(py, out).into_any())
         }
         other => Err(PyValueError::new_err(format!(
@@ -122,8 +106,7 @@ pub(crate) fn eval_angles<'py>(
     }
 }
 
-/// A base model times a fitted table at angles in degrees (the scalar path, on all cores when
-/// `parallel`), with `brdf eval`'s checks.
+/// A base model times a fitted table at angles in degrees, through [`scalar_angles`].
 fn corrected<T: Float + Send + Sync>(
     base: AnyModel<T>,
     table: brdf_core::fitted::FittedTable<'_>,
@@ -131,10 +114,20 @@ fn corrected<T: Float + Send + Sync>(
     kind: ModelKind,
     parallel: bool,
 ) -> Result<Vec<T>, Failure> {
+    scalar_angles(&brdf_core::fitted::Corrected { base, table }, cols, kind, parallel)
+}
+
+/// `m` at angles in degrees through the scalar path (radians in f64, rounded once to `T`),
+/// on all cores when `parallel` (each value the same bit for bit), with `brdf eval`'s checks.
+fn scalar_angles<T: Float + Send + Sync, M: Brdf<T> + Sync>(
+    m: &M,
+    cols: [&[f64]; 3],
+    kind: ModelKind,
+    parallel: bool,
+) -> Result<Vec<T>, Failure> {
     use rayon::prelude::*;
     check_degrees(cols)?;
     let [a, b, c] = cols.map(radians::<T>);
-    let m = brdf_core::fitted::Corrected { base, table };
     let one = |i: usize| m.eval_angles(a[i], b[i], c[i]);
     let out: Vec<T> = if parallel {
         (0..a.len())

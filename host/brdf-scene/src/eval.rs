@@ -66,58 +66,40 @@ pub fn eval_batch(e: &Evaluator, cos_theta_i: &[f64], cos_theta_r: &[f64], cos_p
         .zip(cos_phi)
         .zip(out.iter_mut());
     match e {
-        Evaluator::Exact(m) => {
-            for (((&i, &r), &p), o) in q {
-                *o = m.eval_cosines(i, r, p);
-            }
-        }
-        Evaluator::Device(m) => {
-            for (((&i, &r), &p), o) in q {
-                *o = f64::from(m.eval_cosines(i as f32, r as f32, p as f32));
-            }
-        }
-        Evaluator::Table { consts, bytes } => {
-            // Constants and bytes come from the same `SixTable::new`, so the lengths match;
-            // an unmatched pair evaluates to NaN (never a plausible value).
-            match SixTable::from_parts(*consts, bytes) {
-                Some(t) => {
-                    for (((&i, &r), &p), o) in q {
-                        *o = f64::from(t.eval_cosines(i as f32, r as f32, p as f32));
-                    }
-                }
-                None => {
-                    for (_, o) in q {
-                        *o = f64::NAN;
-                    }
-                }
-            }
-        }
+        Evaluator::Exact(m) => fill(q, |i, r, p| m.eval_cosines(i, r, p)),
+        Evaluator::Device(m) => fill(q, |i, r, p| {
+            f64::from(m.eval_cosines(i as f32, r as f32, p as f32))
+        }),
+        // Constants and bytes come from the same `SixTable::new`, so the lengths match; an
+        // unmatched pair evaluates to NaN (never a plausible value).
+        Evaluator::Table { consts, bytes } => match SixTable::from_parts(*consts, bytes) {
+            Some(t) => fill(q, |i, r, p| {
+                f64::from(t.eval_cosines(i as f32, r as f32, p as f32))
+            }),
+            None => fill(q, |_, _, _| f64::NAN),
+        },
+        // Bytes that are not a table evaluate to NaN (never a plausible value).
         Evaluator::ExactCorrected { base, bytes } => match FittedTable::new(bytes) {
-            Ok(table) => {
-                let m = Corrected { base: *base, table };
-                for (((&i, &r), &p), o) in q {
-                    *o = m.eval_cosines(i, r, p);
-                }
-            }
-            Err(_) => {
-                for (_, o) in q {
-                    *o = f64::NAN;
-                }
-            }
+            Ok(table) => fill(q, |i, r, p| {
+                Corrected { base: *base, table }.eval_cosines(i, r, p)
+            }),
+            Err(_) => fill(q, |_, _, _| f64::NAN),
         },
         Evaluator::Corrected { base, bytes } => match FittedTable::new(bytes) {
-            Ok(table) => {
-                let m = Corrected { base: *base, table };
-                for (((&i, &r), &p), o) in q {
-                    *o = f64::from(m.eval_cosines(i as f32, r as f32, p as f32));
-                }
-            }
-            // Bytes that are not a table evaluate to NaN (never a plausible value).
-            Err(_) => {
-                for (_, o) in q {
-                    *o = f64::NAN;
-                }
-            }
+            Ok(table) => fill(q, |i, r, p| {
+                f64::from(Corrected { base: *base, table }.eval_cosines(i as f32, r as f32, p as f32))
+            }),
+            Err(_) => fill(q, |_, _, _| f64::NAN),
         },
+    }
+}
+
+/// `out[k] = f(cos_theta_i[k], cos_theta_r[k], cos_phi[k])` over zipped queries.
+fn fill<'a>(
+    q: impl Iterator<Item = (((&'a f64, &'a f64), &'a f64), &'a mut f64)>,
+    f: impl Fn(f64, f64, f64) -> f64,
+) {
+    for (((&i, &r), &p), o) in q {
+        *o = f(i, r, p);
     }
 }
