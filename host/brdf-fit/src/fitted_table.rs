@@ -1,18 +1,18 @@
-//! A fitted table: an isotropic BRDF tabulated on a grid in Rusinkiewicz coordinates
-//! `(theta_h, theta_d, phi_d)`, fitted to scattered measurements by regularised least squares
-//! in `ln f` and evaluated by trilinear interpolation of `ln f`.
+//! A fitted table: a correction to a base model (or `ln f` itself) tabulated on a grid in
+//! Rusinkiewicz coordinates, fitted to scattered measurements by regularised least squares in
+//! `ln f`; evaluated, on the device and here, by `brdf_core::fitted` (its axes, its bytes).
 //!
 //! It is the representation for measured paints and metals that the analytic models miss by
 //! tens of percent: held out from its fit, it predicts the bundled measurements better than
 //! 4-nearest-neighbour interpolation of the same points on 8 of 11 datasets (garnet R 3.5%,
 //! MERL aluminium 4.6%, PTFE at 532 nm 0.9%; `cargo run --release -p brdf-fit --example
-//! table_holdout`, docs/model-comparison.md). Not yet a device representation: the blob does
-//! not carry it.
+//! table_holdout`, docs/model-comparison.md). `brdf select` offers it over a Lambert base
+//! (`brdf_scene::represent::table_rung`).
 //!
-//! * Grid: `theta_h` on a square-root axis (dense near the mirror direction, where specular
-//!   lobes change fastest), `theta_d` and `phi_d` linear over `[0, pi/2]`; `phi_d` is folded
-//!   into `[0, pi/2]` by isotropy and reciprocity, so the table is reciprocal by construction.
-//! * Fit ([`FittedTable::fit`]): minimise `sum w_j (A x - ln y)_j^2 + lambda ||R x||^2 +
+//! * Grid: [`brdf_core::fitted::axes`]: `theta_h` dense near the mirror direction, where
+//!   specular lobes change fastest, `theta_d`, and `sin^2 phi_d` (reciprocal and isotropic by
+//!   construction); the `phi_d` nodes tied where `phi_d` is undefined.
+//! * Fit ([`FittedTable::fit`]): minimise `sum w_j (A x - t)_j^2 + lambda ||R x||^2 +
 //!   1e-10 ||x||^2`, `A` the trilinear design, `R` second differences along every axis (first
 //!   differences along `phi_d` when it has two nodes), solved by a banded Cholesky of the
 //!   normal equations; then the worst 2% of the points (dropout readings) get `w = 0` and the
