@@ -91,7 +91,8 @@ impl Active {
     /// Out-of-domain inputs are refused, never clamped.
     fn eval(&self, id: u8, input: Input, x: [f32; 3]) -> Result<f32, ErrorCode> {
         let i = usize::from(id);
-        let (Some(model), Some(table), Some(fitted)) = (self.models.get(i), self.tables.get(i), self.fitted.get(i))
+        let (Some(model), Some(table), Some(fitted)) =
+            (self.models.get(i), self.tables.get(i), self.fitted.get(i))
         else {
             return Err(ErrorCode::UnknownMaterial);
         };

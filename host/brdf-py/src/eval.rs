@@ -114,7 +114,12 @@ fn corrected<T: Float + Send + Sync>(
     kind: ModelKind,
     parallel: bool,
 ) -> Result<Vec<T>, Failure> {
-    scalar_angles(&brdf_core::fitted::Corrected { base, table }, cols, kind, parallel)
+    scalar_angles(
+        &brdf_core::fitted::Corrected { base, table },
+        cols,
+        kind,
+        parallel,
+    )
 }
 
 /// `m` at angles in degrees through the scalar path (radians in f64, rounded once to `T`),

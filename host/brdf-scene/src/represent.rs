@@ -283,7 +283,14 @@ fn cross_validate(
             .filter(|(name, _)| *name == r.rung.name)
             .flat_map(|(_, rel)| rel.iter().copied())
             .collect();
-        r.cv_rms_rel = (all.len() == n).then(|| trimmed_rms_rel(&all));
+        // A value that is not finite anywhere is a fault the trimming must not hide.
+        r.cv_rms_rel = (all.len() == n).then(|| {
+            if all.iter().all(|e| e.is_finite()) {
+                trimmed_rms_rel(&all)
+            } else {
+                f64::INFINITY
+            }
+        });
     }
 }
 
