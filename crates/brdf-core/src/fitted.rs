@@ -209,6 +209,16 @@ pub fn stencil<T: Float>(shape: FittedShape, x: [T; 3]) -> [(usize, T); 8] {
     out
 }
 
+/// The header of a fitted table, read and checked once by [`FittedTable::new`]; with
+/// [`FittedTable::from_parts`] a device rebinds it to the bytes it keeps in its blob buffer
+/// without reading or checking the header again on every query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FittedConsts {
+    shape: FittedShape,
+    lo: f32,
+    step: f32,
+}
+
 /// A fitted table over its bytes (checked by [`FittedTable::new`]).
 #[derive(Clone, Copy, Debug)]
 pub struct FittedTable<'t> {
@@ -255,6 +265,27 @@ impl<'t> FittedTable<'t> {
             shape,
             lo,
             step,
+            bytes,
+        })
+    }
+
+    /// The checked header, for [`FittedTable::from_parts`].
+    pub fn consts(&self) -> FittedConsts {
+        FittedConsts {
+            shape: self.shape,
+            lo: self.lo,
+            step: self.step,
+        }
+    }
+
+    /// Rebinds a header from [`FittedTable::consts`] to table bytes; `None` unless the length
+    /// matches. The bytes should be the ones the header was read from (and checked).
+    #[inline]
+    pub fn from_parts(c: FittedConsts, bytes: &'t [u8]) -> Option<Self> {
+        (bytes.len() == c.shape.encoded_len()).then_some(FittedTable {
+            shape: c.shape,
+            lo: c.lo,
+            step: c.step,
             bytes,
         })
     }
@@ -538,6 +569,11 @@ mod tests {
             assert!((t.cell(c) - v[c]).abs() < 2e-5, "{c}");
             assert_eq!(t.cell_covered(c), cov[c]);
         }
+        // Rebound to the same bytes, the header read once gives the same table.
+        let back = FittedTable::from_parts(t.consts(), &buf).unwrap();
+        let g0 = Geometry::<f32>::from_cosines(0.3, 0.8, -0.4);
+        assert_eq!(back.ln_correction(&g0), t.ln_correction(&g0));
+        assert!(FittedTable::from_parts(t.consts(), &buf[..buf.len() - 1]).is_none());
         // At a node, the correction is that node's value.
         let base = Lambert::new(LambertParams { rho0: 0.5f32 }).unwrap();
         let m = Corrected { base, table: t };

@@ -12,7 +12,7 @@
 #![no_main]
 
 use brdf_core::anneal::{anneal_kind, AnnealConfig, Samples, DEVICE_SEED};
-use brdf_core::fitted::{Corrected, FittedTable};
+use brdf_core::fitted::{Corrected, FittedConsts, FittedTable};
 use brdf_core::table::{SixTable, TableConsts};
 use brdf_core::{AnyModel, Brdf, Geometry, ModelKind};
 use brdf_wire::blob::{blob_crc, table1_blob, Blob, FittedRef, TableRef, BLOB_VERSION, MAX_BLOB_LEN};
@@ -40,8 +40,8 @@ struct Active {
     models: heapless::Vec<AnyModel<f32>, 8>,
     /// Per material with tables: where its nodes are and its precomputed constants.
     tables: heapless::Vec<Option<(TableRef, TableConsts)>, 8>,
-    /// Per material with a fitted table: where it is.
-    fitted: heapless::Vec<Option<FittedRef>, 8>,
+    /// Per material with a fitted table: where it is and its header, read once.
+    fitted: heapless::Vec<Option<(FittedRef, FittedConsts)>, 8>,
     crc: u32,
 }
 
@@ -57,7 +57,11 @@ impl Active {
         let mut tables = heapless::Vec::new();
         let mut fitted = heapless::Vec::new();
         for m in &blob.materials {
-            fitted.push(m.fitted).ok()?;
+            let f = match m.fitted {
+                Some(r) => Some((r, m.fitted_table(src)?.consts())),
+                None => None,
+            };
+            fitted.push(f).ok()?;
             models.push(m.model().ok()?).ok()?;
             let t = match m.table {
                 Some(r) => Some((r, m.table(src)?.consts())),
@@ -103,8 +107,7 @@ impl Active {
         .map_err(|_| ErrorCode::OutOfDomain)?;
         let blob = &self.bytes[..self.len];
         let table = table.and_then(|(r, c)| SixTable::from_parts(c, r.bytes(blob)?));
-        // Checked when the blob was decoded; `new` again is a header read (O(1)).
-        let fitted = fitted.and_then(|r| FittedTable::new(r.bytes(blob)?).ok());
+        let fitted = fitted.and_then(|(r, c)| FittedTable::from_parts(c, r.bytes(blob)?));
         let f = match (table, fitted) {
             (Some(t), _) => t.eval(&g),
             (None, Some(table)) => Corrected { base: *model, table }.eval(&g),
