@@ -10,7 +10,7 @@
 
 use std::path::Path;
 
-use brdf_fit::fitted_table::{trimmed_rms_rel, FittedTable, DEFAULT_SHAPE};
+use brdf_fit::fitted_table::{trimmed_rms_rel, FittedTable, SHAPES};
 use brdf_fit::holdout::{bundled, nearest_neighbours, split, OUTER_FOLDS};
 use brdf_fit::Point;
 use rayon::prelude::*;
@@ -18,26 +18,33 @@ use rayon::prelude::*;
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/measured");
     let sets = bundled(&root).expect("bundled data");
+    let nodes = |s: &brdf_fit::fitted_table::FittedShape| format!("{}x{}x{}", s.theta_h, s.theta_d, s.phi_d);
     println!(
-        "fitted table {}x{}x{} ({} bytes stored)\n",
-        DEFAULT_SHAPE.theta_h,
-        DEFAULT_SHAPE.theta_d,
-        DEFAULT_SHAPE.phi_d,
-        DEFAULT_SHAPE.encoded_len()
+        "fitted table: grid chosen by cross-validation from {}\n",
+        SHAPES
+            .iter()
+            .map(|s| format!("{} ({} bytes)", nodes(s), s.encoded_len()))
+            .collect::<Vec<_>>()
+            .join(", ")
     );
-    println!("| data | points | fitted table | 4-NN | ratio | table coverage | seconds per fit |");
-    println!("|---|---|---|---|---|---|---|");
-    let rows: Vec<(String, usize, f64, f64, f64, f64)> = sets
+    println!(
+        "| data | points | fitted table | 4-NN | ratio | grids chosen | table coverage | seconds per fit |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    let rows: Vec<(String, usize, f64, f64, String, f64, f64)> = sets
         .par_iter()
         .map(|(name, d)| {
             let (mut et, mut en, mut cov, mut secs) = (0.0, 0.0, 0.0, 0.0);
+            let mut chosen: Vec<String> = Vec::new();
             for f in 0..OUTER_FOLDS {
                 let (train, test) = (split(d, f, false), split(d, f, true));
                 let t = std::time::Instant::now();
-                let table =
-                    FittedTable::fit_cv(&train, &vec![0.0; train.len()], DEFAULT_SHAPE).expect("table fit");
+                let table = FittedTable::fit_cv(&train, &vec![0.0; train.len()], &SHAPES).expect("table fit");
                 secs += t.elapsed().as_secs_f64();
                 cov += table.coverage();
+                if !chosen.contains(&nodes(&table.shape)) {
+                    chosen.push(nodes(&table.shape));
+                }
                 let rel = |pred: &dyn Fn(&Point) -> f64| -> Vec<f64> {
                     test.iter().map(|p| (pred(p) / p.brdf - 1.0).abs()).collect()
                 };
@@ -45,14 +52,22 @@ fn main() {
                 en += trimmed_rms_rel(&rel(&|p| nearest_neighbours(&train, p)));
             }
             let k = OUTER_FOLDS as f64;
-            (name.clone(), d.points.len(), et / k, en / k, cov / k, secs / k)
+            (
+                name.clone(),
+                d.points.len(),
+                et / k,
+                en / k,
+                chosen.join(", "),
+                cov / k,
+                secs / k,
+            )
         })
         .collect();
     let mut ratios = Vec::new();
-    for (name, n, et, en, cov, secs) in &rows {
+    for (name, n, et, en, chosen, cov, secs) in &rows {
         ratios.push(et / en);
         println!(
-            "| {name} | {n} | {et:.3} | {en:.3} | {:.2} | {:.0}% | {secs:.2} |",
+            "| {name} | {n} | {et:.3} | {en:.3} | {:.2} | {chosen} | {:.0}% | {secs:.2} |",
             et / en,
             cov * 100.0
         );

@@ -1,24 +1,30 @@
 //! A fitted table: a correction to a base model (or `ln f` itself) tabulated on a grid in
-//! Rusinkiewicz coordinates, fitted to scattered measurements by regularised least squares in
-//! `ln f`; evaluated, on the device and here, by `brdf_core::fitted` (its axes, its bytes).
+//! Rusinkiewicz coordinates, fitted to scattered measurements by regularised least squares
+//! (in `ln f`, then refined to the least relative error); evaluated, on the device and here,
+//! by `brdf_core::fitted` (its axes, its bytes).
 //!
 //! It is the representation for measured paints and metals that the analytic models miss by
 //! tens of percent: held out from its fit, it predicts the bundled measurements better than
-//! 4-nearest-neighbour interpolation of the same points on 8 of 11 datasets (garnet R 3.5%,
-//! MERL aluminium 4.6%, PTFE at 532 nm 0.9%; `cargo run --release -p brdf-fit --example
-//! table_holdout`, docs/model-comparison.md). `brdf select` offers it over a Lambert base
-//! (`brdf_scene::represent::table_rung`).
+//! 4-nearest-neighbour interpolation of the same points on 11 of 11 datasets (garnet R 3.3%,
+//! MERL aluminium 4.5%, PTFE at 532 nm 0.9%, krylon B 9.6%; `cargo run --release -p brdf-fit
+//! --example table_holdout`, docs/model-comparison.md). `brdf select` offers it over a Lambert
+//! base (`brdf_scene::represent::table_rung`).
 //!
 //! * Grid: [`brdf_core::fitted::axes`]: `theta_h` dense near the mirror direction, where
 //!   specular lobes change fastest, `theta_d`, and `sin^2 phi_d` (reciprocal and isotropic by
-//!   construction); the `phi_d` nodes tied where `phi_d` is undefined.
+//!   construction); the `phi_d` nodes tied where `phi_d` is undefined. Two node counts
+//!   ([`SHAPES`]), chosen by cross-validation.
 //! * Fit ([`FittedTable::fit`]): minimise `sum w_j (A x - t)_j^2 + lambda ||R x||^2 +
 //!   1e-10 ||x||^2`, `A` the trilinear design, `R` second differences along every axis (first
 //!   differences along `phi_d` when it has two nodes), solved by a banded Cholesky of the
 //!   normal equations; then the worst 2% of the points (dropout readings) get `w = 0` and the
-//!   fit is repeated.
-//! * Smoothness ([`FittedTable::fit_cv`]): `lambda` from a fixed log grid by 5-fold
-//!   cross-validation on [`trimmed_rms_rel`].
+//!   fit is repeated. Last, Gauss-Newton steps from there minimise the error the table is
+//!   judged by, `sum w_j (exp(A x - t)_j - 1)^2 + lambda ||R x||^2`: the `ln f` fit predicts
+//!   the geometric mean of noisy readings, which a relative error penalises (on the dark,
+//!   noisy green and blue channels of garnet red it missed held-out readings by 50% and 67%,
+//!   more than nearest-neighbour interpolation; refined, 42% and 46%).
+//! * Grid and smoothness ([`FittedTable::fit_cv`]): the shape from [`SHAPES`] and `lambda`
+//!   from a fixed log grid by 5-fold cross-validation on [`trimmed_rms_rel`].
 
 use std::f64::consts::PI;
 
@@ -31,14 +37,25 @@ use crate::data::Point;
 
 pub use brdf_core::fitted::FittedShape;
 
-/// 20 x 19 x 5 = 1900 cells: stored as one `u16` per cell, its coverage bits and header
-/// ([`FittedShape::encoded_len`]) it is 4,054 bytes; with a Lambert base, a blob of this one
-/// material is 4,082 bytes, within a flash slot's 4,096.
-pub const DEFAULT_SHAPE: FittedShape = FittedShape {
-    theta_h: 20,
-    theta_d: 19,
-    phi_d: 5,
-};
+/// The grids [`FittedTable::fit_cv`] chooses from, by cross-validation like the smoothness:
+/// one fine along `theta_h` with three `phi_d` nodes (0, 45 and 90 degrees; 30 x 19 x 3 =
+/// 1,710 cells, 3,650 bytes stored), for the sharp specular peaks of glossy paints and
+/// metals, and one with five `phi_d` nodes (20 x 19 x 5 = 1,900 cells, 4,054 bytes), for
+/// surfaces whose scattering changes out of the plane of incidence. Each cell is one `u16`
+/// with its coverage bit and a 16-byte header ([`FittedShape::encoded_len`]); over a Lambert
+/// base the larger makes a one-material blob of 4,082 bytes, within a flash slot's 4,096.
+pub const SHAPES: [FittedShape; 2] = [
+    FittedShape {
+        theta_h: 30,
+        theta_d: 19,
+        phi_d: 3,
+    },
+    FittedShape {
+        theta_h: 20,
+        theta_d: 19,
+        phi_d: 5,
+    },
+];
 
 /// Fewest points a table is fitted to. Five-fold cross-validation needs at least two points
 /// per fold, and below ten points a table of thousands of cells is nothing but its
@@ -60,6 +77,15 @@ const TRIM_ONE_IN: usize = 50;
 /// data and the smoothness term leave a direction free (cells far from every point), without
 /// measurably biasing constrained cells.
 const RIDGE: f64 = 1e-10;
+
+/// Most Gauss-Newton steps of the relative-error refinement ([`System::refine_relative`]).
+const REL_STEPS: usize = 8;
+
+/// The refinement stops when a step lowers the objective by less than this share of it.
+const REL_TOL: f64 = 1e-3;
+
+/// Step halvings tried before the refinement stops.
+const REL_HALVINGS: usize = 4;
 
 /// Folds of the smoothness cross-validation.
 pub const CV_FOLDS: usize = 5;
@@ -183,6 +209,18 @@ impl Band {
         let (i, k) = if i >= k { (i, k) } else { (k, i) };
         let at = self.at(i, k);
         self.a[at] += v;
+    }
+
+    /// `x^T A x`.
+    fn quad(&self, x: &[f64]) -> f64 {
+        let mut sum = 0.0;
+        for i in 0..self.n {
+            for k in i.saturating_sub(self.bw)..=i {
+                let v = self.a[self.at(i, k)] * x[i] * x[k];
+                sum += if k == i { v } else { 2.0 * v };
+            }
+        }
+        sum
     }
 
     /// Adds `scale * c c^T` for the sparse vector `c`.
@@ -399,15 +437,22 @@ impl System {
         x
     }
 
-    /// Fit with unit weights, then zero the weights of the `floor(0.02 n)` points with the
-    /// largest `|A x - ln y|` (dropout readings) and refit.
+    /// [`System::trimmed_ln_fit`], then [`System::refine_relative`] over the same readings.
     fn trimmed_fit(&self, stencils: &[Stencil], ln_y: &[f64], lambda: f64) -> Vec<f64> {
+        let (x, weights) = self.trimmed_ln_fit(stencils, ln_y, lambda);
+        self.refine_relative(stencils, ln_y, &weights, lambda, x)
+    }
+
+    /// Fit `ln f` with unit weights, then zero the weights of the `floor(0.02 n)` points with
+    /// the largest `|A x - ln y|` (dropout readings) and refit. Returns the cells and the
+    /// weights (0 for the dropped points).
+    fn trimmed_ln_fit(&self, stencils: &[Stencil], ln_y: &[f64], lambda: f64) -> (Vec<f64>, Vec<f64>) {
         let n = stencils.len();
         let mut weights = vec![1.0; n];
         let x = self.solve(stencils, ln_y, &weights, lambda);
         let drop = n / TRIM_ONE_IN;
         if drop == 0 {
-            return x;
+            return (x, weights);
         }
         let resid: Vec<f64> = stencils
             .iter()
@@ -419,7 +464,87 @@ impl System {
         for &i in &order[..drop] {
             weights[i] = 0.0;
         }
-        self.solve(stencils, ln_y, &weights, lambda)
+        (self.solve(stencils, ln_y, &weights, lambda), weights)
+    }
+
+    /// The objective the table is judged by: `sum w (exp(A x - ln y) - 1)^2`, the squared
+    /// relative errors of the kept readings, plus the smoothness term `lambda |R x|^2`.
+    /// Infinite when a prediction overflows.
+    fn relative_objective(
+        &self,
+        stencils: &[Stencil],
+        ln_y: &[f64],
+        weights: &[f64],
+        lambda: f64,
+        x: &[f64],
+    ) -> f64 {
+        let data: f64 = stencils
+            .iter()
+            .zip(ln_y)
+            .zip(weights)
+            .filter(|(_, &w)| w > 0.0)
+            .map(|((s, y), w)| w * ((predict(x, s) - y).exp() - 1.0).powi(2))
+            .sum();
+        let total = data + lambda * self.rtr.quad(x);
+        if total.is_finite() {
+            total
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Gauss-Newton from the `ln f` fit `x` towards the least relative error
+    /// ([`System::relative_objective`]), every step accepted only where it lowers the
+    /// objective (halved up to [`REL_HALVINGS`] times), until a step gains less than
+    /// [`REL_TOL`] of it or after [`REL_STEPS`] steps. Linearised at `p0 = A x0`, a reading's
+    /// relative error is `a (p - p0) + a - 1` with `a = exp(p0 - ln y)`: a weighted fit of
+    /// `p0 + 1/a - 1` with weights `a^2`, the same banded system as the `ln f` fit.
+    fn refine_relative(
+        &self,
+        stencils: &[Stencil],
+        ln_y: &[f64],
+        weights: &[f64],
+        lambda: f64,
+        mut x: Vec<f64>,
+    ) -> Vec<f64> {
+        let mut cost = self.relative_objective(stencils, ln_y, weights, lambda, &x);
+        let mut steps = 0;
+        while steps < REL_STEPS && cost.is_finite() {
+            steps += 1;
+            let mut w = weights.to_vec();
+            let mut z = vec![0.0; stencils.len()];
+            for ((s, y), (wi, zi)) in stencils.iter().zip(ln_y).zip(w.iter_mut().zip(z.iter_mut())) {
+                if *wi > 0.0 {
+                    let p0 = predict(&x, s);
+                    let a = (p0 - y).exp();
+                    *wi *= a * a;
+                    *zi = p0 + 1.0 / a - 1.0;
+                }
+            }
+            if w.iter().chain(&z).any(|v| !v.is_finite()) {
+                break;
+            }
+            let full = self.solve(stencils, &z, &w, lambda);
+            let mut accepted = None;
+            let mut t = 1.0;
+            for _ in 0..=REL_HALVINGS {
+                let trial: Vec<f64> = x.iter().zip(&full).map(|(a, b)| a + t * (b - a)).collect();
+                let c = self.relative_objective(stencils, ln_y, weights, lambda, &trial);
+                if c < cost {
+                    accepted = Some((trial, c));
+                    break;
+                }
+                t *= 0.5;
+            }
+            let Some((trial, c)) = accepted else { break };
+            let gain = cost - c;
+            x = trial;
+            cost = c;
+            if gain < REL_TOL * cost {
+                break;
+            }
+        }
+        x
     }
 }
 
@@ -503,6 +628,33 @@ fn prepare(
     Ok((stencils, ln_y))
 }
 
+/// [`trimmed_rms_rel`] of fold `f`'s points predicted by the trimmed fit to the other folds.
+fn fold_error(
+    system: &System,
+    stencils: &[Stencil],
+    ln_y: &[f64],
+    fold: &[usize],
+    f: usize,
+    lambda: f64,
+) -> f64 {
+    let (mut ts, mut ty) = (Vec::new(), Vec::new());
+    for ((s, &y), &g) in stencils.iter().zip(ln_y).zip(fold) {
+        if g != f {
+            ts.push(*s);
+            ty.push(y);
+        }
+    }
+    let x = system.trimmed_fit(&ts, &ty, lambda);
+    let rel: Vec<f64> = stencils
+        .iter()
+        .zip(ln_y)
+        .zip(fold)
+        .filter(|(_, &g)| g == f)
+        .map(|((s, y), _)| ((predict(&x, s) - y).exp() - 1.0).abs())
+        .collect();
+    trimmed_rms_rel(&rel)
+}
+
 impl FittedTable {
     fn from_solution(shape: FittedShape, ln_f: Vec<f64>, stencils: &[Stencil], smoothness: f64) -> Self {
         let mut covered = vec![false; shape.cells()];
@@ -551,54 +703,74 @@ impl FittedTable {
         Ok(Self::from_solution(shape, x, &stencils, smoothness))
     }
 
-    /// [`FittedTable::fit`] with the smoothness chosen from [`smoothness_grid`] by 5-fold
-    /// cross-validation: per value, the mean over folds of [`trimmed_rms_rel`] of the fold's
-    /// points predicted by the trimmed fit to the other folds; the smallest mean wins (ties:
-    /// the larger smoothness). The 50 cross-validation fits run in parallel (rayon).
+    /// [`FittedTable::fit`] with the shape (one of `shapes`, normally [`SHAPES`]) and the
+    /// smoothness (from [`smoothness_grid`]) chosen by 5-fold cross-validation: per pair, the
+    /// mean over folds of [`trimmed_rms_rel`] of the fold's points predicted by the fit to the
+    /// other folds; the smallest mean wins (ties: the earlier shape, then the larger
+    /// smoothness). Every shape is scored at every other smoothness, then the two values
+    /// beside the best: `7 x 5` fits for the best shape instead of `10 x 5`, the same choice
+    /// wherever the error is unimodal in `ln lambda`. The fits run in parallel (rayon).
     ///
     /// # Errors
     /// As [`FittedTable::fit`].
     ///
     /// # Panics
-    /// As [`FittedTable::fit`].
-    pub fn fit_cv(points: &[Point], base_ln: &[f64], shape: FittedShape) -> Result<Self, TableError> {
-        let (stencils, ln_y) = prepare(points, base_ln, shape)?;
-        let system = System::new(shape);
+    /// As [`FittedTable::fit`], or if `shapes` is empty.
+    pub fn fit_cv(points: &[Point], base_ln: &[f64], shapes: &[FittedShape]) -> Result<Self, TableError> {
+        assert!(!shapes.is_empty(), "fit_cv needs at least one shape");
+        let systems = shapes
+            .iter()
+            .map(|&shape| {
+                let (stencils, ln_y) = prepare(points, base_ln, shape)?;
+                Ok((System::new(shape), stencils, ln_y))
+            })
+            .collect::<Result<Vec<_>, TableError>>()?;
         let fold = cv_folds(points.len());
         let grid = smoothness_grid();
-        let jobs: Vec<(usize, usize)> = (0..grid.len())
-            .flat_map(|l| (0..CV_FOLDS).map(move |f| (l, f)))
+        // Mean held-out error over the folds of each (shape, smoothness index) job.
+        let score = |jobs: &[(usize, usize)]| -> Vec<f64> {
+            let per_fold: Vec<f64> = jobs
+                .iter()
+                .flat_map(|&(s, l)| (0..CV_FOLDS).map(move |f| (s, l, f)))
+                .collect::<Vec<_>>()
+                .par_iter()
+                .map(|&(s, l, f)| {
+                    let (system, stencils, ln_y) = &systems[s];
+                    fold_error(system, stencils, ln_y, &fold, f, grid[l])
+                })
+                .collect();
+            per_fold
+                .chunks(CV_FOLDS)
+                .map(|c| c.iter().sum::<f64>() / CV_FOLDS as f64)
+                .collect()
+        };
+        // Every other smoothness first, then the two between the best and its neighbours.
+        let coarse: Vec<(usize, usize)> = (0..shapes.len())
+            .flat_map(|s| (0..grid.len()).step_by(2).map(move |l| (s, l)))
             .collect();
-        let scores: Vec<f64> = jobs
-            .par_iter()
-            .map(|&(l, f)| {
-                let (mut ts, mut ty) = (Vec::new(), Vec::new());
-                for ((s, &y), &g) in stencils.iter().zip(&ln_y).zip(&fold) {
-                    if g != f {
-                        ts.push(*s);
-                        ty.push(y);
-                    }
+        let mut scored: Vec<((usize, usize), f64)> = coarse.iter().copied().zip(score(&coarse)).collect();
+        let best_of = |scored: &[((usize, usize), f64)]| {
+            // Smallest error; ties: the earlier shape, then the larger smoothness.
+            let mut best = scored[0];
+            for &((s, l), e) in scored {
+                let ((bs, bl), be) = best;
+                if e < be || (e == be && (s < bs || (s == bs && l > bl))) {
+                    best = ((s, l), e);
                 }
-                let x = system.trimmed_fit(&ts, &ty, grid[l]);
-                let rel: Vec<f64> = stencils
-                    .iter()
-                    .zip(&ln_y)
-                    .zip(&fold)
-                    .filter(|(_, &g)| g == f)
-                    .map(|((s, y), _)| ((predict(&x, s) - y).exp() - 1.0).abs())
-                    .collect();
-                trimmed_rms_rel(&rel)
-            })
-            .collect();
-        let mut best = (f64::INFINITY, grid[grid.len() - 1]);
-        for (l, &lambda) in grid.iter().enumerate() {
-            let mean = scores[l * CV_FOLDS..(l + 1) * CV_FOLDS].iter().sum::<f64>() / CV_FOLDS as f64;
-            if mean <= best.0 {
-                best = (mean, lambda);
             }
-        }
-        let x = system.trimmed_fit(&stencils, &ln_y, best.1);
-        Ok(Self::from_solution(shape, x, &stencils, best.1))
+            best
+        };
+        let ((s, l), _) = best_of(&scored);
+        let fine: Vec<(usize, usize)> = [l.wrapping_sub(1), l + 1]
+            .into_iter()
+            .filter(|&m| m < grid.len())
+            .map(|m| (s, m))
+            .collect();
+        scored.extend(fine.iter().copied().zip(score(&fine)));
+        let ((s, l), _) = best_of(&scored);
+        let (system, stencils, ln_y) = &systems[s];
+        let x = system.trimmed_fit(stencils, ln_y, grid[l]);
+        Ok(Self::from_solution(shapes[s], x, stencils, grid[l]))
     }
 
     /// `exp(t)` at `(theta_i, theta_r, phi)`, `t` interpolated trilinearly: the factor on the
@@ -776,7 +948,7 @@ mod tests {
             .map(|(k, [ti, tr, phi])| point(ti, tr, phi, synthetic(ti, tr, phi), k as u64 + 2))
             .collect();
         let start = std::time::Instant::now();
-        let table = FittedTable::fit_cv(&train, &vec![0.0; train.len()], DEFAULT_SHAPE).unwrap();
+        let table = FittedTable::fit_cv(&train, &vec![0.0; train.len()], &SHAPES).unwrap();
         let elapsed = start.elapsed();
         let rel: Vec<f64> = random_directions(300, 2)
             .into_iter()
@@ -797,7 +969,65 @@ mod tests {
             trimmed_rms_rel(&train_rel)
         );
         assert!(err < SYNTHETIC_HELD_OUT_MAX, "held-out trimmed rms rel {err}");
-        assert_eq!(table.to_bytes().unwrap().len(), 4054);
+        assert_eq!(table.to_bytes().unwrap().len(), table.shape.encoded_len());
+        assert!(SHAPES.contains(&table.shape), "{:?}", table.shape);
+    }
+
+    /// The refinement towards the least relative error must lower the objective it claims to
+    /// lower, and on readings with large multiplicative noise (a dark channel: lognormal,
+    /// sigma 0.5) predict held-out readings better than the `ln f` fit it starts from, which
+    /// sits at the geometric mean of the readings. Measured: training objective 383 -> 249,
+    /// held-out trimmed RMS relative error 0.42 against 0.50 for the `ln f` fit (the test
+    /// asks for at least 5% better).
+    #[test]
+    fn relative_refinement_lowers_the_relative_error_on_noisy_readings() {
+        let mut noise = 7u64;
+        let mut noisy = |n: usize, seed: u64| -> Vec<Point> {
+            random_directions(n, seed)
+                .into_iter()
+                .enumerate()
+                .map(|(k, [ti, tr, phi])| {
+                    // Box-Muller normal from two uniforms.
+                    let (u, v) = (
+                        splitmix64_unit(&mut noise).max(1e-12),
+                        splitmix64_unit(&mut noise),
+                    );
+                    let z = (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos();
+                    point(
+                        ti,
+                        tr,
+                        phi,
+                        synthetic(ti, tr, phi) * (0.5 * z).exp(),
+                        k as u64 + 2,
+                    )
+                })
+                .collect()
+        };
+        let (train, test) = (noisy(1500, 11), noisy(400, 12));
+        let shape = SHAPES[0];
+        let (stencils, ln_y) = prepare(&train, &vec![0.0; train.len()], shape).unwrap();
+        let system = System::new(shape);
+        let lambda = 1.0;
+        let (ln_fit, weights) = system.trimmed_ln_fit(&stencils, &ln_y, lambda);
+        let refined = system.refine_relative(&stencils, &ln_y, &weights, lambda, ln_fit.clone());
+        let objective = |x: &[f64]| system.relative_objective(&stencils, &ln_y, &weights, lambda, x);
+        let held_out = |x: &[f64]| {
+            let rel: Vec<f64> = test
+                .iter()
+                .map(|p| {
+                    (predict(x, &stencil(shape, p.theta_i, p.theta_r, p.phi)).exp() / p.brdf - 1.0).abs()
+                })
+                .collect();
+            trimmed_rms_rel(&rel)
+        };
+        let (before, after) = (objective(&ln_fit), objective(&refined));
+        let (held_ln, held_refined) = (held_out(&ln_fit), held_out(&refined));
+        println!("objective {before:.4} -> {after:.4}; held out {held_ln:.4} -> {held_refined:.4}");
+        assert!(after < before, "objective {before} -> {after}");
+        assert!(
+            held_refined < 0.95 * held_ln,
+            "held out {held_ln} -> {held_refined}"
+        );
     }
 
     /// At the exact mirror (`theta_h = 0`) and retro (`theta_d = 0`) directions `phi_d` is
@@ -816,7 +1046,7 @@ mod tests {
             .enumerate()
             .map(|(k, [ti, tr, phi])| point(ti, tr, phi, f(ti, tr, phi), k as u64 + 2))
             .collect();
-        let table = FittedTable::fit(&train, &vec![0.0; train.len()], DEFAULT_SHAPE, 0.01).unwrap();
+        let table = FittedTable::fit(&train, &vec![0.0; train.len()], SHAPES[1], 0.01).unwrap();
         let eps = 1e-9;
         for deg in [11.25f64, 30.0, 60.0] {
             let t = deg.to_radians();
@@ -844,9 +1074,9 @@ mod tests {
     #[test]
     fn eval_is_reciprocal() {
         let mut s = 5u64;
-        let cells = DEFAULT_SHAPE.cells();
+        let cells = SHAPES[1].cells();
         let table = FittedTable {
-            shape: DEFAULT_SHAPE,
+            shape: SHAPES[1],
             ln_f: (0..cells).map(|_| splitmix64_unit(&mut s) * 6.0 - 3.0).collect(),
             covered: vec![true; cells],
             smoothness: 1.0,
@@ -860,7 +1090,7 @@ mod tests {
     #[test]
     fn errors_name_the_problem() {
         let pts: Vec<Point> = (0..5).map(|k| point(0.3, 0.4, PI, 0.5, k + 2)).collect();
-        let e = FittedTable::fit(&pts, &[0.0; 5], DEFAULT_SHAPE, 1.0).unwrap_err();
+        let e = FittedTable::fit(&pts, &[0.0; 5], SHAPES[1], 1.0).unwrap_err();
         assert!(
             matches!(
                 e,
@@ -877,7 +1107,7 @@ mod tests {
             .map(|k| point(0.3, 0.01 * k as f64, PI, 0.5, k + 2))
             .collect();
         pts[7].brdf = 0.0;
-        let e = FittedTable::fit_cv(&pts, &[0.0; 20], DEFAULT_SHAPE).unwrap_err();
+        let e = FittedTable::fit_cv(&pts, &[0.0; 20], &SHAPES).unwrap_err();
         assert!(
             matches!(e, TableError::NotPositive { line: 9, value } if value == 0.0),
             "{e:?}"
@@ -900,7 +1130,7 @@ mod tests {
                 )
             })
             .collect();
-        let table = FittedTable::fit(&pts, &[0.0; 12], DEFAULT_SHAPE, 0.1).unwrap();
+        let table = FittedTable::fit(&pts, &[0.0; 12], SHAPES[1], 0.1).unwrap();
         assert!(table.coverage() < 0.02, "coverage {}", table.coverage());
         assert!(table.coverage() > 0.0);
         assert!(table.covers(t, t, PI) && table.covers(t, t, 0.0));

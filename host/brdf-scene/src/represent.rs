@@ -15,7 +15,7 @@ use serde::Serialize;
 use crate::eval::{eval_batch, Evaluator};
 use crate::ladder::{choose, fitted_rung, rungs, Choice, Rung};
 use brdf_core::{Brdf, MAX_PARAMS};
-use brdf_fit::fitted_table::{trimmed_rms_rel, FittedTable, TableRecord, DEFAULT_SHAPE};
+use brdf_fit::fitted_table::{trimmed_rms_rel, FittedTable, TableRecord, SHAPES};
 
 /// One way the device could answer lookups for this data: a rung of the ladder with its
 /// error against the data.
@@ -125,13 +125,14 @@ pub fn representations(
 
 /// Fewest points a fitted table is offered for: below this, cross-validation is
 /// leave-one-out, and each of `n` refits would choose its smoothness by its own inner
-/// cross-validation (about 80 s at 49 points); and a table of [`DEFAULT_SHAPE`]'s 1,900
-/// cells on fewer than 50 points is shaped by its smoothness term far more than by the data.
+/// cross-validation (about 80 s at 49 points); and a table of 1,710 or 1,900 cells
+/// ([`SHAPES`]) on fewer than 50 points is shaped by its smoothness term far more than by the
+/// data.
 pub const TABLE_MIN_POINTS: usize = CV_LEAVE_ONE_OUT_BELOW;
 
 /// The base model of a fitted table: Lambert, so that the table alone carries the shape (as
-/// measured in docs/model-comparison.md) and a 20 x 19 x 5 table with its base fits one
-/// flash slot (a six-parameter base would not).
+/// measured in docs/model-comparison.md) and the larger table ([`SHAPES`]: 20 x 19 x 5) with
+/// its base fits one flash slot (with a six-parameter base it would not).
 pub const TABLE_BASE: ModelKind = ModelKind::Lambert;
 
 /// The fitted-table rung over the base fit `base_params` (a [`TABLE_BASE`] fit to `train`):
@@ -147,7 +148,7 @@ pub fn table_rung(train: &Dataset, base_params: &[f64; MAX_PARAMS]) -> Result<(R
         .iter()
         .map(|p| f64::from(model.eval_angles(p.theta_i as f32, p.theta_r as f32, p.phi as f32)).ln())
         .collect();
-    let table = FittedTable::fit_cv(&train.points, &base_ln, DEFAULT_SHAPE)
+    let table = FittedTable::fit_cv(&train.points, &base_ln, &SHAPES)
         .map_err(|e| format!("{name}: fitted table: {e}"))?;
     let record = TableRecord::new(&table).map_err(|e| format!("{name}: fitted table: {e}"))?;
     let bytes = table
