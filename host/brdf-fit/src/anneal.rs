@@ -272,6 +272,9 @@ fn run<R: RngCore, L: Landscape>(
         evals += 1;
         let steps = opts.evals.saturating_sub(evals);
         for k in 0..steps {
+            if k % crate::problem::Stop::EVERY == 0 && problem.stopped() {
+                break;
+            }
             let frac = k as f64 / steps.max(1) as f64;
             let t = opts.t_start * (opts.t_end / opts.t_start).powf(frac);
             let sigma = opts.step_start * (opts.step_end / opts.step_start).powf(frac);

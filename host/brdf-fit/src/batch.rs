@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::embedded::{fit_embedded, EmbeddedError};
-use crate::problem::{Loss, Problem, Residual};
+use crate::problem::{Loss, Problem, Residual, Stop};
 use crate::report::{report, FitReport};
 use crate::{fit, Dataset, FitOptions};
 
@@ -122,8 +122,15 @@ impl FitSettings {
 
     /// Fits one dataset and builds its report, after [`FitSettings::check`].
     pub fn fit(&self, d: &Dataset) -> Result<FitReport, FitError> {
+        self.fit_until(d, &Stop::default())
+    }
+
+    /// [`FitSettings::fit`], abandoned when `stop` is requested (the full engine's searches
+    /// end early and the report says "not converged"; the embedded engine runs to its
+    /// budget, at most [`crate::request::BUDGET_EVALS`] evaluations).
+    pub fn fit_until(&self, d: &Dataset, stop: &Stop) -> Result<FitReport, FitError> {
         self.check(d)?;
-        let problem = self.problem(d);
+        let problem = self.problem(d).with_stop(stop.clone());
         let outcome = match self.engine {
             Engine::Full => fit(&problem, &self.options),
             Engine::Embedded { budget } => fit_embedded(self.kind, d, &problem, budget, self.options.seed)?,
@@ -163,6 +170,16 @@ pub fn fittable(
 pub fn fit_streamed(
     settings: &FitSettings,
     datasets: &[Dataset],
+    each: impl FnMut(usize, &Result<FitReport, FitError>),
+) -> Vec<Result<FitReport, FitError>> {
+    fit_streamed_until(settings, datasets, &Stop::default(), each)
+}
+
+/// [`fit_streamed`], every fit abandoned when `stop` is requested ([`FitSettings::fit_until`]).
+pub fn fit_streamed_until(
+    settings: &FitSettings,
+    datasets: &[Dataset],
+    stop: &Stop,
     mut each: impl FnMut(usize, &Result<FitReport, FitError>),
 ) -> Vec<Result<FitReport, FitError>> {
     let (tx, rx) = mpsc::channel();
@@ -172,7 +189,7 @@ pub fn fit_streamed(
         scope.spawn(move || {
             datasets.par_iter().enumerate().for_each_with(tx, |tx, (i, d)| {
                 // The receiver lives until every result is in.
-                let _ = tx.send((i, settings.fit(d)));
+                let _ = tx.send((i, settings.fit_until(d, stop)));
             });
         });
         for (i, r) in rx {

@@ -160,6 +160,9 @@ pub fn fit(problem: &Problem, opts: &FitOptions) -> FitOutcome {
         let mut best = search(&p, opts);
         let mut evals = best.evals;
         for round in 1..opts.irls_rounds.max(1) {
+            if problem.stopped() {
+                break;
+            }
             p.reweight(&best.q);
             let r = search(
                 &p,
@@ -221,6 +224,9 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
         grid_n += 1;
     }
     loop {
+        if problem.stopped() {
+            break;
+        }
         if !hopping {
             if chains >= max_chains {
                 break;
@@ -271,7 +277,9 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
     }
     let best = best_of(&found);
     let agree_n = agreeing(&found, grid_n);
-    let not_converged = if agree_n < need {
+    let not_converged = if problem.stopped() {
+        Some("the fit was stopped before its search ended".to_owned())
+    } else if agree_n < need {
         Some(format!(
             "the best cost was reached by {agree_n} of {} chains and hops ({need} needed): the search could still improve",
             found.len() - grid_n

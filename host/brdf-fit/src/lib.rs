@@ -31,8 +31,8 @@ pub mod report;
 pub mod request;
 pub mod synth;
 
-pub use batch::{fit_all, fit_streamed, fittable, Engine, FitError, FitSettings};
+pub use batch::{fit_all, fit_streamed, fit_streamed_until, fittable, Engine, FitError, FitSettings};
 pub use data::{load_csv, DataError, Dataset, LoadOptions, Loaded, Point, RowDegrees, RowError, Skipped};
 pub use fit::{fit, FitOptions, FitOutcome};
-pub use problem::{Loss, LossKind, Problem, Residual};
+pub use problem::{Loss, LossKind, Problem, Residual, Stop};
 pub use request::{EngineKind, FitRequest, OptionError};

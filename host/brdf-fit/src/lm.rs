@@ -122,7 +122,7 @@ pub fn minimise(
     let mut nu = 2.0;
     let mut converged = false;
     let mut iterations = 0;
-    while iterations < opts.max_iterations {
+    while iterations < opts.max_iterations && !problem.stopped() {
         iterations += 1;
         // Active set: at a bound with the descent direction pointing outside. A parameter
         // with no effect on the residuals (a zero column: the lobe's shape when kb = 0) is

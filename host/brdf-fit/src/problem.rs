@@ -195,6 +195,40 @@ pub struct Problem {
     /// Iteratively reweighted least squares: the robust loss's `rho'` at a current point,
     /// per point, used by the projection (the global search solves linear least squares).
     irls: Vec<f64>,
+    /// Asked to stop (see [`Stop`]).
+    stop: Stop,
+}
+
+/// A request to abandon a fit part way (the Python package's Ctrl-C): shared by the caller
+/// and every search on the problem, which look at it between annealing moves (every
+/// [`Stop::EVERY`] moves), polish iterations, chains and hops, and end early. A stopped fit's
+/// outcome is never "converged" (`fit::FitOutcome`); its result is meant to be dropped.
+#[derive(Clone, Debug, Default)]
+pub struct Stop(Option<std::sync::Arc<std::sync::atomic::AtomicBool>>);
+
+impl Stop {
+    /// Annealing moves between looks at the flag (about a millisecond on a 1,000-point
+    /// problem).
+    pub const EVERY: usize = 256;
+
+    /// A stop that [`Stop::request`] triggers.
+    pub fn new() -> Self {
+        Stop(Some(std::sync::Arc::default()))
+    }
+
+    /// Asks every search holding a clone of this stop to end.
+    pub fn request(&self) {
+        if let Some(flag) = &self.0 {
+            flag.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+
+    /// Whether a stop was requested (never, for [`Stop::default`]).
+    pub fn requested(&self) -> bool {
+        self.0
+            .as_ref()
+            .is_some_and(|flag| flag.load(std::sync::atomic::Ordering::Relaxed))
+    }
 }
 
 impl Problem {
@@ -220,7 +254,19 @@ impl Problem {
             loss: Loss::default(),
             brightening: false,
             irls: vec![1.0; points.len()],
+            stop: Stop::default(),
         }
+    }
+
+    /// The same problem, abandoned by its searches when `stop` is requested.
+    pub fn with_stop(mut self, stop: Stop) -> Self {
+        self.stop = stop;
+        self
+    }
+
+    /// Whether the searches on this problem were asked to stop.
+    pub fn stopped(&self) -> bool {
+        self.stop.requested()
     }
 
     /// The same problem with the six-parameter diffuse exponent `c` searched down to

@@ -1,6 +1,7 @@
 //! `brdf.fit` and `brdf.read`: the fit settings as `brdf fit` builds them, datasets from files or arrays.
 
 use super::*;
+use brdf_fit::Stop;
 
 /// Fit settings as `brdf fit` builds them from its options.
 #[pyclass(module = "brdf._brdf", frozen)]
@@ -84,8 +85,8 @@ impl Settings {
 /// Fits every dataset; returns each report as `brdf fit --json` prints one.
 pub(crate) fn fit_datasets(py: Python<'_>, s: &Settings, datasets: Vec<Dataset>) -> PyResult<Vec<String>> {
     let settings = s.settings;
-    interruptible(py, move || {
-        brdf_fit::fit_streamed(&settings, &datasets, |_, _| {})
+    interruptible(py, move |stop| {
+        brdf_fit::fit_streamed_until(&settings, &datasets, stop, |_, _| {})
             .into_iter()
             .map(|r| match r {
                 Ok(r) => serde_json::to_string_pretty(&r).map_err(|e| e.to_string()),
@@ -102,18 +103,22 @@ const SIGNAL_POLL: std::time::Duration = std::time::Duration::from_millis(50);
 
 /// Runs `work` on its own thread without the interpreter's lock and returns its result, raising
 /// `KeyboardInterrupt` (or whatever a signal handler raises) within [`SIGNAL_POLL`] of Ctrl-C
-/// instead of when the work ends (a fit may run for minutes). The fitter cannot be stopped
-/// part way, so an interrupted fit finishes on its thread in the background and its result
-/// is dropped.
+/// instead of when the work ends (a fit may run for minutes). On the signal, the [`Stop`]
+/// handed to `work` is requested: a fit's searches end within a few milliseconds
+/// ([`brdf_fit::FitSettings::fit_until`]) and the result is dropped. Work that does not look
+/// at it (scenes, selections, the embedded engine, bounded by their own limits) finishes on
+/// its thread in the background.
 pub(crate) fn interruptible<T: Send + 'static>(
     py: Python<'_>,
-    work: impl FnOnce() -> T + Send + 'static,
+    work: impl FnOnce(&Stop) -> T + Send + 'static,
 ) -> PyResult<T> {
     let (tx, rx) = std::sync::mpsc::channel();
+    let stop = Stop::new();
+    let for_work = stop.clone();
     std::thread::Builder::new()
         .name("brdf-fit".into())
         .spawn(move || {
-            let _ = tx.send(work());
+            let _ = tx.send(work(&for_work));
         })
         .map_err(|e| PyValueError::new_err(format!("cannot start the work thread: {e}")))?;
     let mut rx = rx;
@@ -123,7 +128,12 @@ pub(crate) fn interruptible<T: Send + 'static>(
         rx = back;
         match got {
             Ok(v) => return Ok(v),
-            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => py.check_signals()?,
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                if let Err(e) = py.check_signals() {
+                    stop.request();
+                    return Err(e);
+                }
+            }
             Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
                 return Err(PyValueError::new_err(
                     "the work stopped without a result (it panicked)",

@@ -27,7 +27,7 @@ pub(crate) fn scene_lrcs(py: Python<'_>, path: String) -> PyResult<SceneLrcs> {
     use brdf_scene::lrcs::{lrcs, LrcsReport};
     let scene = scene_at(&path)?;
     // Ctrl-C raises at once (`interruptible`); an interrupted sweep ends in the background.
-    crate::fit::interruptible(py, move || -> Result<SceneLrcs, String> {
+    crate::fit::interruptible(py, move |_| -> Result<SceneLrcs, String> {
         let result = lrcs(&scene, &|| {});
         let text = serde_json::to_string_pretty(&LrcsReport::new(path, &scene, &result))
             .map_err(|e| e.to_string())?;
@@ -63,7 +63,7 @@ pub(crate) type SceneDomain = (
 #[pyfunction]
 pub(crate) fn scene_domain(py: Python<'_>, path: String) -> PyResult<SceneDomain> {
     let scene = scene_at(&path)?;
-    crate::fit::interruptible(py, move || {
+    crate::fit::interruptible(py, move |_| {
         let d = brdf_scene::queries::collect_queries(&scene, &|| {});
         let mut c: SceneDomain = Default::default();
         for r in brdf_scene::queries::rows(&scene, &d) {
@@ -107,7 +107,7 @@ pub(crate) fn select_scene<'py>(
         allow_nonphysical,
         ..SelectOptions::default()
     };
-    let (text, blob, note) = crate::fit::interruptible(py, move || {
+    let (text, blob, note) = crate::fit::interruptible(py, move |_| {
         let domain = brdf_scene::queries::collect_queries(&scene, &|| {});
         let s = select(&scene, &domain, &opts);
         let text = serde_json::to_string_pretty(&s).map_err(|e| e.to_string());

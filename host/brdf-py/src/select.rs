@@ -16,7 +16,7 @@ pub(crate) fn select_dataset<'py>(
     options: SelectArgs,
     mut notes: Vec<String>,
 ) -> PyResult<Selected<'py>> {
-    use brdf_scene::represent::{select_data, DataDomain};
+    use brdf_scene::represent::{select_data_until, DataDomain};
     let (budget, max_theta_i, max_theta_r, allow_nonphysical, sequence) = options;
     let limits = (max_theta_i, max_theta_r);
     let checked = (|| -> Result<(), String> {
@@ -35,12 +35,13 @@ pub(crate) fn select_dataset<'py>(
     notes.extend(kept.left_out_note());
     let base = settings.settings;
     // Ctrl-C raises at once (`interruptible`); the selection's own errors come back as text.
-    let work = crate::fit::interruptible(py, move || -> Result<_, String> {
-        let s = select_data(
+    let work = crate::fit::interruptible(py, move |stop| -> Result<_, String> {
+        let s = select_data_until(
             &kept,
             &|kind| FitSettings { kind, ..base },
             budget,
             allow_nonphysical,
+            stop,
         )?;
         let blob = match &s.material {
             Some((m, table)) => Some(

@@ -8,7 +8,7 @@
 use brdf_core::table::{table_accuracy, SixTable};
 use brdf_core::ModelKind;
 use brdf_fit::report::FitReport;
-use brdf_fit::Dataset;
+use brdf_fit::{Dataset, Stop};
 use brdf_wire::blob::Material;
 use serde::Serialize;
 
@@ -208,6 +208,7 @@ fn cross_validate(
     settings: &(dyn Fn(ModelKind) -> brdf_fit::FitSettings + Sync),
     with_table: bool,
     reprs: &mut [Representation],
+    stop: &Stop,
 ) {
     use rayon::prelude::*;
     let fold = cv_folds(domain.points.len());
@@ -229,12 +230,12 @@ fn cross_validate(
                     .collect(),
             };
             let (train, test) = (split(false), split(true));
-            if test.points.is_empty() {
+            if test.points.is_empty() || stop.requested() {
                 return Vec::new();
             }
             // `FitSettings::fit`, not `fit_all`: this runs on the thread pool already, and
             // `fit_all` would wait on it for its own tasks.
-            let Ok(fit) = settings(kind).fit(&train) else {
+            let Ok(fit) = settings(kind).fit_until(&train, stop) else {
                 return Vec::new();
             };
             let Ok(params) = fit.params_array() else {
@@ -431,6 +432,19 @@ pub fn select_data(
     budget: f64,
     allow_nonphysical: bool,
 ) -> Result<DataSelection, String> {
+    select_data_until(kept, settings, budget, allow_nonphysical, &Stop::default())
+}
+
+/// [`select_data`] whose fits are abandoned when `stop` is requested
+/// ([`brdf_fit::FitSettings::fit_until`]; the Python package's Ctrl-C): the selection then
+/// ends within moments and its result is meant to be dropped.
+pub fn select_data_until(
+    kept: &DataDomain,
+    settings: &(dyn Fn(ModelKind) -> brdf_fit::FitSettings + Sync),
+    budget: f64,
+    allow_nonphysical: bool,
+    stop: &Stop,
+) -> Result<DataSelection, String> {
     let (domain, max_theta_i, max_theta_r) = (&kept.domain, kept.max_theta_i, kept.max_theta_r);
     if domain.points.len() < 7 {
         return Err(format!(
@@ -454,13 +468,21 @@ pub fn select_data(
     for &k in ModelKind::LADDER.iter() {
         // A model the data cannot determine is left out, said in the notes; the others are
         // still compared.
-        match brdf_fit::fit_all(&settings(k), std::slice::from_ref(domain)) {
+        let full = brdf_fit::FitSettings {
+            engine: brdf_fit::Engine::Full,
+            ..settings(k)
+        };
+        let fitted = brdf_fit::fit_streamed_until(&full, std::slice::from_ref(domain), stop, |_, _| {});
+        match fitted.into_iter().collect::<Result<Vec<_>, _>>() {
             Ok(r) => candidates.extend(r),
             Err(e @ brdf_fit::FitError::Directions { .. }) => {
                 notes.push(format!("{}: not fitted: {e}", k.name()))
             }
             Err(e) => return Err(e.to_string()),
         }
+    }
+    if stop.requested() {
+        return Err(format!("{}: the selection was stopped", domain.name));
     }
     let mut reprs = representations(&candidates, domain, &mut notes)?;
     // The fitted table over the base model's fit to the whole domain.
@@ -488,7 +510,7 @@ pub fn select_data(
             domain.points.len()
         ));
     }
-    cross_validate(domain, settings, with_table, &mut reprs);
+    cross_validate(domain, settings, with_table, &mut reprs, stop);
     let all: Vec<&Rung> = reprs.iter().map(|r| &r.rung).collect();
     // A rung that could not be cross-validated is never within a budget nor the closest.
     let errors: Vec<f64> = reprs

@@ -10,4 +10,5 @@ mod outliers;
 mod real_data;
 mod real_data_cases;
 mod report_json;
+mod stop;
 mod targets;
