@@ -566,17 +566,11 @@ pub fn trimmed_rms_rel(rel_errors: &[f64]) -> f64 {
     (kept.iter().map(|e| e * e).sum::<f64>() / kept.len() as f64).sqrt()
 }
 
-/// The fold (`0..CV_FOLDS`) of each of `n` points: points ordered by a fixed hash of their
-/// index and dealt round-robin, so folds differ in size by at most one and do not follow the
-/// file's order (files are usually sorted by incidence).
-fn cv_folds(n: usize) -> Vec<usize> {
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by_key(|&i| brdf_core::accuracy::splitmix64(&mut (i as u64 ^ CV_SEED)));
-    let mut fold = vec![0; n];
-    for (rank, &i) in order.iter().enumerate() {
-        fold[i] = rank % CV_FOLDS;
-    }
-    fold
+/// The fold (`0..CV_FOLDS`) of each point: its direction's, every reading of a direction in
+/// one fold ([`crate::folds::grouped_folds`]), so folds do not follow the file's order (files
+/// are usually sorted by incidence) and a replicate never predicts its own copy.
+fn cv_folds(points: &[Point]) -> Vec<usize> {
+    crate::folds::grouped_folds(points, CV_FOLDS, CV_SEED)
 }
 
 /// A correction `t = ln(f / f_base)` tabulated on a Rusinkiewicz grid (see the module docs);
@@ -725,7 +719,7 @@ impl FittedTable {
                 Ok((System::new(shape), stencils, ln_y))
             })
             .collect::<Result<Vec<_>, TableError>>()?;
-        let fold = cv_folds(points.len());
+        let fold = cv_folds(points);
         let grid = smoothness_grid();
         // Mean held-out error over the folds of each (shape, smoothness index) job.
         let score = |jobs: &[(usize, usize)]| -> Vec<f64> {

@@ -24,13 +24,16 @@ pub fn outer_fold(i: usize) -> usize {
     (brdf_core::accuracy::splitmix64(&mut (i as u64 ^ 0x0ddc_0ffe_e5ee_d000)) % OUTER_FOLDS as u64) as usize
 }
 
-/// The points of `d` in fold `f` (`held`) or outside it.
+/// The points of `d` in fold `f` (`held`) or outside it; every reading of a direction in the
+/// fold of its first reading ([`crate::folds::first_of_direction`]), so that a replicate never
+/// predicts its own copy.
 pub fn split(d: &Dataset, f: usize, held: bool) -> Vec<Point> {
+    let first = crate::folds::first_of_direction(&d.points);
     d.points
         .iter()
-        .enumerate()
-        .filter(|(i, _)| (outer_fold(*i) == f) == held)
-        .map(|(_, p)| *p)
+        .zip(first)
+        .filter(|(_, i)| (outer_fold(*i) == f) == held)
+        .map(|(p, _)| *p)
         .collect()
 }
 

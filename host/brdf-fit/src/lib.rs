@@ -19,6 +19,7 @@ pub mod data;
 pub mod embedded;
 pub mod fit;
 pub mod fitted_table;
+pub mod folds;
 pub mod grid;
 pub mod holdout;
 pub mod import;

@@ -185,19 +185,13 @@ pub fn cv_fold_count(n: usize) -> usize {
 /// Seed of the fold assignment (fixed: the same data always give the same folds).
 const CV_SEED: u64 = 0x5eed_c0ff_ee00_0005;
 
-/// The fold of each of `n` points ([`cv_fold_count`] folds): a fixed pseudo-random order dealt
-/// round-robin, so the
-/// folds differ in size by at most one and do not follow the file's order (measurements are
-/// usually sorted by incidence, and a fold of one incidence would test extrapolation).
-pub fn cv_folds(n: usize) -> Vec<usize> {
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by_key(|&i| brdf_core::accuracy::splitmix64(&mut (i as u64 ^ CV_SEED)));
-    let k = cv_fold_count(n);
-    let mut fold = vec![0; n];
-    for (rank, &i) in order.iter().enumerate() {
-        fold[i] = rank % k;
-    }
-    fold
+/// The fold of each point ([`cv_fold_count`] folds of its count): its direction's, every
+/// reading of a direction in one fold ([`brdf_fit::folds::grouped_folds`]), in a fixed
+/// pseudo-random order so that the folds do not follow the file's order (measurements are
+/// usually sorted by incidence, and a fold of one incidence would test extrapolation) and a
+/// replicate reading never predicts its own copy.
+pub fn cv_folds(points: &[brdf_fit::Point]) -> Vec<usize> {
+    brdf_fit::folds::grouped_folds(points, cv_fold_count(points.len()), CV_SEED)
 }
 
 /// Sets `cv_rms_rel` of every representation: per fold and model of the ladder, the model
@@ -211,7 +205,7 @@ fn cross_validate(
     stop: &Stop,
 ) {
     use rayon::prelude::*;
-    let fold = cv_folds(domain.points.len());
+    let fold = cv_folds(&domain.points);
     let jobs: Vec<(usize, ModelKind)> = (0..cv_fold_count(domain.points.len()))
         .flat_map(|f| ModelKind::LADDER.into_iter().map(move |k| (f, k)))
         .collect();
@@ -582,8 +576,20 @@ mod cv_tests {
     #[test]
     fn folds_are_balanced_fixed_and_not_in_file_order() {
         for n in [7, 10, 49, 50, 213, 1000] {
-            let f = cv_folds(n);
-            assert_eq!(f, cv_folds(n), "the same points give the same folds");
+            // Distinct directions, sorted by incidence as files are.
+            let pts: Vec<brdf_fit::Point> = (0..n)
+                .map(|i| brdf_fit::Point {
+                    theta_i: (i as f64 * 0.07).to_radians(),
+                    theta_r: (10.0 + (i % 7) as f64).to_radians(),
+                    phi: (i as f64 * 1.3).to_radians(),
+                    brdf: 0.1,
+                    sigma: None,
+                    weight: None,
+                    line: i as u64 + 2,
+                })
+                .collect();
+            let f = cv_folds(&pts);
+            assert_eq!(f, cv_folds(&pts), "the same points give the same folds");
             let k = cv_fold_count(n);
             assert_eq!(k, if n < CV_LEAVE_ONE_OUT_BELOW { n } else { CV_FOLDS });
             assert!(f.iter().all(|&g| g < k));
