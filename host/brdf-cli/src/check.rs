@@ -244,7 +244,9 @@ impl CheckCmd {
             };
             let mut results = Vec::new();
             for (name, xs) in dirs.iter().filter(|d| !d.1.is_empty()) {
-                let dev = link.eval(m as u8, Input::Angles, xs)?;
+                let dev = link
+                    .eval(m as u8, Input::Angles, xs)
+                    .with_context(|| format!("material {m}: the {name} directions"))?;
                 let exact: Vec<f64> = xs
                     .iter()
                     .map(|x| match &fitted {

@@ -1,6 +1,6 @@
 //! Pieces shared by the fitting subcommands.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use brdf_core::names::{Named, UnknownName};
@@ -282,6 +282,21 @@ pub fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
         (Some(x), Some(y)) => x == y,
         _ => std::path::absolute(a).ok() == std::path::absolute(b).ok(),
     }
+}
+
+/// Refuses an output (`flag` and its path `out`) that is one of the command's `inputs`
+/// ([`same_file`]): writing it would destroy what the command read.
+pub fn not_an_input<'a>(flag: &str, out: &Path, inputs: impl IntoIterator<Item = &'a Path>) -> Result<()> {
+    for input in inputs {
+        if same_file(input, out) {
+            bail!(
+                "{flag} {} is the input {}: it would be overwritten",
+                out.display(),
+                input.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

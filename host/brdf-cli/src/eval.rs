@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::{anyhow, bail, Context, Result};
 use brdf_core::batch::{Batch, BatchError};
 use brdf_core::fitted::{Corrected, FittedTable};
-use brdf_core::{AnyModel, Brdf, Float, ModelKind, MAX_PARAMS};
+use brdf_core::{AnyModel, Brdf, Float, Geometry, ModelKind, MAX_PARAMS};
 use clap::{Args, ValueEnum};
 
 use crate::angles::{f32_text, f64_text, radians, AngleReader, AngleWriter, Chunk, CHUNK_ROWS};
@@ -128,6 +128,9 @@ impl EvalCmd {
         let mut chunk = Chunk::default();
         let mut directions: Vec<[T; 3]> = Vec::with_capacity(CHUNK_ROWS);
         let mut values: Vec<T> = Vec::with_capacity(CHUNK_ROWS);
+        // Directions outside the table's coverage (the smoothness term's extrapolation), and
+        // the first one's line.
+        let (mut outside, mut rows, mut first_outside) = (0usize, 0usize, None);
         while reader.next_chunk(&mut chunk)? > 0 {
             directions.clear();
             directions.extend(chunk.degrees().iter().map(|&d| radians::<T>(d)));
@@ -139,6 +142,13 @@ impl EvalCmd {
                         .iter()
                         .map(|&[ti, tr, phi]| corrected.eval_angles(ti, tr, phi)),
                 );
+                for (i, &[ti, tr, phi]) in directions.iter().enumerate() {
+                    if !table.covers(&Geometry::from_angles(ti, tr, phi)) {
+                        outside += 1;
+                        first_outside.get_or_insert(chunk.line(i));
+                    }
+                }
+                rows += directions.len();
             } else if let Err(e) = evaluate_chunk(&model, batch.as_ref(), &directions, &mut values) {
                 let line = match e {
                     BatchError::Domain { index, .. } => chunk.line(index),
@@ -155,6 +165,14 @@ impl EvalCmd {
                 );
             }
             writer.write_chunk(&chunk, values.iter().map(|&v| text(v)))?;
+        }
+        if let Some(line) = first_outside {
+            eprintln!(
+                "warning: {outside} of {rows} directions (the first on line {line} of {}) lie outside \
+                 the fitted table's coverage: its measurements did not inform them, and the table \
+                 extrapolates there",
+                reader.file()
+            );
         }
         writer.finish()
     }

@@ -35,6 +35,7 @@ pub struct PackCmd {
 
 impl PackCmd {
     pub fn run(self) -> Result<()> {
+        crate::common::not_an_input("-o", &self.output, self.fits.iter().map(|p| p.as_path()))?;
         let sources: Vec<FitSource> = self.fits.iter().map(|p| FitSource::File(p)).collect();
         let options = PackOptions {
             sequence: self.sequence,

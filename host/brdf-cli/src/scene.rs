@@ -83,6 +83,16 @@ impl LrcsCmd {
             brdf_plot::check_path(plot)?; // before the sweep, not after it
         }
         let scene = load(&self.scene)?;
+        for (flag, out) in [("-o", &self.output), ("--plot", &self.plot)] {
+            if let Some(out) = out {
+                crate::common::not_an_input(flag, out, scene.files())?;
+            }
+        }
+        if let (Some(o), Some(p)) = (&self.output, &self.plot) {
+            if crate::common::same_file(o, p) {
+                anyhow::bail!("-o and --plot name the same file {}", o.display());
+            }
+        }
         let n = scene.aspects().len();
         let bar = progress::bar(n, "aspects");
         let result = lrcs(&scene, &|| bar.inc(1));
@@ -160,6 +170,9 @@ impl LrcsCmd {
 impl DomainCmd {
     fn run(self) -> Result<()> {
         let scene = load(&self.scene)?;
+        if let Some(out) = &self.output {
+            crate::common::not_an_input("-o", out, scene.files())?;
+        }
         let aspects = scene.aspects().len();
         let bar = progress::bar(aspects, "aspects");
         let out = sink(&self.output)?;

@@ -260,8 +260,15 @@ pub struct RowDegrees {
 /// 100% error), so a value out here is a unit error and is refused with its line.
 pub const BRDF_MAGNITUDE: std::ops::RangeInclusive<f64> = 1e-100..=1e100;
 
+/// Largest azimuth magnitude a direction may be given with, degrees: two turns either way
+/// covers every convention (`[0, 360)`, `[-180, 180]`, a sweep written past 360). Beyond, the
+/// angle is a unit or column error, and a huge one loses its phase in the conversion to
+/// radians (1e20 deg evaluated as 280 deg; 1e300 overflowed f32 and was blamed on the model).
+pub const PHI_LIMIT_DEG: f64 = 720.0;
+
 impl Point {
     /// Validates a row as `brdf fit` does: every value finite, zeniths in [0, 90) degrees,
+    /// `|phi|` at most [`PHI_LIMIT_DEG`],
     /// `brdf > 0` (`>= 0` with `allow_zero_brdf`, for absolute residuals) and, unless 0, in
     /// [`BRDF_MAGNITUDE`], `sigma` and
     /// `weight` above 0; `line` is where it came from.
@@ -286,7 +293,12 @@ impl Point {
         };
         let theta_i = zenith(r.theta_i, "theta_i")?;
         let theta_r = zenith(r.theta_r, "theta_r")?;
-        let phi = finite(r.phi, "phi")?;
+        let phi = in_range(
+            finite(r.phi, "phi")?,
+            r.phi.abs() <= PHI_LIMIT_DEG,
+            "phi",
+            "[-720, 720] degrees",
+        )?;
         let brdf = finite(r.brdf, "brdf")?;
         let brdf = if allow_zero_brdf {
             in_range(brdf, brdf >= 0.0, "brdf", ">= 0")?

@@ -213,7 +213,7 @@ fn f32_beyond_claim(m: &Material) -> Result<Option<String>, brdf_core::ParamErro
 const FITTED_CHECK_STEP_DEG: (usize, usize) = (5, 15);
 
 /// A fitted-table material's f32 evaluation (the device's) against f64 over a grid of
-/// directions (zeniths 0 to 85 degrees, azimuths 0 to 180): a sentence when some value is not
+/// directions (zeniths 0 to 85 degrees, 89 and 89.9, azimuths 0 to 180): a sentence when some value is not
 /// finite in f32, or differs by more than the table's f32 bound
 /// (`brdf_core::fitted::FittedTable::f32_max_rel` on top of [`F32_MAX_REL`]), which a table
 /// near the ends of its range does (f32 underflows to 0 or overflows); `None` otherwise.
@@ -237,11 +237,14 @@ fn fitted_f32_beyond_bound(m: &Material, bytes: &[u8]) -> Result<Option<String>,
     };
     let bound = F32_MAX_REL + table.f32_max_rel();
     let (dz, dp) = FITTED_CHECK_STEP_DEG;
-    for ti in (0..90).step_by(dz) {
-        for tr in (0..90).step_by(dz) {
+    // Up to 85 degrees in steps, and two zeniths by the horizon, where a base that grows
+    // towards grazing (Minnaert with k < 1) overflows f32 first.
+    let zeniths: Vec<f64> = (0..90).step_by(dz).map(f64::from).chain([89.0, 89.9]).collect();
+    for &ti in &zeniths {
+        for &tr in &zeniths {
             for phi in (0..=180).step_by(dp) {
                 // The same f32 input to both, as `brdf check` compares them.
-                let a = [ti, tr, phi].map(|d| f64::from(d).to_radians() as f32);
+                let a = [ti, tr, f64::from(phi)].map(|d| d.to_radians() as f32);
                 let want = f64m.eval_angles(a[0].into(), a[1].into(), a[2].into());
                 let got = f64::from(f32m.eval_angles(a[0], a[1], a[2]));
                 let off = !got.is_finite() || (want != 0.0 && (got / want - 1.0).abs() > bound);

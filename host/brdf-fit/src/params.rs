@@ -105,9 +105,10 @@ pub fn not_finite(value: impl std::fmt::Display, kind: ModelKind) -> String {
     )
 }
 
-/// Checks one direction of `brdf eval` in degrees (`theta_i`, `theta_r`, `phi`): finite, and
+/// Checks one direction of `brdf eval` in degrees (`theta_i`, `theta_r`, `phi`): finite,
 /// zeniths in [0, 90] (90 is the horizon, where the models are defined; fitting data stops
-/// below it, [`crate::data::Point::from_degrees`]). The error names the column.
+/// below it, [`crate::data::Point::from_degrees`]) and `|phi|` at most
+/// [`crate::data::PHI_LIMIT_DEG`]. The error names the column.
 pub fn check_eval_degrees(deg: [f64; 3]) -> Result<(), String> {
     const NAMES: [&str; 3] = ["theta_i", "theta_r", "phi"];
     for (k, (&v, name)) in deg.iter().zip(NAMES).enumerate() {
@@ -120,6 +121,13 @@ pub fn check_eval_degrees(deg: [f64; 3]) -> Result<(), String> {
                 brdf_core::Compact(v)
             ));
         }
+        if k == 2 && v.abs() > crate::data::PHI_LIMIT_DEG {
+            return Err(format!(
+                "column {name}: azimuth {} deg is outside [-{lim}, {lim}]",
+                brdf_core::Compact(v),
+                lim = crate::data::PHI_LIMIT_DEG
+            ));
+        }
     }
     Ok(())
 }
@@ -127,6 +135,32 @@ pub fn check_eval_degrees(deg: [f64; 3]) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An azimuth of 1e20 deg was evaluated as 280 deg (its phase lost converting to
+    /// radians), and 1e300 overflowed f32 and was blamed on the model.
+    #[test]
+    fn azimuths_beyond_two_turns_are_refused_by_every_reader() {
+        for phi in [720.0, -720.0, 359.9, -180.0] {
+            assert!(check_eval_degrees([30.0, 30.0, phi]).is_ok(), "{phi}");
+        }
+        for phi in [720.5, -721.0, 1e20, 1e300] {
+            let e = check_eval_degrees([30.0, 30.0, phi]).unwrap_err();
+            assert!(
+                e.starts_with("column phi: azimuth") && e.contains("[-720, 720]"),
+                "{e}"
+            );
+            let row = crate::data::RowDegrees {
+                theta_i: 30.0,
+                theta_r: 30.0,
+                phi,
+                brdf: 0.1,
+                sigma: None,
+                weight: None,
+            };
+            let e = crate::data::Point::from_degrees(row, false, 7).unwrap_err();
+            assert_eq!(e.column, "phi", "{e}");
+        }
+    }
 
     #[test]
     fn parses_in_any_order_and_rejects_bad_lists() {

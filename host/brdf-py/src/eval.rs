@@ -107,6 +107,34 @@ pub(crate) fn eval_angles<'py>(
 }
 
 /// A base model times a fitted table at angles in degrees, through [`scalar_angles`].
+/// Per direction (degrees, checked as `brdf eval` does), whether the fitted table `table`
+/// covers it (`brdf_core::fitted::FittedTable::covers`: its measurements informed it);
+/// `brdf.eval_fit` warns about the others, as `brdf eval --fit` does.
+#[pyfunction]
+pub(crate) fn table_covers<'py>(
+    py: Python<'py>,
+    table: &[u8],
+    theta_i: PyReadonlyArray1<'py, f64>,
+    theta_r: PyReadonlyArray1<'py, f64>,
+    phi: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyArray1<bool>>> {
+    let table = brdf_core::fitted::FittedTable::new(table)
+        .map_err(|e| PyValueError::new_err(format!("fitted table: {e}")))?;
+    let cols = [
+        slice(&theta_i, "theta_i")?,
+        slice(&theta_r, "theta_r")?,
+        slice(&phi, "phi")?,
+    ];
+    let out = py.detach(|| -> Result<Vec<bool>, Failure> {
+        check_degrees(cols)?;
+        let [a, b, c] = cols.map(radians::<f64>);
+        Ok((0..a.len())
+            .map(|i| table.covers(&brdf_core::Geometry::from_angles(a[i], b[i], c[i])))
+            .collect())
+    });
+    Ok(PyArray1::from_vec(py, out?))
+}
+
 fn corrected<T: Float + Send + Sync>(
     base: AnyModel<T>,
     table: brdf_core::fitted::FittedTable<'_>,

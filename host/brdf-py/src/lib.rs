@@ -111,6 +111,7 @@ fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add_class::<Settings>()?;
     m.add_function(wrap_pyfunction!(eval_angles, m)?)?;
+    m.add_function(wrap_pyfunction!(table_covers, m)?)?;
     m.add_function(wrap_pyfunction!(eval_columns, m)?)?;
     m.add_function(wrap_pyfunction!(albedo, m)?)?;
     m.add_function(wrap_pyfunction!(fit_paths, m)?)?;

@@ -220,3 +220,13 @@ def test_flags_and_counts_of_the_wrong_type_are_refused():
         brdf.albedo("lambert", "rho0=0.5", [0.0], panels=2.9)
     with pytest.raises(TypeError, match="parallel must be True or False, not 'no'"):
         brdf.eval("lambert", "rho0=0.5", 0, 0, 0, parallel="no")
+
+
+@pytest.mark.parametrize("precision", ["f64", "f32"])
+def test_azimuths_beyond_two_turns_are_refused(precision):
+    # 1e20 deg was evaluated as 280 deg in f64 (its phase lost); 1e300 overflowed f32 and was
+    # blamed on the model.
+    assert brdf.eval("lambert", "rho0=0.5", 30, 30, [-720, 720], precision=precision).shape == (2,)
+    for phi in (1e20, 1e300, 720.5):
+        with pytest.raises(ValueError, match=r"theta_i/theta_r/phi at index \[1\]: column phi: azimuth .* outside \[-720, 720\]"):
+            brdf.eval("lambert", "rho0=0.5", 30, 30, [10, phi], precision=precision)

@@ -137,14 +137,27 @@ def test_a_chosen_fitted_table_evaluates_as_the_cli(cli, root, tmp_path):
         s = brdf.select(str(data), budget=0.001)
     assert s.chosen == "lambert + table"
     assert json.loads(s.chosen_fit.to_json())["fitted_table"] == json.loads(chosen.read_text())["fitted_table"]
+    # Its repr says a table is attached (it showed the bare base's error as the fit's).
+    assert "lambert + fitted table " in repr(s.chosen_fit) and "base rms_rel" in repr(s.chosen_fit)
     angles = tmp_path / "angles.csv"
     angles.write_text("theta_i,theta_r,phi\n30,30,180\n30,31,180\n60,20,90\n10,70,0\n")
-    want = [float(l.split(",")[-1]) for l in cli("eval", "--fit", chosen, angles).stdout.split()[1:]]
+    p = cli("eval", "--fit", chosen, angles)
+    want = [float(l.split(",")[-1]) for l in p.stdout.split()[1:]]
     ti, tr, phi = [30, 30, 60, 10], [30, 31, 20, 70], [180, 180, 90, 0]
-    got = brdf.eval_fit(s.chosen_fit, ti, tr, phi)
+    # (60, 20, 90) is out of the plane MERL's slice measured: the table extrapolates there,
+    # which both say (before, with exit 0 and no word), with the same count.
+    assert "1 of 4 directions (the first on line 4 of" in p.stderr, p.stderr
+    with pytest.warns(UserWarning, match=r"^1 of 4 directions \(the first at index \[2\]\) lie outside the fitted table's coverage"):
+        got = brdf.eval_fit(s.chosen_fit, ti, tr, phi)
     assert list(got) == want
-    assert list(brdf.eval_fit(str(chosen), ti, tr, phi)) == want
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        in_plane = brdf.eval_fit(str(chosen), [30, 30, 10], [30, 31, 70], [180, 180, 0])
+    assert list(in_plane) == [want[0], want[1], want[3]]
+    with pytest.warns(UserWarning, match="outside the fitted table's coverage"):
+        assert list(brdf.eval_fit(str(chosen), ti, tr, phi)) == want
     base = brdf.eval("lambert", s.chosen_fit.params, ti, tr, phi)
     assert abs(got[0] / base[0] - 1) > 1.0, "the table corrects the base at the mirror"
-    f32 = brdf.eval_fit(s.chosen_fit, ti, tr, phi, precision="f32")
+    with pytest.warns(UserWarning, match="outside the fitted table's coverage"):
+        f32 = brdf.eval_fit(s.chosen_fit, ti, tr, phi, precision="f32")
     assert f32.dtype.name == "float32" and all(abs(a / b - 1) < 1e-2 for a, b in zip(f32, want))

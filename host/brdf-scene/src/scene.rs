@@ -465,6 +465,18 @@ impl Scene {
         )
     }
 
+    /// The files the scene was read from: the scene file, its mesh and every fit or blob
+    /// file a material names (a command refuses to write its output over one of them).
+    pub fn files(&self) -> Vec<&Path> {
+        let mut files = vec![self.file.as_path(), self.mesh.file.as_path()];
+        for m in &self.materials {
+            if let Source::Fit(path, _) | Source::Blob(path, _) = &m.source {
+                files.push(path.as_path());
+            }
+        }
+        files
+    }
+
     /// Every aspect of the sweep.
     pub fn aspects(&self) -> Vec<Aspect> {
         self.sensor.aspects()

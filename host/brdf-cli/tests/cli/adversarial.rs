@@ -481,7 +481,7 @@ fn query_prints_what_eval_prints_byte_for_byte() {
             "r{k},{},{k},{},{}\n",
             k % 90,
             (k * 7) % 91,
-            k as f64 * 0.37 - 400.0
+            (k as f64 * 0.37) % 1100.0 - 400.0
         ));
     }
     let f = dir.path().join("angles.csv");

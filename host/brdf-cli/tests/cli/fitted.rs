@@ -370,6 +370,46 @@ fn outputs_never_overwrite_inputs_or_each_other() {
     std::fs::copy(&merl, p("al.csv")).unwrap();
     let err = fails(&["import", "merl-inplane", &p("al.csv"), "-o", &p("sub/../al.csv")]);
     assert!(err.contains("would be overwritten"), "{err}");
+
+    // pack over its fit file, a scene's outputs over the scene, its mesh or a fit file it
+    // names: each destroyed its input with exit 0.
+    let fit = r#"{"model": "lambert", "params": {"rho0": 0.5}}"#;
+    std::fs::write(p("fit.json"), fit).unwrap();
+    std::fs::copy(repo("data/scenes/target.obj"), p("t.obj")).unwrap();
+    let scene = "mesh = \"t.obj\"\n[[material]]\npart = \"*\"\nfit = \"fit.json\"\n\
+                 [sensor]\nmode = \"monostatic\"\nazimuth_deg = [0, 10, 5]\nelevation_deg = [0, 10, 5]\n";
+    std::fs::write(p("s.toml"), scene).unwrap();
+    for args in [
+        vec!["pack", &p("fit.json"), "-o", &p("sub/../fit.json")],
+        vec!["scene", "lrcs", &p("s.toml"), "-o", &p("s.toml")],
+        vec!["scene", "lrcs", &p("s.toml"), "-o", &p("fit.json")],
+        vec!["scene", "domain", &p("s.toml"), "-o", &p("t.obj")],
+    ] {
+        let err = fails(&args);
+        assert!(
+            err.contains("is the input") && err.contains("would be overwritten"),
+            "{args:?}: {err}"
+        );
+    }
+    assert_eq!(std::fs::read_to_string(p("fit.json")).unwrap(), fit);
+    assert_eq!(std::fs::read_to_string(p("s.toml")).unwrap(), scene);
+    assert_eq!(
+        std::fs::read(p("t.obj")).unwrap(),
+        std::fs::read(repo("data/scenes/target.obj")).unwrap()
+    );
+    let err = fails(&[
+        "scene",
+        "lrcs",
+        &p("s.toml"),
+        "-o",
+        &p("x.svg"),
+        "--plot",
+        &p("sub/../x.svg"),
+    ]);
+    assert!(err.contains("-o and --plot name the same file"), "{err}");
+    // Elsewhere they write.
+    ok(&["scene", "lrcs", &p("s.toml"), "-o", &p("sigma.csv")]);
+    ok(&["pack", &p("fit.json"), "-o", &p("fit.bin")]);
 }
 
 #[test]
@@ -432,6 +472,29 @@ fn a_table_the_device_cannot_take_is_left_out_or_refused_by_name() {
     let out = brdf(&["pack", &p("under.json"), "-o", &p("under.bin")]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("the device's f32 evaluation gives 0e0"), "{err}");
+    // A base that grows towards grazing (Minnaert, k = 0.01) times e^80 overflows f32 only
+    // beyond 85 degrees, where pack's check grid stopped: it packed with no word and `brdf
+    // check` died with a bare OutOfDomain.
+    let mut over = vec![0u8; shape.encoded_len()];
+    encode_fitted(
+        shape,
+        &vec![80.0; shape.cells()],
+        &vec![true; shape.cells()],
+        &mut over,
+    )
+    .unwrap();
+    let minnaert = serde_json::json!({
+        "model": "minnaert",
+        "params": {"rho0": 100.0, "k": 0.01},
+        "fitted_table": {"nodes": [4, 3, 2], "smoothness": 1.0, "coverage": 1.0, "bytes": hex::encode(&over)}
+    });
+    std::fs::write(p("over.json"), minnaert.to_string()).unwrap();
+    let out = brdf(&["pack", &p("over.json"), "-o", &p("over.bin")]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("the device's f32 evaluation gives inf") && err.contains("89.9"),
+        "{err}"
+    );
     // A coverage that is not the bytes' is refused.
     std::fs::write(p("cov.json"), fit(0.5)).unwrap();
     let err = fails(&["pack", &p("cov.json"), "-o", &p("cov.bin")]);

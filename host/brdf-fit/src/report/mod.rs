@@ -291,7 +291,46 @@ pub enum ReadError {
         /// The model.
         model: &'static str,
     },
+    /// A field no fit result has (a misspelt `fitted_table` would drop the table unnoticed),
+    /// or `fitted_table: null` (a fit without a table leaves the key out).
+    #[error("{origin}: {problem}")]
+    Field {
+        /// File and fit index.
+        origin: String,
+        /// What is wrong.
+        problem: String,
+    },
 }
+
+/// Every field of a fit result ([`FitReport`] as `brdf fit --json` and `brdf select
+/// --chosen` write it; a test keeps the list equal to the struct's). A reader refuses any
+/// other ([`ReadError::Field`]): consumers that need only the model read whole reports, so
+/// without the list a misspelt key would be skipped as one of the report's own.
+pub const FIT_RESULT_FIELDS: [&str; 23] = [
+    "dataset",
+    "model",
+    "params",
+    "metrics",
+    "per_incidence",
+    "n",
+    "k",
+    "aic",
+    "bic",
+    "seconds",
+    "residual",
+    "seed",
+    "cost",
+    "evals",
+    "converged",
+    "search",
+    "loss",
+    "brightening",
+    "influence",
+    "uncertainty",
+    "energy",
+    "outside_ranges",
+    "fitted_table",
+];
 
 impl ReadError {
     /// A serde_json error in `part`, a slice of `text` (positions made absolute in `text`).
@@ -374,6 +413,23 @@ fn read_fits<T: serde::de::DeserializeOwned>(
         let origin = format!("{origin}: fit {i}");
         let part = item.get();
         let r: T = serde_json::from_str(part).map_err(|e| ReadError::json(origin.clone(), text, part, &e))?;
+        if let Ok(fields) = serde_json::from_str::<serde_json::Map<String, serde_json::Value>>(part) {
+            if let Some(name) = fields.keys().find(|k| !FIT_RESULT_FIELDS.contains(&k.as_str())) {
+                return Err(ReadError::Field {
+                    origin,
+                    problem: format!(
+                        "unknown field `{name}` (a fit result has: {})",
+                        FIT_RESULT_FIELDS.join(", ")
+                    ),
+                });
+            }
+            if fields.get("fitted_table").is_some_and(serde_json::Value::is_null) {
+                return Err(ReadError::Field {
+                    origin,
+                    problem: "fitted_table: null: leave the field out for a fit without a table".into(),
+                });
+            }
+        }
         let (kind, given) = params(&r);
         for (k, (name, _)) in given.0.iter().enumerate() {
             if !kind.param_names().contains(&name.as_str()) {

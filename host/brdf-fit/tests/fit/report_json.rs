@@ -101,3 +101,35 @@ fn copies_of_as_many_directions_as_parameters_determine_nothing() {
         assert!(!note.contains("no more distinct directions"), "{name}: {note}");
     }
 }
+
+/// A misspelt or null `fitted_table` dropped the table without a word (a Lambert base alone:
+/// 1.7e-3 where the table gave 6e-2); every field not in a fit result is now refused by name,
+/// and the list of fields is the report's own.
+#[test]
+fn unknown_fields_and_a_null_table_are_refused() {
+    use brdf_fit::report::{FittedModel, FIT_RESULT_FIELDS};
+    let fits = khaki_fits();
+    let v = serde_json::to_value(&fits[0]).unwrap();
+    let mut written: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+    written.push("fitted_table"); // written only when a table was chosen
+    written.sort_unstable();
+    let mut known = FIT_RESULT_FIELDS.to_vec();
+    known.sort_unstable();
+    assert_eq!(written, known, "FIT_RESULT_FIELDS must list the report's fields");
+
+    let hand = r#"{"model": "lambert", "params": {"rho0": 0.5}, "fitted_tabel": {}}"#;
+    for e in [
+        FittedModel::from_json(hand, "h.json").unwrap_err().to_string(),
+        FitReport::from_json(&v.to_string().replacen('{', "{\"fited_table\": 1, ", 1), "r.json")
+            .unwrap_err()
+            .to_string(),
+    ] {
+        assert!(e.contains("unknown field `"), "{e}");
+    }
+    let null = r#"{"model": "lambert", "params": {"rho0": 0.5}, "fitted_table": null}"#;
+    let e = FittedModel::from_json(null, "n.json").unwrap_err().to_string();
+    assert!(e.starts_with("n.json: fit 0: fitted_table: null"), "{e}");
+    // The hand-written form without a table still reads.
+    let ok = r#"{"model": "lambert", "params": {"rho0": 0.5}}"#;
+    assert_eq!(FittedModel::from_json(ok, "ok.json").unwrap().len(), 1);
+}

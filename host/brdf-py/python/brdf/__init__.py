@@ -159,8 +159,19 @@ def eval_fit(fit, theta_i, theta_r, phi, *, index: Optional[int] = None, precisi
     shape, cols = _columns(names, (theta_i, theta_r, phi))
     try:
         out = _brdf.eval_angles(model, params, *cols, precision, _flag("parallel", parallel), table)
+        covered = _brdf.table_covers(table, *cols)
     except _brdf.ElementError as e:
         raise _located(names, shape, e) from None
+    outside = int(covered.size - covered.sum())
+    if outside:
+        first = int((~covered).argmax())
+        index = np.unravel_index(first, shape) if shape else ()
+        where = "index [" + ", ".join(str(int(i)) for i in index) + "]"
+        warnings.warn(
+            f"{outside} of {covered.size} directions (the first at {where}) lie outside the fitted "
+            "table's coverage: its measurements did not inform them, and the table extrapolates there",
+            stacklevel=2,
+        )
     return _shaped(out, shape)
 
 
@@ -256,6 +267,11 @@ class FitResult:
         rms = self.metrics.get("rms_rel")
         # Absolute residuals with a zero reading leave the relative error undefined (null).
         rms = "undefined" if rms is None else f"{rms:.3g}"
+        table = self.report.get("fitted_table")
+        if table is not None:
+            # The metrics are the base model's; the table's own error is in the selection.
+            nodes = "x".join(str(n) for n in table["nodes"])
+            return f"FitResult({self.dataset!r}, {self.model} + fitted table {nodes}: {ps}; base rms_rel {rms})"
         return f"FitResult({self.dataset!r}, {self.model}: {ps}; rms_rel {rms})"
 
 
