@@ -22,9 +22,9 @@
 //!   judged by, `sum w_j (exp(A x - t)_j - 1)^2 + lambda ||R x||^2`: the `ln f` fit predicts
 //!   the geometric mean of noisy readings, which a relative error penalises (on the dark,
 //!   noisy green and blue channels of garnet red it missed held-out readings by 50% and 67%,
-//!   more than nearest-neighbour interpolation; refined, 42% and 46%).
+//!   more than nearest-neighbour interpolation; refined, 40% and 46%).
 //! * Grid and smoothness ([`FittedTable::fit_cv`]): the shape from [`SHAPES`] and `lambda`
-//!   from a fixed log grid by 5-fold cross-validation on [`trimmed_rms_rel`].
+//!   from a fixed log grid by 5-fold cross-validation of the `ln f` fit on [`trimmed_rms_rel`].
 
 use std::f64::consts::PI;
 
@@ -622,7 +622,12 @@ fn prepare(
     Ok((stencils, ln_y))
 }
 
-/// [`trimmed_rms_rel`] of fold `f`'s points predicted by the trimmed fit to the other folds.
+/// [`trimmed_rms_rel`] of fold `f`'s points predicted by the trimmed `ln f` fit to the other
+/// folds. The choice of grid and smoothness is made on the `ln f` fit, without the
+/// relative-error refinement the final fit gets: on the bundled measurements it makes the same
+/// choices (held-out errors within 0.003 of refining every fold's fit but krylon R's, 0.95
+/// against 0.92, and garnet G's, 0.40 against 0.42) at 2.3 times the speed (1.1 s against
+/// 2.5 s per table of 1,400 points).
 fn fold_error(
     system: &System,
     stencils: &[Stencil],
@@ -638,7 +643,7 @@ fn fold_error(
             ty.push(y);
         }
     }
-    let x = system.trimmed_fit(&ts, &ty, lambda);
+    let x = system.trimmed_ln_fit(&ts, &ty, lambda).0;
     let rel: Vec<f64> = stencils
         .iter()
         .zip(ln_y)
@@ -699,8 +704,8 @@ impl FittedTable {
 
     /// [`FittedTable::fit`] with the shape (one of `shapes`, normally [`SHAPES`]) and the
     /// smoothness (from [`smoothness_grid`]) chosen by 5-fold cross-validation: per pair, the
-    /// mean over folds of [`trimmed_rms_rel`] of the fold's points predicted by the fit to the
-    /// other folds; the smallest mean wins (ties: the earlier shape, then the larger
+    /// mean over folds of [`trimmed_rms_rel`] of the fold's points predicted by the `ln f` fit
+    /// to the other folds (see `fold_error`); the smallest mean wins (ties: the earlier shape, then the larger
     /// smoothness). Every shape is scored at every other smoothness, then the two values
     /// beside the best: `7 x 5` fits for the best shape instead of `10 x 5`, the same choice
     /// wherever the error is unimodal in `ln lambda`. The fits run in parallel (rayon).
@@ -871,12 +876,12 @@ mod tests {
     use std::f64::consts::FRAC_PI_2;
 
     /// Held-out trimmed RMS relative error the synthetic test must stay under. Measured
-    /// 0.0075 (training 0.0053, smoothness 10^-2.5 chosen; the worst of 300 held-out
-    /// directions 0.10, at the peak's flank). The bound is twice the measured value: a change
-    /// that doubles the interpolation or fit error fails, while the result is deterministic
-    /// (fixed folds and seeds; the parallel fits do not change it), so no flakiness margin is
-    /// needed beyond that.
-    const SYNTHETIC_HELD_OUT_MAX: f64 = 0.015;
+    /// 0.0030 (training 0.0021, the 30 x 19 x 3 grid and smoothness 10^-2 chosen; the worst of
+    /// 300 held-out directions 0.061, at the peak's flank; 0.0075 on the 20 x 19 x 5 grid
+    /// alone). The bound is twice the measured value: a change that doubles the interpolation
+    /// or fit error fails, while the result is deterministic (fixed folds and seeds; the
+    /// parallel fits do not change it), so no flakiness margin is needed beyond that.
+    const SYNTHETIC_HELD_OUT_MAX: f64 = 0.006;
 
     fn point(theta_i: f64, theta_r: f64, phi: f64, brdf: f64, line: u64) -> Point {
         Point {
@@ -955,9 +960,10 @@ mod tests {
             .map(|p| (table.eval(p.theta_i, p.theta_r, p.phi) / p.brdf - 1.0).abs())
             .collect();
         println!(
-            "fit_cv on {} points: {elapsed:?}, smoothness {}, coverage {:.3}, held-out trimmed rms rel \
+            "fit_cv on {} points: {elapsed:?}, grid {:?}, smoothness {}, coverage {:.3}, held-out trimmed rms rel \
              {err:.5} (max {max:.4}), training {:.5}",
             train.len(),
+            [table.shape.theta_h, table.shape.theta_d, table.shape.phi_d],
             table.smoothness,
             table.coverage(),
             trimmed_rms_rel(&train_rel)

@@ -30,8 +30,7 @@ def without_timings(v):
 )
 def test_the_cli_choice_and_blob(cli, root, tmp_path, flags, kwargs):
     out = tmp_path / "chosen.bin"
-    want = json.loads(cli("select", root / KHAKI, "--json", *flags).stdout)
-    cli("select", root / KHAKI, "-o", out, "--sequence", "7", *flags)
+    want = json.loads(cli("select", root / KHAKI, "--json", "-o", out, "--sequence", "7", *flags).stdout)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         s = brdf.select(str(root / KHAKI), sequence=7, **kwargs)
