@@ -6,7 +6,7 @@
 //! It is the representation for measured paints and metals that the analytic models miss by
 //! tens of percent: held out from its fit, it predicts the bundled measurements better than
 //! 4-nearest-neighbour interpolation of the same points on 11 of 11 datasets (garnet R 3.3%,
-//! MERL aluminium 4.5%, PTFE at 532 nm 0.9%, krylon B 9.6%; `cargo run --release -p brdf-fit
+//! MERL aluminium 4.5%, PTFE at 532 nm 0.9%, krylon B 9.7%; `cargo run --release -p brdf-fit
 //! --example table_holdout`, docs/model-comparison.md). `brdf select` offers it over a Lambert
 //! base (`brdf_scene::represent::table_rung`).
 //!
