@@ -398,7 +398,10 @@ pub fn pack(
             // No six-parameter material without a fitted table: nothing was tabulated.
             _ if tabulated == 0 => say(
                 Level::Warning,
-                format!("note: --table-nodes {nodes}: no material took lookup tables (six-parameter materials only)"),
+                format!(
+                    "note: --table-nodes {nodes}: no material took lookup tables (six-parameter \
+                     materials without a fitted table only)"
+                ),
             ),
             Some(e) => say(
                 Level::Info,
