@@ -255,6 +255,9 @@ impl SelectCmd {
             }
         }
         let scene = brdf_scene::scene::Scene::open(path)?;
+        if let Some(out) = &self.output {
+            crate::common::not_an_input("-o", out, scene.files())?;
+        }
         let bar = crate::progress::bar(scene.aspects().len(), "aspects");
         let domain = brdf_scene::queries::collect_queries(&scene, &|| bar.inc(1));
         bar.finish_and_clear();

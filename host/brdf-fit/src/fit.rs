@@ -179,6 +179,12 @@ pub fn fit(problem: &Problem, opts: &FitOptions) -> FitOutcome {
         best.evals = evals;
         best
     };
+    if problem.stopped() {
+        // A stop between reweighted rounds leaves an earlier round's outcome, which may have
+        // converged on its own problem: the fit as asked for did not.
+        out.converged = false;
+        out.search.not_converged = Some("the fit was stopped before its search ended".to_owned());
+    }
     out.seconds = started.elapsed().as_secs_f64();
     out
 }

@@ -505,6 +505,9 @@ pub fn select_data_until(
         ));
     }
     cross_validate(domain, settings, with_table, &mut reprs, stop);
+    if stop.requested() {
+        return Err(format!("{}: the selection was stopped", domain.name));
+    }
     let all: Vec<&Rung> = reprs.iter().map(|r| &r.rung).collect();
     // A rung that could not be cross-validated is never within a budget nor the closest.
     let errors: Vec<f64> = reprs

@@ -384,6 +384,8 @@ fn outputs_never_overwrite_inputs_or_each_other() {
         vec!["scene", "lrcs", &p("s.toml"), "-o", &p("s.toml")],
         vec!["scene", "lrcs", &p("s.toml"), "-o", &p("fit.json")],
         vec!["scene", "domain", &p("s.toml"), "-o", &p("t.obj")],
+        vec!["select", "--scene", &p("s.toml"), "-o", &p("sub/../fit.json")],
+        vec!["select", "--scene", &p("s.toml"), "-o", &p("t.obj")],
     ] {
         let err = fails(&args);
         assert!(

@@ -120,3 +120,27 @@ fn merl_aluminium_every_row_accounted_for() {
     // Sharp specular peak: forward, within one sample step of the mirror direction.
     assert_eq!(peaks_forward(&imp, 0.0, 1.0), 7);
 }
+
+/// Krylon blue's red channel over its relative-residual Lambert fit (rho0 ~ 7e-6: most readings
+/// are near zero): the smoothness cross-validation picked the smallest smoothness, whose
+/// cells no reading informs extrapolated to ln f -86..61, beyond what the device stores, and
+/// `brdf select` left the table out. The best table that can be stored is chosen now.
+#[test]
+fn the_chosen_fitted_table_is_one_the_device_can_store() {
+    use brdf_fit::fitted_table::{FittedTable, SHAPES};
+    let imp = import(
+        &brdf_tests::measured("cornell-medium-gloss-paints/krylon_blue_RGB.astm"),
+        Format::Cornell,
+        Channel::R,
+    )
+    .unwrap();
+    let d = &imp.datasets[0];
+    let base = brdf_fit::FitSettings::new(brdf_core::ModelKind::Lambert)
+        .fit(d)
+        .unwrap();
+    let rho0 = base.params_array().unwrap()[0];
+    assert!(rho0 < 1e-4, "the base this case needs: rho0 {rho0}");
+    let base_ln = vec![(rho0 / std::f64::consts::PI).ln(); d.points.len()];
+    let table = FittedTable::fit_cv(&d.points, &base_ln, &SHAPES).unwrap();
+    assert!(table.to_bytes().is_ok(), "smoothness {}", table.smoothness);
+}

@@ -66,3 +66,39 @@ fn a_stop_requested_during_a_chain_ends_it() {
     assert!(r.search.chains <= 1, "chains {}", r.search.chains);
     assert!(r.evals < 100_000_000, "evaluations {}", r.evals);
 }
+
+/// Under a robust loss the fit runs reweighted rounds; a stop between two of them left the
+/// first round's outcome, which could say converged. Whenever the stop arrives before the fit
+/// returns, the fit must not claim convergence.
+#[test]
+fn a_stopped_robust_fit_never_claims_convergence() {
+    let d = synth::in_plane(
+        ModelKind::Six,
+        &brdf_core::TABLE1[0].1,
+        &[0.0, 30.0, 60.0],
+        5.0,
+        0.01,
+        1,
+    )
+    .unwrap();
+    for delay_ms in [0, 5, 30] {
+        let mut s = settings(3000);
+        s.loss = brdf_fit::Loss {
+            kind: brdf_fit::LossKind::Cauchy,
+            scale: 0.1,
+        };
+        let stop = Stop::new();
+        let trigger = stop.clone();
+        let waker = std::thread::spawn(move || {
+            std::thread::sleep(std::time::Duration::from_millis(delay_ms));
+            trigger.request();
+        });
+        let r = s.fit_until(&d, &stop).unwrap();
+        let stopped_before_the_end = stop.requested();
+        waker.join().unwrap();
+        assert!(
+            !(r.converged && stopped_before_the_end),
+            "delay {delay_ms} ms: a stopped fit said converged"
+        );
+    }
+}
