@@ -216,8 +216,9 @@ pub fn choose(
     let best = (0..rungs.len())
         .filter(|&i| errors[i] <= budget && eligible(rungs[i], allow_nonphysical))
         .min_by(|&a, &b| key(a).partial_cmp(&key(b)).unwrap_or(std::cmp::Ordering::Equal));
+    // An error that is not finite (a rung that could not be judged) is never the closest.
     let closest = (0..rungs.len())
-        .filter(|&i| eligible(rungs[i], allow_nonphysical))
+        .filter(|&i| eligible(rungs[i], allow_nonphysical) && errors[i].is_finite())
         .min_by(|&a, &b| errors[a].total_cmp(&errors[b]));
     let physical_note = if allow_nonphysical {
         ""
@@ -244,6 +245,9 @@ pub fn choose(
                     rungs[c].name,
                     100.0 * errors[c]
                 ),
+                None if (0..rungs.len()).any(|i| eligible(rungs[i], allow_nonphysical)) => {
+                    format!("nothing meets the {:.2}% budget, and no representation has a finite {measure}", 100.0 * budget)
+                }
                 None => "no representation fits a flash slot".to_owned(),
             };
             if !allow_nonphysical && !excluded.is_empty() {
@@ -268,6 +272,30 @@ mod tests {
 
     fn six(c: f64) -> [f64; MAX_PARAMS] {
         [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, c]
+    }
+
+    /// Rungs that could not be judged (infinite error) were offered as "the closest ... at
+    /// inf%"; none of them is the closest, and the reason says nothing was judged.
+    #[test]
+    fn rungs_without_a_finite_error_are_never_the_closest() {
+        let r = rungs("six", ModelKind::Six, &six(1.2)).unwrap();
+        let refs: Vec<&Rung> = r.iter().collect();
+        let c = choose(
+            &refs,
+            &vec![f64::INFINITY; refs.len()],
+            "held-out error",
+            0.02,
+            false,
+        );
+        assert_eq!((c.best, c.closest), (None, None));
+        assert!(
+            c.reason.contains("no representation has a finite held-out error"),
+            "{}",
+            c.reason
+        );
+        let mut errors = vec![f64::INFINITY; refs.len()];
+        errors[1] = 0.5;
+        assert_eq!(choose(&refs, &errors, "e", 0.02, false).closest, Some(1));
     }
 
     #[test]
