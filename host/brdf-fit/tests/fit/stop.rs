@@ -4,6 +4,30 @@
 use brdf_core::ModelKind;
 use brdf_fit::{synth, FitSettings, Stop};
 
+/// Khaki's six parameters at three incidences, 1% noise.
+fn khaki() -> brdf_fit::Dataset {
+    synth::in_plane(
+        ModelKind::Six,
+        &brdf_core::TABLE1[0].1,
+        &[0.0, 30.0, 60.0],
+        5.0,
+        0.01,
+        1,
+    )
+    .unwrap()
+}
+
+/// A stop and the thread that requests it after `ms` milliseconds.
+fn stop_after(ms: u64) -> (Stop, std::thread::JoinHandle<()>) {
+    let stop = Stop::new();
+    let trigger = stop.clone();
+    let waker = std::thread::spawn(move || {
+        std::thread::sleep(std::time::Duration::from_millis(ms));
+        trigger.request();
+    });
+    (stop, waker)
+}
+
 fn settings(anneal_evals: usize) -> FitSettings {
     let mut s = FitSettings::new(ModelKind::Six);
     s.options.anneal.evals = anneal_evals;
@@ -13,15 +37,7 @@ fn settings(anneal_evals: usize) -> FitSettings {
 
 #[test]
 fn a_stop_requested_before_the_fit_runs_no_chain() {
-    let d = synth::in_plane(
-        ModelKind::Six,
-        &brdf_core::TABLE1[0].1,
-        &[0.0, 30.0, 60.0],
-        5.0,
-        0.01,
-        1,
-    )
-    .unwrap();
+    let d = khaki();
     let stop = Stop::new();
     stop.request();
     let r = settings(1_000_000).fit_until(&d, &stop).unwrap();
@@ -45,21 +61,8 @@ fn a_stop_requested_before_the_fit_runs_no_chain() {
 /// and its evaluation count would reach 10^8.
 #[test]
 fn a_stop_requested_during_a_chain_ends_it() {
-    let d = synth::in_plane(
-        ModelKind::Six,
-        &brdf_core::TABLE1[0].1,
-        &[0.0, 30.0, 60.0],
-        5.0,
-        0.01,
-        1,
-    )
-    .unwrap();
-    let stop = Stop::new();
-    let trigger = stop.clone();
-    let waker = std::thread::spawn(move || {
-        std::thread::sleep(std::time::Duration::from_millis(200));
-        trigger.request();
-    });
+    let d = khaki();
+    let (stop, waker) = stop_after(200);
     let r = settings(100_000_000).fit_until(&d, &stop).unwrap();
     waker.join().unwrap();
     assert!(!r.converged);
@@ -72,27 +75,14 @@ fn a_stop_requested_during_a_chain_ends_it() {
 /// returns, the fit must not claim convergence.
 #[test]
 fn a_stopped_robust_fit_never_claims_convergence() {
-    let d = synth::in_plane(
-        ModelKind::Six,
-        &brdf_core::TABLE1[0].1,
-        &[0.0, 30.0, 60.0],
-        5.0,
-        0.01,
-        1,
-    )
-    .unwrap();
+    let d = khaki();
     for delay_ms in [0, 5, 30] {
         let mut s = settings(3000);
         s.loss = brdf_fit::Loss {
             kind: brdf_fit::LossKind::Cauchy,
             scale: 0.1,
         };
-        let stop = Stop::new();
-        let trigger = stop.clone();
-        let waker = std::thread::spawn(move || {
-            std::thread::sleep(std::time::Duration::from_millis(delay_ms));
-            trigger.request();
-        });
+        let (stop, waker) = stop_after(delay_ms);
         let r = s.fit_until(&d, &stop).unwrap();
         let stopped_before_the_end = stop.requested();
         waker.join().unwrap();
