@@ -262,7 +262,7 @@ pub fn legend(r: &brdf_fit::report::FitReport) -> Result<brdf_plot::Fitted> {
 /// links included), else the same path once `..`, `.` and symbolic links of the existing
 /// directories are resolved. Used to refuse an output that would overwrite an input or
 /// another output of the same command.
-pub fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+pub fn same_file(a: &Path, b: &Path) -> bool {
     #[cfg(unix)]
     {
         use std::os::unix::fs::MetadataExt;
@@ -270,7 +270,7 @@ pub fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
             return (x.dev(), x.ino()) == (y.dev(), y.ino());
         }
     }
-    fn resolved(p: &std::path::Path) -> Option<std::path::PathBuf> {
+    fn resolved(p: &Path) -> Option<PathBuf> {
         if let Ok(c) = std::fs::canonicalize(p) {
             return Some(c);
         }

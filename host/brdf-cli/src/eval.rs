@@ -137,13 +137,11 @@ impl EvalCmd {
             if let Some(table) = table {
                 let corrected = Corrected { base: model, table };
                 values.clear();
-                values.extend(
-                    directions
-                        .iter()
-                        .map(|&[ti, tr, phi]| corrected.eval_angles(ti, tr, phi)),
-                );
                 for (i, &[ti, tr, phi]) in directions.iter().enumerate() {
-                    if !table.covers(&Geometry::from_angles(ti, tr, phi)) {
+                    // One geometry for the value and the coverage.
+                    let g = Geometry::from_angles(ti, tr, phi);
+                    values.push(corrected.eval(&g));
+                    if !table.covers(&g) {
                         outside += 1;
                         first_outside.get_or_insert(chunk.line(i));
                     }

@@ -85,16 +85,10 @@ impl SelectCmd {
                 );
             }
         }
-        let inputs = [self.data.as_ref(), self.scene.as_ref()];
+        let inputs = [self.data.as_deref(), self.scene.as_deref()];
         for (out, flag) in [(&self.output, "-o"), (&self.chosen, "--chosen")] {
             if let Some(out) = out {
-                if let Some(input) = inputs.iter().flatten().find(|i| crate::common::same_file(i, out)) {
-                    bail!(
-                        "{flag} {} is the input {}: it would be overwritten",
-                        out.display(),
-                        input.display()
-                    );
-                }
+                crate::common::not_an_input(flag, out, inputs.into_iter().flatten())?;
             }
         }
         let Some(data) = self.data.clone() else {

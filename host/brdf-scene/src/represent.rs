@@ -257,14 +257,7 @@ fn cross_validate(
                     let rel: Vec<f64> = values
                         .iter()
                         .zip(&test.points)
-                        .map(|(v, p)| {
-                            let e = ((v - p.brdf) / p.brdf).abs();
-                            if e.is_finite() {
-                                e
-                            } else {
-                                f64::INFINITY
-                            }
-                        })
+                        .map(|(v, p)| ((v - p.brdf) / p.brdf).abs())
                         .collect();
                     (rung.name, rel)
                 })
@@ -279,14 +272,8 @@ fn cross_validate(
             .filter(|(name, _)| *name == r.rung.name)
             .flat_map(|(_, rel)| rel.iter().copied())
             .collect();
-        // A value that is not finite anywhere is a fault the trimming must not hide.
-        r.cv_rms_rel = (all.len() == n).then(|| {
-            if all.iter().all(|e| e.is_finite()) {
-                trimmed_rms_rel(&all)
-            } else {
-                f64::INFINITY
-            }
-        });
+        // Infinite when a value is not finite anywhere (`trimmed_rms_rel`).
+        r.cv_rms_rel = (all.len() == n).then(|| trimmed_rms_rel(&all));
     }
 }
 
@@ -532,7 +519,8 @@ pub fn select_data_until(
         allow_nonphysical,
     );
     let within_budget = best.is_some();
-    let chosen = best.or(closest.filter(|&c| errors[c].is_finite()));
+    // `choose` never names a rung without a finite error as the closest.
+    let chosen = best.or(closest);
     let mut reason = match (within_budget, chosen) {
         (false, Some(c)) => format!("{reason}; chosen as the most accurate: {}", reprs[c].rung.name),
         _ => reason,

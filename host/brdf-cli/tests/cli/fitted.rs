@@ -286,22 +286,28 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
     assert_eq!(sel["materials"][0]["model"], "lambert + table");
 }
 
-#[test]
-fn small_data_get_no_table_and_are_told_why() {
-    let dir = tempfile::tempdir().unwrap();
-    let text = ok(&[
+/// `brdf synth` of Lambert (rho0 0.5) at incidences `theta_i` (degrees, comma-separated),
+/// viewing zeniths every `step` degrees, with `extra` options.
+fn lambert_csv(theta_i: &str, step: &str, extra: &[&str]) -> String {
+    let mut args = vec![
         "synth",
         "--model",
         "lambert",
         "--params",
         "rho0=0.5",
         "--theta-i",
-        "0,30",
+        theta_i,
         "--step",
-        "20",
-        "--noise",
-        "1%",
-    ]);
+        step,
+    ];
+    args.extend_from_slice(extra);
+    ok(&args)
+}
+
+#[test]
+fn small_data_get_no_table_and_are_told_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = lambert_csv("0,30", "20", &["--noise", "1%"]);
     let n = text.lines().filter(|l| !l.starts_with('#')).count() - 1;
     let path = dir.path().join("few.csv");
     std::fs::write(&path, &text).unwrap();
@@ -325,17 +331,7 @@ fn small_data_get_no_table_and_are_told_why() {
 fn outputs_never_overwrite_inputs_or_each_other() {
     let dir = tempfile::tempdir().unwrap();
     let p = |name: &str| dir.path().join(name).display().to_string();
-    let text = ok(&[
-        "synth",
-        "--model",
-        "lambert",
-        "--params",
-        "rho0=0.5",
-        "--theta-i",
-        "0,30",
-        "--step",
-        "20",
-    ]);
+    let text = lambert_csv("0,30", "20", &[]);
     std::fs::write(p("d.csv"), &text).unwrap();
     std::fs::create_dir(p("sub")).unwrap();
     std::fs::write(p("out.bin"), b"x").unwrap();
@@ -420,17 +416,7 @@ fn a_table_the_device_cannot_take_is_left_out_or_refused_by_name() {
     let p = |name: &str| dir.path().join(name).display().to_string();
     // Readings 4000 times too large: Lambert's rho0 beyond the device's 100. With 50 points
     // the table over it used to abort the selection; it is left out with a note.
-    let text = ok(&[
-        "synth",
-        "--model",
-        "lambert",
-        "--params",
-        "rho0=0.5",
-        "--theta-i",
-        "0,20,40,60",
-        "--step",
-        "10",
-    ]);
+    let text = lambert_csv("0,20,40,60", "10", &[]);
     let mut rows = text.lines();
     let mut scaled = format!("{}\n", rows.next().unwrap());
     for l in rows {
