@@ -35,7 +35,7 @@ use crate::error::ParamError;
 use crate::float::Float;
 use crate::geometry::Geometry;
 use crate::model::{AnyModel, Brdf, Model, ModelKind, MAX_PARAMS, MAX_TERM_FACTORS};
-use crate::models::{FiveParam, Lambert, Minnaert, SixParam, SixParamCos2};
+use crate::models::{FiveParam, Ggx, Lambert, Minnaert, SixParam, SixParamCos2};
 
 /// One field measurement, its geometry precomputed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -170,6 +170,7 @@ pub struct SearchBox<T> {
 impl<T: Float> SearchBox<T> {
     /// The box for `kind` (the device's FIT and [`anneal_kind`] use it): `kb` [0, 1e4], `kr` [0.01, 1000] (log), `b` [-200, 0],
     /// `a` [0.05, 4], `kd` [0, 10], `c` [0, 5]; Minnaert `rho0` [0, 100], `k` [0.01, 1];
+    /// microfacet `ks` [0, 1e4], `alpha` [0.001, 4] (log), `f0` [0, 1], `kd` [0, 10];
     /// Lambert `rho0` [0, 100].
     pub fn for_kind(kind: ModelKind) -> Self {
         let f = T::from_f64;
@@ -186,13 +187,17 @@ impl<T: Float> SearchBox<T> {
             ),
             ModelKind::Five => (&[0.0, 0.01, -200.0, 0.05, 0.0], &[1e4, 1e3, 0.0, 4.0, 10.0]),
             ModelKind::Minnaert => (&[0.0, 0.01], &[100.0, 1.0]),
+            ModelKind::Ggx => (&[0.0, 0.001, 0.0, 0.0], &[1e4, 4.0, 1.0, 10.0]),
             ModelKind::Lambert => (&[0.0], &[100.0]),
         };
         for j in 0..lo.len() {
             b.lo[j] = f(lo[j]);
             b.hi[j] = f(hi[j]);
         }
-        if matches!(kind, ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five) {
+        if matches!(
+            kind,
+            ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five | ModelKind::Ggx
+        ) {
             b.log[1] = true;
         }
         b
@@ -437,6 +442,7 @@ pub fn anneal_kind<T: Float, R: RngCore, const N: usize>(
         ModelKind::SixCos2 => run::<T, SixParamCos2<T>, R, N>(samples, cfg, rng, progress, AnyModel::SixCos2),
         ModelKind::Five => run::<T, FiveParam<T>, R, N>(samples, cfg, rng, progress, AnyModel::Five),
         ModelKind::Minnaert => run::<T, Minnaert<T>, R, N>(samples, cfg, rng, progress, AnyModel::Minnaert),
+        ModelKind::Ggx => run::<T, Ggx<T>, R, N>(samples, cfg, rng, progress, AnyModel::Ggx),
         ModelKind::Lambert => run::<T, Lambert<T>, R, N>(samples, cfg, rng, progress, AnyModel::Lambert),
     }
 }
@@ -738,6 +744,7 @@ mod tests {
             typed::<SixParam<f32>>(&s, &cfg),
             typed::<SixParamCos2<f32>>(&s, &cfg),
             typed::<FiveParam<f32>>(&s, &cfg),
+            typed::<Ggx<f32>>(&s, &cfg),
             typed::<Minnaert<f32>>(&s, &cfg),
             typed::<Lambert<f32>>(&s, &cfg),
         ];

@@ -34,7 +34,7 @@
 //!
 //! | module | what it holds | use it when |
 //! |---|---|---|
-//! | crate root | the models ([`SixParam`], [`FiveParam`], [`Minnaert`], [`Lambert`], [`SixParamCos2`]), [`AnyModel`] and [`ModelKind`], the [`Brdf`] and [`Model`] traits, [`Geometry`], [`Float`] | you evaluate one material at one direction pair (exact, `f32` or `f64`) |
+//! | crate root | the models ([`SixParam`], [`FiveParam`], [`Minnaert`], [`Lambert`], [`SixParamCos2`], [`Ggx`]), [`AnyModel`] and [`ModelKind`], the [`Brdf`] and [`Model`] traits, [`Geometry`], [`Float`] | you evaluate one material at one direction pair (exact, `f32` or `f64`) |
 //! | [`models`] | one file per model with its parameter struct; [`TABLE1`], the paper's three materials ([`table1_f32`] for a row in `f32`) | you need a model's parameter names, order or derived terms, or the paper's reference materials |
 //! | [`names`] | the [`names::Named`] vocabulary: one spelling per model (and, in `brdf-fit`, residual, loss, format, channel, engine) and the "expected one of" message | you parse a name from a user, a file or Python |
 //! | [`ranges`] | the valid range of every parameter, used by every constructor | you validate parameters coming from outside (files, frames, fits) |
@@ -148,7 +148,7 @@ pub use float::Float;
 pub use geometry::{Geometry, UNIT_NORM_TOLERANCE};
 pub use model::{AnyModel, Brdf, Model, ModelKind, MAX_PARAMS, MAX_TERM_FACTORS};
 pub use models::{
-    table1_f32, FiveParam, FiveParams, Lambert, LambertParams, Minnaert, MinnaertParams, SixParam,
+    table1_f32, FiveParam, FiveParams, Ggx, GgxParams, Lambert, LambertParams, Minnaert, MinnaertParams, SixParam,
     SixParamCos2, SixParams, TABLE1,
 };
 

@@ -4,7 +4,7 @@
 use crate::error::{DomainError, ParamError};
 use crate::float::Float;
 use crate::geometry::Geometry;
-use crate::models::{FiveParam, Lambert, Minnaert, SixParam, SixParamCos2};
+use crate::models::{FiveParam, Ggx, Lambert, Minnaert, SixParam, SixParamCos2};
 
 /// Largest parameter count of any model in the family.
 pub const MAX_PARAMS: usize = 6;
@@ -112,25 +112,30 @@ pub enum ModelKind {
     Five,
     /// Minnaert model, eq. 2.
     Minnaert,
+    /// Microfacet model: GGX distribution, height-correlated Smith masking, Schlick's Fresnel
+    /// and a Lambertian term (the glossy rung; [`Ggx`]).
+    Ggx,
     /// Lambertian reflector.
     Lambert,
 }
 
 impl ModelKind {
     /// Every member, simplest last.
-    pub const ALL: [ModelKind; 5] = [
+    pub const ALL: [ModelKind; 6] = [
         ModelKind::Six,
         ModelKind::SixCos2,
         ModelKind::Five,
+        ModelKind::Ggx,
         ModelKind::Minnaert,
         ModelKind::Lambert,
     ];
 
     /// The model ladder `brdf select` climbs, simplest first: Lambert (1 parameter), Minnaert
-    /// (2), five-parameter (5), six-parameter (6) and its cos² variant (6).
-    pub const LADDER: [ModelKind; 5] = [
+    /// (2), microfacet (4), five-parameter (5), six-parameter (6) and its cos² variant (6).
+    pub const LADDER: [ModelKind; 6] = [
         ModelKind::Lambert,
         ModelKind::Minnaert,
+        ModelKind::Ggx,
         ModelKind::Five,
         ModelKind::Six,
         ModelKind::SixCos2,
@@ -143,6 +148,7 @@ impl ModelKind {
             ModelKind::SixCos2 => "six-cos2",
             ModelKind::Five => "five",
             ModelKind::Minnaert => "minnaert",
+            ModelKind::Ggx => "ggx",
             ModelKind::Lambert => "lambert",
         }
     }
@@ -153,6 +159,7 @@ impl ModelKind {
             ModelKind::Six | ModelKind::SixCos2 => &["kb", "kr", "b", "a", "kd", "c"],
             ModelKind::Five => &["kb", "kr", "b", "a", "kd"],
             ModelKind::Minnaert => &["rho0", "k"],
+            ModelKind::Ggx => &["ks", "alpha", "f0", "kd"],
             ModelKind::Lambert => &["rho0"],
         }
     }
@@ -189,6 +196,8 @@ pub enum AnyModel<T> {
     Five(FiveParam<T>),
     /// See [`Minnaert`].
     Minnaert(Minnaert<T>),
+    /// See [`Ggx`].
+    Ggx(Ggx<T>),
     /// See [`Lambert`].
     Lambert(Lambert<T>),
 }
@@ -200,6 +209,7 @@ macro_rules! dispatch {
             AnyModel::SixCos2($m) => $e,
             AnyModel::Five($m) => $e,
             AnyModel::Minnaert($m) => $e,
+            AnyModel::Ggx($m) => $e,
             AnyModel::Lambert($m) => $e,
         }
     };
@@ -213,6 +223,7 @@ impl<T: Float> AnyModel<T> {
             ModelKind::SixCos2 => AnyModel::SixCos2(SixParamCos2::from_params(values)?),
             ModelKind::Five => AnyModel::Five(FiveParam::from_params(values)?),
             ModelKind::Minnaert => AnyModel::Minnaert(Minnaert::from_params(values)?),
+            ModelKind::Ggx => AnyModel::Ggx(Ggx::from_params(values)?),
             ModelKind::Lambert => AnyModel::Lambert(Lambert::from_params(values)?),
         })
     }
@@ -224,6 +235,7 @@ impl<T: Float> AnyModel<T> {
             AnyModel::SixCos2(_) => ModelKind::SixCos2,
             AnyModel::Five(_) => ModelKind::Five,
             AnyModel::Minnaert(_) => ModelKind::Minnaert,
+            AnyModel::Ggx(_) => ModelKind::Ggx,
             AnyModel::Lambert(_) => ModelKind::Lambert,
         }
     }
@@ -239,16 +251,19 @@ impl<T: Float> AnyModel<T> {
         !matches!(self, AnyModel::Five(_))
     }
 
-    /// `f_r` stays bounded as either direction approaches the horizon. Not so for the
-    /// five-parameter model (`1 / (cos ti cos tr)`), Minnaert with `k < 1` and the
-    /// six-parameter models with `c < 0` (`(cos ti cos tr)^c`).
+    /// The directional-hemispherical reflectance (the energy reflected) stays bounded as the
+    /// incidence approaches the horizon. Not so for the five-parameter model (`kd / cos ti`),
+    /// Minnaert with `k < 1` and the six-parameter models with `c < 0` (`(cos ti cos tr)^c`),
+    /// whose values and albedos both grow without bound there. The microfacet model's value is
+    /// unbounded only at the grazing mirror direction, as a mirror's is, while its albedo stays
+    /// at most `ks + kd` ([`Ggx`]): bounded.
     pub fn bounded_at_grazing(&self) -> bool {
         let p = self.to_params();
         match self {
             AnyModel::Five(_) => false,
             AnyModel::Minnaert(_) => p[1] >= T::ONE,
             AnyModel::Six(_) | AnyModel::SixCos2(_) => p[5] >= T::ZERO,
-            AnyModel::Lambert(_) => true,
+            AnyModel::Ggx(_) | AnyModel::Lambert(_) => true,
         }
     }
 

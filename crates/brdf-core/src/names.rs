@@ -146,7 +146,7 @@ mod tests {
         let e = "sixx".parse::<ModelKind>().unwrap_err();
         assert_eq!(
             e.to_string(),
-            "unknown model `sixx` (expected one of: six, six-cos2, five, minnaert, lambert)"
+            "unknown model `sixx` (expected one of: six, six-cos2, five, ggx, minnaert, lambert)"
         );
         assert_eq!(e.what(), "model");
         // Case matters for models: `Six` is not a model name.

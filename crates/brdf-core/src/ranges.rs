@@ -21,6 +21,9 @@
 //! | `kd`, `rho0` | [0, 100] | a diffuse albedo; energy conservation needs at most 1, the rest is room for uncalibrated data |
 //! | `c` | (-1, 10] | the diffuse exponent; below 0 the diffuse term brightens towards grazing as Minnaert's `k - 1` does; the fitter searches [0, 5], or [-0.99, 5] with `--brightening` |
 //! | `k` (Minnaert) | (0, 1] | `k = 1` is Lambert; above 1 the model is not Minnaert's |
+//! | `ks` (microfacet) | [0, 10,000] | as `kb`: a calibrated surface has `ks <= 1`, the rest is room for uncalibrated data |
+//! | `alpha` (microfacet) | [1/1024, 4] | GGX roughness: at 1/1024 the peak is `alpha^2 ~ 1e-6` wide in `1 - cos theta_h`, as narrow as `kr`'s lower bound; `alpha = 1` spreads the half vector uniformly over the hemisphere, 4 leaves room for rougher data |
+//! | `f0` (microfacet) | [0, 1] | Schlick's reflectance at normal incidence; `F <= 1` is what makes `ks + kd` an energy bound |
 
 use crate::error::ParamError;
 use crate::float::Float;
@@ -95,6 +98,9 @@ const C: ParamRange = ParamRange {
     max: 10.0,
     text: "in (-1, 10]",
 };
+const KS: ParamRange = closed("ks", 0.0, 10_000.0, "in [0, 10000]");
+const ALPHA: ParamRange = closed("alpha", 1.0 / 1024.0, 4.0, "in [1/1024, 4]");
+const F0: ParamRange = closed("f0", 0.0, 1.0, "in [0, 1]");
 const RHO0: ParamRange = closed("rho0", 0.0, 100.0, "in [0, 100]");
 const K: ParamRange = ParamRange {
     name: "k",
@@ -110,6 +116,8 @@ pub const SIX: [ParamRange; 6] = [KB, KR, B, A, KD, C];
 pub const FIVE: [ParamRange; 5] = [KB, KR, B, A, KD];
 /// Minnaert: `rho0, k`.
 pub const MINNAERT: [ParamRange; 2] = [RHO0, K];
+/// Microfacet (GGX): `ks, alpha, f0, kd`.
+pub const GGX: [ParamRange; 4] = [KS, ALPHA, F0, KD];
 /// Lambert: `rho0`.
 pub const LAMBERT: [ParamRange; 1] = [RHO0];
 
@@ -120,6 +128,7 @@ impl ModelKind {
             ModelKind::Six | ModelKind::SixCos2 => &SIX,
             ModelKind::Five => &FIVE,
             ModelKind::Minnaert => &MINNAERT,
+            ModelKind::Ggx => &GGX,
             ModelKind::Lambert => &LAMBERT,
         }
     }

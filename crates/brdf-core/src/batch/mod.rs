@@ -141,7 +141,17 @@ enum Kernel {
     SixCos2(Lobed),
     Five(Lobed),
     Minnaert { scale: f64, exponent: f64 },
+    Ggx(Microfacet),
     Lambert { value: f64 },
+}
+
+/// Constants of the microfacet model (as `Ggx` holds them).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Microfacet {
+    ks: f64,
+    alpha2: f64,
+    f0: f64,
+    diffuse: f64,
 }
 
 /// Constants of the lobe models. For the five-parameter model `spec_scale` is `kb` and
@@ -192,6 +202,12 @@ impl Kernel {
                 scale: p[0] * core::f64::consts::FRAC_1_PI,
                 exponent: p[1] - 1.0,
             },
+            ModelKind::Ggx => Kernel::Ggx(Microfacet {
+                ks: p[0],
+                alpha2: p[1] * p[1],
+                f0: p[2],
+                diffuse: p[3] * core::f64::consts::FRAC_1_PI,
+            }),
             ModelKind::Lambert => Kernel::Lambert {
                 value: p[0] * core::f64::consts::FRAC_1_PI,
             },
@@ -640,7 +656,7 @@ fn m_terms<A: Arith>(kernel: &Kernel, mi: f64, mr: f64) -> MTerms {
             ln_1p: 0.0,
             power: lanes::pow::<A>(m, *exponent),
         },
-        Kernel::Five(_) | Kernel::Lambert { .. } => MTerms {
+        Kernel::Five(_) | Kernel::Ggx(_) | Kernel::Lambert { .. } => MTerms {
             ln_1p: 0.0,
             power: 0.0,
         },
@@ -675,6 +691,19 @@ fn model_lane<A: Arith>(kernel: &Kernel, g: &Lane, mt: &MTerms) -> f64 {
             k.spec_scale * (spec + k.diffuse_scale / g.mi)
         }
         Kernel::Minnaert { scale, .. } => scale * mt.power,
+        Kernel::Ggx(k) => {
+            // Ggx::specular_shape, operation for operation.
+            let ch = g.cos_alpha;
+            let den = k.alpha2 * ch * ch + g.one_minus_cos_alpha * (1.0 + ch);
+            let s_i = sqrt(g.mi * g.mi + k.alpha2 * (1.0 - g.mi) * (1.0 + g.mi));
+            let s_r = sqrt(g.mr * g.mr + k.alpha2 * (1.0 - g.mr) * (1.0 + g.mr));
+            let v = 1.0 / (2.0 * (g.mr * s_i + g.mi * s_r));
+            let w = g.one_minus_cos_gamma;
+            let w2 = w * w;
+            let f = k.f0 + (1.0 - k.f0) * (w2 * w2 * w);
+            let shape = k.alpha2 * core::f64::consts::FRAC_1_PI / (den * den) * v * f;
+            k.ks * shape + k.diffuse
+        }
         Kernel::Lambert { value } => *value,
     }
 }
@@ -742,6 +771,7 @@ fn chunk_body<A: Arith>(kernel: &Kernel, input: Input<'_>, n: usize, out: &mut [
         k @ Kernel::SixCos2(_) => each::<A>(&k, input, n, out),
         k @ Kernel::Five(_) => each::<A>(&k, input, n, out),
         k @ Kernel::Minnaert { .. } => each::<A>(&k, input, n, out),
+        k @ Kernel::Ggx(_) => each::<A>(&k, input, n, out),
         k @ Kernel::Lambert { .. } => each::<A>(&k, input, n, out),
     }
 }

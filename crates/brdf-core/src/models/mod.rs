@@ -1,12 +1,14 @@
 //! The model family, one file per model, each generic over `f32` and `f64`.
 
 mod five;
+mod ggx;
 mod lambert;
 mod minnaert;
 mod six;
 mod six_cos2;
 
 pub use five::{FiveParam, FiveParams};
+pub use ggx::{Ggx, GgxParams};
 pub use lambert::{Lambert, LambertParams};
 pub use minnaert::{Minnaert, MinnaertParams};
 pub use six::{SixParam, SixParams};
