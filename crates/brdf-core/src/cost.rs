@@ -11,7 +11,7 @@ pub const fn exact_instructions(kind: ModelKind) -> u32 {
     match kind {
         ModelKind::Lambert => 59,
         ModelKind::Minnaert => 141,
-        ModelKind::Ggx => 200,
+        ModelKind::Ggx => 123,
         ModelKind::Five => 261,
         ModelKind::Six => 366,
         ModelKind::SixCos2 => 391,

@@ -148,8 +148,8 @@ pub use float::Float;
 pub use geometry::{Geometry, UNIT_NORM_TOLERANCE};
 pub use model::{AnyModel, Brdf, Model, ModelKind, MAX_PARAMS, MAX_TERM_FACTORS};
 pub use models::{
-    table1_f32, FiveParam, FiveParams, Ggx, GgxParams, Lambert, LambertParams, Minnaert, MinnaertParams, SixParam,
-    SixParamCos2, SixParams, TABLE1,
+    table1_f32, FiveParam, FiveParams, Ggx, GgxParams, Lambert, LambertParams, Minnaert, MinnaertParams,
+    SixParam, SixParamCos2, SixParams, TABLE1,
 };
 
 /// The README's example, compiled and run as a doctest.

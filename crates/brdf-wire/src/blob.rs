@@ -55,7 +55,9 @@ pub fn blob_crc(bytes: &[u8]) -> u32 {
     crc32(&bytes[..bytes.len().saturating_sub(4)])
 }
 
-/// Model id on the wire.
+/// Model id on the wire. The microfacet model (6) came after the versions' layouts were
+/// fixed: it needs no new field, so any version may carry it, and a reader that predates it
+/// rejects it as an unknown model id.
 pub const fn model_id(kind: ModelKind) -> u8 {
     match kind {
         ModelKind::Six => 1,
@@ -63,6 +65,7 @@ pub const fn model_id(kind: ModelKind) -> u8 {
         ModelKind::Five => 3,
         ModelKind::Minnaert => 4,
         ModelKind::Lambert => 5,
+        ModelKind::Ggx => 6,
     }
 }
 
@@ -74,6 +77,7 @@ pub const fn kind_from_id(id: u8) -> Option<ModelKind> {
         3 => Some(ModelKind::Five),
         4 => Some(ModelKind::Minnaert),
         5 => Some(ModelKind::Lambert),
+        6 => Some(ModelKind::Ggx),
         _ => None,
     }
 }

@@ -212,7 +212,9 @@ pub fn anneal<R: RngCore>(problem: &Problem, rng: &mut R, opts: AnnealOptions) -
         ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five => {
             run(problem, &mut Lobe::new(problem), rng, opts)
         }
-        ModelKind::Minnaert | ModelKind::Lambert => run(problem, &mut Full(problem), rng, opts),
+        ModelKind::Minnaert | ModelKind::Ggx | ModelKind::Lambert => {
+            run(problem, &mut Full(problem), rng, opts)
+        }
     }
 }
 

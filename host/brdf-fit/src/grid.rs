@@ -24,6 +24,11 @@ const A: [f64; 6] = [0.05, 0.25, 0.6, 1.2, 2.2, 4.0];
 /// materials sit and where the lobe can stand in for a wrong `c`).
 const C: [f64; 9] = [0.0, 0.15, 0.3, 0.5, 0.8, 1.2, 1.8, 3.0, 5.0];
 const C_BRIGHT: [f64; 3] = [-0.9, -0.6, -0.3];
+/// Microfacet `alpha` nodes (searched as `ln alpha`) over the box [0.001, 4], log-spaced but
+/// denser where paints and metals sit (0.01–0.5).
+const ALPHA: [f64; 11] = [0.001, 0.003, 0.01, 0.025, 0.06, 0.13, 0.25, 0.45, 0.8, 1.5, 4.0];
+/// Microfacet `f0` nodes over [0, 1]: dielectrics at 0.02–0.06, metals above 0.5.
+const F0: [f64; 6] = [0.0, 0.02, 0.05, 0.15, 0.4, 1.0];
 /// Minnaert `k` nodes over [0.01, 1].
 const K: [f64; 8] = [0.01, 0.1, 0.25, 0.4, 0.55, 0.7, 0.85, 1.0];
 
@@ -50,11 +55,12 @@ pub fn grid_starts(problem: &Problem, starts: usize) -> Vec<[f64; MAX_PARAMS]> {
         ],
         ModelKind::Five => vec![KR.iter().map(|k| k.ln()).collect(), BETA.to_vec(), A.to_vec()],
         ModelKind::Minnaert => vec![K.to_vec()],
+        ModelKind::Ggx => vec![ALPHA.iter().map(|a| a.ln()).collect(), F0.to_vec()],
         ModelKind::Lambert => vec![],
     };
     let nodes: Vec<(Vec<usize>, [f64; 2], f64)> = match kind {
         ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five => lobe_grid(problem, &axes),
-        ModelKind::Minnaert | ModelKind::Lambert => full_grid(problem, &axes),
+        ModelKind::Minnaert | ModelKind::Ggx | ModelKind::Lambert => full_grid(problem, &axes),
     };
     let mut order: Vec<usize> = (0..nodes.len()).filter(|&i| nodes[i].2.is_finite()).collect();
     order.sort_by(|&a, &b| nodes[a].2.total_cmp(&nodes[b].2));
@@ -159,23 +165,23 @@ fn lobe_grid(problem: &Problem, axes: &[Vec<f64>]) -> Vec<(Vec<usize>, [f64; 2],
     out
 }
 
-/// Every node for the models without cached factors (one full projection per node).
+/// Every node for the models without cached factors (one full projection per node; the
+/// microfacet model's 11 x 6 nodes, Minnaert's 8, Lambert's one).
 fn full_grid(problem: &Problem, axes: &[Vec<f64>]) -> Vec<(Vec<usize>, [f64; 2], f64)> {
-    match axes {
-        [] => {
-            let (lin, cost) = problem.project(&[]);
-            vec![(Vec::new(), lin, cost)]
-        }
-        [k] => k
-            .iter()
-            .enumerate()
-            .map(|(i, &v)| {
-                let (lin, cost) = problem.project(&[v]);
-                (vec![i], lin, cost)
-            })
-            .collect(),
-        _ => unreachable!("Minnaert and Lambert have at most one nonlinear parameter"),
-    }
+    let count: usize = axes.iter().map(Vec::len).product();
+    (0..count)
+        .map(|mut flat| {
+            // Mixed-radix digits of `flat`, last axis fastest.
+            let mut idx = vec![0; axes.len()];
+            for (k, ax) in axes.iter().enumerate().rev() {
+                idx[k] = flat % ax.len();
+                flat /= ax.len();
+            }
+            let nl: Vec<f64> = idx.iter().zip(axes).map(|(&i, ax)| ax[i]).collect();
+            let (lin, cost) = problem.project(&nl);
+            (idx, lin, cost)
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -191,10 +197,12 @@ mod tests {
             ModelKind::SixCos2,
             ModelKind::Five,
             ModelKind::Minnaert,
+            ModelKind::Ggx,
         ] {
             let p: Vec<f64> = match kind {
                 ModelKind::Five => vec![0.2545, 1.8, -27.5721, 0.6705, 0.3676],
                 ModelKind::Minnaert => vec![0.6, 0.7],
+                ModelKind::Ggx => vec![1.2, 0.2, 0.05, 0.3],
                 _ => brdf_core::TABLE1[0].1.to_vec(),
             };
             let d = synth::in_plane(kind, &p, &[0.0, 30.0], 5.0, 0.01, 3).unwrap();

@@ -7,7 +7,7 @@
 //!
 //! The fitter works in an *internal* parameter vector `q`: the paper's parameters except
 //! `kr`, searched as `ln kr`, and `b`, searched as `beta = |b| >= 0` (reported as `b = -beta`,
-//! the paper's sign).
+//! the paper's sign); the microfacet model's `alpha` is searched as `ln alpha`.
 
 use std::f64::consts::{LN_2, PI};
 
@@ -31,6 +31,11 @@ pub struct Prepared {
     inv_mi: f64,
     /// Five-parameter `G / (cos ti cos tr)`.
     g_over_m: f64,
+    /// `cos ti`, `cos tr` (the microfacet model's masking).
+    mi: f64,
+    mr: f64,
+    /// `(1 - cos gamma)^5` (Schlick's Fresnel factor).
+    w5: f64,
 }
 
 impl Prepared {
@@ -47,6 +52,9 @@ impl Prepared {
             ln1p_m: m.ln_1p(),
             inv_mi: 1.0 / mi,
             g_over_m: FiveParam::shadowing(&g) / m,
+            mi,
+            mr,
+            w5: g.one_minus_cos_gamma().powi(5),
         }
     }
 
@@ -64,6 +72,9 @@ pub fn to_internal(kind: ModelKind, natural: &[f64]) -> [f64; MAX_PARAMS] {
         q[1] = natural[1].ln();
         q[2] = natural[2].abs();
     }
+    if kind == ModelKind::Ggx {
+        q[1] = natural[1].ln();
+    }
     q
 }
 
@@ -76,6 +87,9 @@ pub fn to_natural(kind: ModelKind, q: &[f64]) -> [f64; MAX_PARAMS] {
         // b = -|b| as in the paper; |b| = 0 is reported as +0.
         p[2] = if q[2] == 0.0 { 0.0 } else { -q[2] };
     }
+    if kind == ModelKind::Ggx {
+        p[1] = q[1].exp();
+    }
     p
 }
 
@@ -85,6 +99,9 @@ pub fn natural_per_internal(kind: ModelKind, q: &[f64]) -> [f64; MAX_PARAMS] {
     if matches!(kind, ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five) {
         d[1] = q[1].exp();
         d[2] = -1.0;
+    }
+    if kind == ModelKind::Ggx {
+        d[1] = q[1].exp();
     }
     d
 }
@@ -106,7 +123,7 @@ fn m_exponent(kind: ModelKind, q: &[f64]) -> f64 {
     match kind {
         ModelKind::Six | ModelKind::SixCos2 => q[5],
         ModelKind::Minnaert => q[1] - 1.0,
-        ModelKind::Five | ModelKind::Lambert => 0.0,
+        ModelKind::Five | ModelKind::Ggx | ModelKind::Lambert => 0.0,
     }
 }
 
@@ -236,6 +253,17 @@ fn finish(kind: ModelKind, q: &[f64], k: f64, pt: &Prepared, e: Exps, grad: Opti
             }
             rho0 * d
         }
+        ModelKind::Ggx => {
+            let (ks, kd) = (q[0], q[3]);
+            let (shape, d_shape_dl, d_shape_df0) = microfacet(q[1], q[2], pt);
+            if let Some(g) = grad {
+                g[0] = shape;
+                g[1] = ks * d_shape_dl;
+                g[2] = ks * d_shape_df0;
+                g[3] = 1.0 / PI;
+            }
+            ks * shape + kd / PI
+        }
         ModelKind::Lambert => {
             if let Some(g) = grad {
                 g[0] = 1.0 / PI;
@@ -245,10 +273,35 @@ fn finish(kind: ModelKind, q: &[f64], k: f64, pt: &Prepared, e: Exps, grad: Opti
     }
 }
 
+/// The microfacet model's specular shape `F D V` (`brdf_core::Ggx::specular_shape`) at
+/// `ln alpha = l` and `f0`, with its derivatives in `l` and `f0`.
+#[inline]
+fn microfacet(l: f64, f0: f64, pt: &Prepared) -> (f64, f64, f64) {
+    let a2 = (2.0 * l).exp();
+    let (ch, o) = (pt.cos_alpha, pt.one_minus_cos_alpha);
+    let den = a2 * ch * ch + o * (1.0 + ch);
+    let d = a2 / (PI * den * den);
+    // dD/d(a2) = D (1/a2 - 2 ch^2 / den).
+    let dd = d * (1.0 / a2 - 2.0 * ch * ch / den);
+    let (si2, sr2) = ((1.0 - pt.mi) * (1.0 + pt.mi), (1.0 - pt.mr) * (1.0 + pt.mr));
+    let s_i = (pt.mi * pt.mi + a2 * si2).sqrt();
+    let s_r = (pt.mr * pt.mr + a2 * sr2).sqrt();
+    let v = 1.0 / (2.0 * (pt.mr * s_i + pt.mi * s_r));
+    // V = 1/(2T): dV/d(a2) = -2 V^2 dT/d(a2), dS/d(a2) = sin^2 / (2 S).
+    let dt = pt.mr * si2 / (2.0 * s_i) + pt.mi * sr2 / (2.0 * s_r);
+    let dv = -2.0 * v * v * dt;
+    let fresnel = f0 + (1.0 - f0) * pt.w5;
+    let shape = d * v * fresnel;
+    // d(a2)/dl = 2 a2.
+    let d_dl = (dd * v + d * dv) * fresnel * 2.0 * a2;
+    (shape, d_dl, d * v * (1.0 - pt.w5))
+}
+
 /// Linear structure for variable projection: `f = sum_j lin_j * basis_j(nonlinear)`.
 /// Writes the bases at `pt` for the nonlinear parameters `nl` and returns how many there are.
-/// Nonlinear parameters: six `[ln kr, beta, a, c]`, five `[ln kr, beta, a]`, Minnaert `[k]`,
-/// Lambert none. Linear: six `(kb, kd)`, five `(kb, kb kd)`, Minnaert and Lambert `rho0`.
+/// Nonlinear parameters: six `[ln kr, beta, a, c]`, five `[ln kr, beta, a]`, microfacet
+/// `[ln alpha, f0]`, Minnaert `[k]`, Lambert none. Linear: six `(kb, kd)`, five `(kb, kb kd)`,
+/// microfacet `(ks, kd)`, Minnaert and Lambert `rho0`.
 #[inline]
 pub fn bases(kind: ModelKind, nl: &[f64], pt: &Prepared, out: &mut [f64; 2]) -> usize {
     match kind {
@@ -269,6 +322,11 @@ pub fn bases(kind: ModelKind, nl: &[f64], pt: &Prepared, out: &mut [f64; 2]) -> 
         ModelKind::Minnaert => {
             out[0] = ((nl[0] - 1.0) * pt.ln_m).exp() / PI;
             1
+        }
+        ModelKind::Ggx => {
+            out[0] = microfacet(nl[0], nl[1], pt).0;
+            out[1] = 1.0 / PI;
+            2
         }
         ModelKind::Lambert => {
             out[0] = 1.0 / PI;
@@ -329,6 +387,7 @@ pub const fn nonlinear_count(kind: ModelKind) -> usize {
     match kind {
         ModelKind::Six | ModelKind::SixCos2 => 4,
         ModelKind::Five => 3,
+        ModelKind::Ggx => 2,
         ModelKind::Minnaert => 1,
         ModelKind::Lambert => 0,
     }
@@ -346,6 +405,7 @@ pub fn assemble(kind: ModelKind, nl: &[f64], lin: [f64; 2]) -> [f64; MAX_PARAMS]
             q[..5].copy_from_slice(&[lin[0], nl[0], nl[1], nl[2], kd]);
         }
         ModelKind::Minnaert => q[..2].copy_from_slice(&[lin[0], nl[0]]),
+        ModelKind::Ggx => q[..4].copy_from_slice(&[lin[0], nl[0], nl[1], lin[1]]),
         ModelKind::Lambert => q[0] = lin[0],
     }
     q
@@ -362,6 +422,7 @@ mod tests {
             ModelKind::Six | ModelKind::SixCos2 => brdf_core::TABLE1[0].1.to_vec(),
             ModelKind::Five => vec![0.2545, 1.8, -27.5721, 0.6705, 0.3676],
             ModelKind::Minnaert => vec![0.6, 0.7],
+            ModelKind::Ggx => vec![1.7, 0.15, 0.3, 0.2],
             ModelKind::Lambert => vec![0.6],
         }
     }
@@ -452,10 +513,12 @@ mod tests {
                 ModelKind::Six | ModelKind::SixCos2 => vec![q[1], q[2], q[3], q[5]],
                 ModelKind::Five => vec![q[1], q[2], q[3]],
                 ModelKind::Minnaert => vec![q[1]],
+                ModelKind::Ggx => vec![q[1], q[2]],
                 ModelKind::Lambert => vec![],
             };
             let lin = match kind {
                 ModelKind::Six | ModelKind::SixCos2 => [q[0], q[4]],
+                ModelKind::Ggx => [q[0], q[3]],
                 ModelKind::Five => [q[0], q[0] * q[4]],
                 _ => [q[0], 0.0],
             };

@@ -142,10 +142,15 @@ impl Loss {
 /// Minnaert's. The core accepts any `c > -1`.
 pub const BRIGHTENING_C_MIN: f64 = -0.99;
 
+/// The microfacet roughness `alpha` the fitter searches: the device's range
+/// (`brdf_core::ranges::GGX`, from 1/1024) rounded in to 0.001, up to its top, 4.
+pub const GGX_ALPHA: (f64, f64) = (0.001, 4.0);
+
 /// Search box of the internal parameters (see [`crate::kernel`]): `ln kr` in
 /// [ln 0.01, ln 1000], `beta = |b|` in [0, 200], `a` in [0.05, 4], `c` in [0, 5], the
-/// five-parameter `kd` in [0, 10], Minnaert `k` in [0.01, 1]. The weights the model is
-/// linear in (`kb`, the six-parameter `kd`, `rho0`) are only non-negative: they carry the
+/// five-parameter `kd` in [0, 10], Minnaert `k` in [0.01, 1], the microfacet `ln alpha` in
+/// [ln 0.001, ln 4] ([`GGX_ALPHA`]) and `f0` in [0, 1]. The weights the model is
+/// linear in (`kb`, the six-parameter `kd`, `ks`, `rho0`) are only non-negative: they carry the
 /// data's units, so any upper bound would make the fit depend on them (data in other units
 /// must give the same relative fit).
 ///
@@ -165,6 +170,10 @@ pub fn bounds(kind: ModelKind) -> ([f64; MAX_PARAMS], [f64; MAX_PARAMS]) {
             [inf, lkr.1, 200.0, 4.0, 10.0, 0.0],
         ),
         ModelKind::Minnaert => ([0.0, 0.01, 0.0, 0.0, 0.0, 0.0], [inf, 1.0, 0.0, 0.0, 0.0, 0.0]),
+        ModelKind::Ggx => (
+            [0.0, GGX_ALPHA.0.ln(), 0.0, 0.0, 0.0, 0.0],
+            [inf, GGX_ALPHA.1.ln(), 1.0, inf, 0.0, 0.0],
+        ),
         ModelKind::Lambert => ([0.0; MAX_PARAMS], [inf, 0.0, 0.0, 0.0, 0.0, 0.0]),
     }
 }
@@ -174,6 +183,7 @@ pub fn nonlinear_indices(kind: ModelKind) -> &'static [usize] {
     match kind {
         ModelKind::Six | ModelKind::SixCos2 => &[1, 2, 3, 5],
         ModelKind::Five => &[1, 2, 3],
+        ModelKind::Ggx => &[1, 2],
         ModelKind::Minnaert => &[1],
         ModelKind::Lambert => &[],
     }

@@ -37,6 +37,12 @@ fn f32_matches_f64_for_random_parameters_of_every_model() {
                 ModelKind::Six | ModelKind::SixCos2 => six.to_vec(),
                 ModelKind::Five => six[..5].to_vec(),
                 ModelKind::Minnaert => vec![six[0], rng.uniform(0.05, 1.0)],
+                ModelKind::Ggx => vec![
+                    six[0],
+                    rng.uniform(0.01_f64.ln(), 0.0).exp(),
+                    rng.uniform(0.0, 1.0),
+                    six[4],
+                ],
                 ModelKind::Lambert => vec![six[0]],
             };
             for (path_name, path) in PATHS {

@@ -27,6 +27,7 @@ fn device_cost_constants_match_a_fresh_count() {
             exact_instructions(ModelKind::Minnaert),
         ),
         ("five exact from cosines", exact_instructions(ModelKind::Five)),
+        ("ggx exact from cosines", exact_instructions(ModelKind::Ggx)),
         ("six exact from cosines", exact_instructions(ModelKind::Six)),
         (
             "six-cos2 exact from cosines",

@@ -14,6 +14,8 @@ fn reciprocal_models() -> Vec<AnyModel<f64>> {
     models.push(AnyModel::new(ModelKind::SixCos2, &TABLE1[0].1).unwrap());
     models.push(AnyModel::new(ModelKind::Minnaert, &[0.8, 0.6]).unwrap());
     models.push(AnyModel::new(ModelKind::Lambert, &[0.8]).unwrap());
+    models.push(AnyModel::new(ModelKind::Ggx, &[0.9, 0.08, 0.04, 0.1]).unwrap());
+    models.push(AnyModel::new(ModelKind::Ggx, &[1.0, 0.6, 0.9, 0.0]).unwrap());
     models
 }
 
@@ -21,7 +23,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(2000))]
 
     #[test]
-    fn six_minnaert_lambert_are_reciprocal(
+    fn six_minnaert_lambert_ggx_are_reciprocal(
         ti in 0.0..std::f64::consts::FRAC_PI_2,
         tr in 0.0..std::f64::consts::FRAC_PI_2,
         phi in 0.0..std::f64::consts::TAU,

@@ -150,7 +150,10 @@ mod tests {
                 let f = f0 + (1.0 - f0) * (1.0 - cd).powi(5);
                 let want = 1.3 * f * d * g2 / (4.0 * wi[2] * wr[2]) + 0.2 / PI;
                 let got = m.eval_angles(ti, tr, phi);
-                assert!(((got - want) / want).abs() < 1e-12, "{alpha} {f0} {ti} {tr} {phi}: {got} vs {want}");
+                assert!(
+                    ((got - want) / want).abs() < 1e-12,
+                    "{alpha} {f0} {ti} {tr} {phi}: {got} vs {want}"
+                );
             }
         }
     }
@@ -175,7 +178,10 @@ mod tests {
             for deg in [0.0_f64, 30.0, 60.0, 80.0, 89.0] {
                 let a = albedo(&m, deg.to_radians(), AlbedoRule::DEFAULT);
                 let fine = albedo(&m, deg.to_radians(), AlbedoRule { panels: 40 });
-                assert!((a - fine).abs() <= 1e-3 * fine, "alpha {alpha} at {deg}°: {a} vs {fine}");
+                assert!(
+                    (a - fine).abs() <= 1e-3 * fine,
+                    "alpha {alpha} at {deg}°: {a} vs {fine}"
+                );
                 assert!(a <= 1.0 + 1e-6, "alpha {alpha} at {deg}°: albedo {a}");
                 if alpha <= 0.1 && deg <= 80.0 {
                     assert!(a > 0.89, "alpha {alpha} at {deg}°: albedo {a}");

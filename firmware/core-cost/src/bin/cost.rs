@@ -13,7 +13,7 @@
 
 use brdf_core::fitted::{encode_fitted, Corrected, FittedShape, FittedTable};
 use brdf_core::table::{fill_six_table, table_len, SixTable};
-use brdf_core::{Brdf, FiveParam, Lambert, Minnaert, Model, SixParam, SixParamCos2};
+use brdf_core::{Brdf, FiveParam, Ggx, Lambert, Minnaert, Model, SixParam, SixParamCos2};
 use core::hint::black_box;
 use core_cost::exit;
 use core_cost::ticks::Ticks;
@@ -115,12 +115,13 @@ impl Brdf<f32> for GeometryOnly {
 fn main() -> ! {
     let ticks = Ticks::start();
     let p = black_box(brdf_core::table1_f32(0));
-    let (Ok(six), Ok(six_cos2), Ok(five), Ok(minnaert), Ok(lambert)) = (
+    let (Ok(six), Ok(six_cos2), Ok(five), Ok(minnaert), Ok(lambert), Ok(ggx)) = (
         SixParam::from_params(&p),
         SixParamCos2::from_params(&p),
         FiveParam::from_params(&p[..5]),
         Minnaert::from_params(&[0.3, 0.8]),
         Lambert::from_params(&[0.3]),
+        Ggx::from_params(&[0.9, 0.1, 0.04, 0.2]),
     ) else {
         exit(false)
     };
@@ -222,5 +223,7 @@ fn main() -> ! {
             None => f32::NAN,
         },
     );
+    measure(21, "ggx exact from cosines", &ticks, |x| cosines(&ggx, x));
+    measure(22, "ggx exact from angles", &ticks, |x| angles(&ggx, x));
     exit(true)
 }
