@@ -25,7 +25,7 @@ pub const TABLE_INSTRUCTIONS: u32 = 215;
 /// Instructions per fitted-table correction as the firmware serves it (its header read once,
 /// rebound to the blob per query; `brdf_core::fitted::Corrected`), over and above its base
 /// model's [`exact_instructions`]; independent of the table's shape.
-pub const FITTED_INSTRUCTIONS: u32 = 717;
+pub const FITTED_INSTRUCTIONS: u32 = 692;
 
 /// Relative drift of a measured count from these constants that the test tolerates (a
 /// compiler update moves counts by a few percent; a change of method moves them by

@@ -1,7 +1,7 @@
 //! Names of the toolkit's choices — models here; residuals, losses, formats, channels and
 //! engines in `brdf-fit` — with one spelling on the command line, in files, in Python and in
 //! messages, and one message for a name that is none of them:
-//! ``unknown model `sixx` (expected one of: six, six-cos2, five, minnaert, lambert)``.
+//! ``unknown model `sixx` (expected one of: six, six-cos2, five, ggx, minnaert, lambert)``.
 //!
 //! A type implements [`Named`] and derives `FromStr` and `Display` from it
 //! ([`Named::parse_name`], [`Named::name`]); the CLI, the Python package and scene files parse

@@ -665,20 +665,21 @@ mod fitted_tests {
     use brdf_core::fitted::{encode_fitted, Corrected, FittedShape};
     use brdf_core::Brdf;
 
-    /// The largest shape `brdf select` writes (20 x 19 x 5) over a Lambert base.
+    /// The largest shape `brdf select` writes (20 x 19 x 5) over its microfacet base
+    /// (4 parameters: 4,094 bytes as a blob, 2 under a slot).
     const SHAPE: FittedShape = FittedShape {
         theta_h: 20,
         theta_d: 19,
         phi_d: 5,
     };
 
-    fn lambert_with_table() -> (Blob, std::vec::Vec<u8>) {
+    fn ggx_with_table() -> (Blob, std::vec::Vec<u8>) {
         let cells = SHAPE.cells();
         let v: std::vec::Vec<f64> = (0..cells).map(|k| ((k % 37) as f64 - 18.0) / 9.0).collect();
         let cov: std::vec::Vec<bool> = (0..cells).map(|k| k % 5 != 0).collect();
         let mut t = std::vec![0u8; SHAPE.encoded_len()];
         encode_fitted(SHAPE, &v, &cov, &mut t).unwrap();
-        let m = Material::from_params(ModelKind::Lambert, &[0.4])
+        let m = Material::from_params(ModelKind::Ggx, &[0.8, 0.2, 0.04, 0.3])
             .unwrap()
             .with_fitted(&t)
             .unwrap();
@@ -695,7 +696,7 @@ mod fitted_tests {
 
     #[test]
     fn a_fitted_table_round_trips_in_one_slot_and_is_checked() {
-        let (b, t) = lambert_with_table();
+        let (b, t) = ggx_with_table();
         let mut buf = [0u8; MAX_BLOB_LEN];
         let n = b.encode_with_tables(&[Some(&t)], &mut buf).unwrap();
         assert_eq!(n, b.encoded_len());

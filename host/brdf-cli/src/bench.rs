@@ -280,6 +280,7 @@ impl EvalBench {
             })
             .collect();
         let minnaert = stand_in(ModelKind::Minnaert, &points)?;
+        let ggx = stand_in(ModelKind::Ggx, &points)?;
         let lambert = stand_in(ModelKind::Lambert, &points)?;
         let mut tables = Vec::new();
         for nodes in TABLE_SIZES {
@@ -301,6 +302,7 @@ impl EvalBench {
             "f32 scalar angles" => device("six exact from angles"),
             "f32 scalar cosines" => device("six exact from cosines"),
             "Minnaert for six, cosines" => device("minnaert exact from cosines"),
+            "microfacet for six, cosines" => device("ggx exact from cosines"),
             "Lambert for six, cosines" => device("lambert exact from cosines"),
             t if t.starts_with("f32 table ") => {
                 let nodes = t.trim_start_matches("f32 table ").trim_end_matches(" cosines");
@@ -344,6 +346,9 @@ impl EvalBench {
         }
         single("Minnaert for six, cosines".into(), &|k| {
             minnaert.eval_cosines(c32[0][k], c32[1][k], c32[2][k])
+        });
+        single("microfacet for six, cosines".into(), &|k| {
+            ggx.eval_cosines(c32[0][k], c32[1][k], c32[2][k])
         });
         single("Lambert for six, cosines".into(), &|k| {
             lambert.eval_cosines(c32[0][k], c32[1][k], c32[2][k])

@@ -18,7 +18,7 @@ use crate::params::{build, parse_kind, parse_params};
 /// `--model` with `--params`, or a fit result (`--fit`).
 #[derive(Debug, Args)]
 pub struct EvalCmd {
-    /// Model: six, six-cos2, five, minnaert, lambert.
+    /// Model: six, six-cos2, five, ggx, minnaert, lambert.
     #[arg(long, value_parser = parse_kind, required_unless_present = "fit", requires = "params")]
     model: Option<ModelKind>,
     /// Parameters as name=value pairs, e.g. kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2

@@ -19,7 +19,7 @@ use crate::params::parse_kind;
 /// `weight`; `sample`/`wavelength` columns split a file into datasets.
 #[derive(Debug, Args)]
 pub struct FitCmd {
-    /// Model: six, six-cos2, five, minnaert, lambert.
+    /// Model: six, six-cos2, five, ggx, minnaert, lambert.
     #[arg(long, value_parser = parse_kind, default_value = "six")]
     model: ModelKind,
     #[command(flatten)]

@@ -3,7 +3,7 @@
 use anyhow::{anyhow, Result};
 use brdf_core::{AnyModel, Float, ModelKind, MAX_PARAMS};
 
-/// Parses a model name (`six`, `six-cos2`, `five`, `minnaert`, `lambert`).
+/// Parses a model name (`six`, `six-cos2`, `five`, `ggx`, `minnaert`, `lambert`).
 pub fn parse_kind(name: &str) -> Result<ModelKind, String> {
     crate::common::named(name)
 }

@@ -61,7 +61,7 @@ pub struct SelectCmd {
     /// Print JSON instead of the table.
     #[arg(long)]
     json: bool,
-    /// Also choose models that are not reciprocal or whose BRDF is unbounded at grazing (the
+    /// Also choose models that are not reciprocal or whose albedo is unbounded at grazing (the
     /// five-parameter model, Minnaert with k < 1, six-parameter with c < 0); they are always
     /// listed, and marked.
     #[arg(long)]

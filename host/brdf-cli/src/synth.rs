@@ -14,7 +14,7 @@ use crate::params::{parse_kind, parse_params};
 /// multiplicative log-normal noise: y = f exp(noise * z), z ~ N(0, 1).
 #[derive(Debug, Args)]
 pub struct SynthCmd {
-    /// Model: six, six-cos2, five, minnaert, lambert.
+    /// Model: six, six-cos2, five, ggx, minnaert, lambert.
     #[arg(long, value_parser = parse_kind)]
     model: ModelKind,
     /// Parameters as name=value pairs.

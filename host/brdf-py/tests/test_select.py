@@ -126,7 +126,7 @@ def test_options_of_the_wrong_type_are_refused(root, kwargs, match):
 
 def test_a_chosen_fitted_table_evaluates_as_the_cli(cli, root, tmp_path):
     # MERL's aluminium: the fitted table is chosen; `chosen_fit` carries it (it used to be
-    # the bare Lambert base, which eval_fit would have evaluated without the table).
+    # the bare base fit, which eval_fit would have evaluated without the table).
     data = tmp_path / "al.csv"
     cli("import", "merl-inplane", root / "data/measured/merl-aluminium-inplane/aluminum_brdf.csv", "-o", data)
     chosen = tmp_path / "chosen.json"
@@ -134,10 +134,10 @@ def test_a_chosen_fitted_table_evaluates_as_the_cli(cli, root, tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         s = brdf.select(str(data), budget=0.001)
-    assert s.chosen == "lambert + table"
+    assert s.chosen == "ggx + table"
     assert json.loads(s.chosen_fit.to_json())["fitted_table"] == json.loads(chosen.read_text())["fitted_table"]
     # Its repr says a table is attached (it showed the bare base's error as the fit's).
-    assert "lambert + fitted table " in repr(s.chosen_fit) and "base rms_rel" in repr(s.chosen_fit)
+    assert "ggx + fitted table " in repr(s.chosen_fit) and "base rms_rel" in repr(s.chosen_fit)
     angles = tmp_path / "angles.csv"
     angles.write_text("theta_i,theta_r,phi\n30,30,180\n30,31,180\n60,20,90\n10,70,0\n")
     p = cli("eval", "--fit", chosen, angles)

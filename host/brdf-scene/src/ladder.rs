@@ -6,7 +6,8 @@
 //! six-parameter model bounded at grazing also gives the lookup tables of
 //! [`TABLE_SIZES`] nodes. Each rung carries its device cost (`brdf_core::cost`, Cortex-M4F
 //! instructions per lookup from cosines), its bytes and whether it is physical (reciprocal
-//! and bounded at grazing). [`eligible`] is the rule: the rung's blob fits a flash slot and,
+//! and bounded at grazing: its albedo stays bounded as the incidence approaches the horizon,
+//! [`brdf_core::AnyModel::bounded_at_grazing`]). [`eligible`] is the rule: the rung's blob fits a flash slot and,
 //! unless non-physical models are allowed, it is physical. [`choose`] picks, among eligible
 //! rungs whose error meets the budget, the cheapest per lookup, then the smallest, then the
 //! most accurate; when none meets the budget, it names the most accurate eligible one.
@@ -40,8 +41,10 @@ pub struct Rung {
     pub fits_blob: bool,
     /// `f(i, r) = f(r, i)` (the five-parameter model is not reciprocal).
     pub reciprocal: bool,
-    /// `f` stays bounded towards the horizon (not so for the five-parameter model, Minnaert
-    /// with `k < 1`, the six-parameter models with `c < 0`).
+    /// The albedo stays bounded towards the horizon (not so for the five-parameter model,
+    /// Minnaert with `k < 1`, the six-parameter models with `c < 0`, whose values and albedos
+    /// both grow without bound; the microfacet model's value grows only at the grazing mirror
+    /// direction, its albedo stays at most `ks + kd`).
     pub bounded: bool,
     /// The kind, for the code.
     #[serde(skip)]

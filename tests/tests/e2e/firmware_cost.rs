@@ -38,8 +38,8 @@ fn device_cost_constants_match_a_fresh_count() {
             TABLE_INSTRUCTIONS,
         ),
         (
-            "lambert + fitted table from cosines, rebound per query",
-            exact_instructions(ModelKind::Lambert) + FITTED_INSTRUCTIONS,
+            "ggx + fitted table from cosines, rebound per query",
+            exact_instructions(ModelKind::Ggx) + FITTED_INSTRUCTIONS,
         ),
     ];
     for (name, constant) in expected {

@@ -252,7 +252,7 @@ fn firmware_serves_tabulated_materials_like_the_host() {
     assert_ne!(active, crc_default);
 }
 
-/// A fitted table over Lambert (a blob of version 3) is served by the device bit for bit as
+/// A fitted table over the microfacet base `brdf select` uses (a blob of version 3) is served by the device bit for bit as
 /// the host's f32 path computes it, from cosines and from angles, beside an analytic
 /// material; the largest table that fits a slot loads.
 #[test]
@@ -280,13 +280,13 @@ fn firmware_serves_a_fitted_table_like_the_host() {
     let covered: Vec<bool> = (0..shape.cells()).map(|c| c % 4 != 0).collect();
     let mut bytes = vec![0u8; shape.encoded_len()];
     encode_fitted(shape, &values, &covered, &mut bytes).unwrap();
-    let lambert = brdf_wire::blob::Material::from_params(ModelKind::Lambert, &[0.3])
+    let base_with_table = brdf_wire::blob::Material::from_params(ModelKind::Ggx, &[0.8, 0.2, 0.04, 0.3])
         .unwrap()
         .with_fitted(&bytes)
         .unwrap();
     let mut blob = table1_blob();
     blob.materials.truncate(1);
-    blob.materials.insert(0, lambert).unwrap();
+    blob.materials.insert(0, base_with_table).unwrap();
     blob.sequence = 9;
     let mut buf = vec![0u8; 2 * MAX_BLOB_LEN];
     // With khaki beside it the blob is too large for one slot: refused before it is sent.
@@ -298,7 +298,7 @@ fn firmware_serves_a_fitted_table_like_the_host() {
     assert_eq!(crc, brdf_wire::blob::blob_crc(&buf[..n]));
 
     let host = Corrected {
-        base: lambert.model().unwrap(),
+        base: base_with_table.model().unwrap(),
         table: FittedTable::new(&bytes).unwrap(),
     };
     let mut rng = SplitMix(31);
@@ -332,7 +332,7 @@ fn firmware_serves_a_fitted_table_like_the_host() {
         );
     }
     // The correction is not the base model: a table the device ignored would fail here.
-    let base = lambert.model().unwrap();
+    let base = base_with_table.model().unwrap();
     assert!(angles.iter().zip(&device).any(|(x, d)| (d / base.eval_cosines(
         x[0].cos(),
         x[1].cos(),

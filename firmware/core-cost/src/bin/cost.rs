@@ -193,7 +193,7 @@ fn main() -> ! {
     measure(19, "geometry alone from cosines", &ticks, |x| {
         cosines(&GeometryOnly, x)
     });
-    // A 20 x 19 x 5 fitted table over Lambert, as the firmware serves EVAL: its header read
+    // A 20 x 19 x 5 fitted table over the microfacet base `brdf select` uses, as the firmware serves EVAL: its header read
     // once, rebound to the blob bytes per query.
     const SHAPE: FittedShape = FittedShape {
         theta_h: 20,
@@ -216,10 +216,10 @@ fn main() -> ! {
     };
     measure(
         20,
-        "lambert + fitted table from cosines, rebound per query",
+        "ggx + fitted table from cosines, rebound per query",
         &ticks,
         |x| match FittedTable::from_parts(black_box(consts), fitted) {
-            Some(table) => cosines(&Corrected { base: lambert, table }, x),
+            Some(table) => cosines(&Corrected { base: ggx, table }, x),
             None => f32::NAN,
         },
     );

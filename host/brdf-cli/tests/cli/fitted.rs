@@ -66,7 +66,7 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
     .unwrap();
     let reprs = v["representations"].as_array().unwrap();
     let cv = |r: &serde_json::Value| r["cv_rms_rel"].as_f64().unwrap_or(f64::INFINITY);
-    let table = reprs.iter().find(|r| r["name"] == "lambert + table").unwrap();
+    let table = reprs.iter().find(|r| r["name"] == "ggx + table").unwrap();
     let coverage = table["coverage"].as_f64().unwrap();
     assert!(
         coverage > 0.0 && coverage < 1.0,
@@ -76,7 +76,7 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
     // The table is the most accurate held out, by a wide margin over every analytic rung.
     let best_analytic = reprs
         .iter()
-        .filter(|r| r["name"] != "lambert + table")
+        .filter(|r| r["name"] != "ggx + table")
         .map(cv)
         .fold(f64::INFINITY, f64::min);
     assert!(
@@ -84,7 +84,7 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
         "table {} vs {best_analytic}",
         cv(table)
     );
-    assert_eq!(v["chosen"], "lambert + table", "{}", v["reason"]);
+    assert_eq!(v["chosen"], "ggx + table", "{}", v["reason"]);
 
     // --chosen: the base fit with its table; eval --fit reproduces the training error.
     let chosen: serde_json::Value =
@@ -282,8 +282,8 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
         .iter()
         .map(|r| r["name"].as_str().unwrap())
         .collect();
-    assert!(names.contains(&"lambert + table"), "{names:?}");
-    assert_eq!(sel["materials"][0]["model"], "lambert + table");
+    assert!(names.contains(&"ggx + table"), "{names:?}");
+    assert_eq!(sel["materials"][0]["model"], "ggx + table");
 }
 
 /// `brdf synth` of Lambert (rho0 0.5) at incidences `theta_i` (degrees, comma-separated),
@@ -317,7 +317,7 @@ fn small_data_get_no_table_and_are_told_why() {
         .as_array()
         .unwrap()
         .iter()
-        .any(|r| r["name"] == "lambert + table");
+        .any(|r| r["name"] == "ggx + table");
     let note = v["notes"].as_array().unwrap().iter().any(|s| {
         s.as_str()
             .is_some_and(|s| s.contains("fitted table: not offered"))

@@ -431,7 +431,7 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
 class Selection:
     """What ``brdf select DATA --json`` reports: every model of the ladder fitted over the
     angular domain, every device representation of each (exact in f32, six-parameter tables
-    of 64, 256 and 1024 nodes, and from 50 points the fitted table ``lambert + table``) with
+    of 64, 256 and 1024 nodes, and from 50 points the fitted table ``ggx + table``) with
     its error against the data, its Cortex-M4F instructions
     per lookup, this host's ns (measured in the call) and its blob size, its held-out error
     (``cv_rms_rel``: 5-fold cross-validation) beside its training error (``rms_rel``), and the

@@ -150,7 +150,7 @@ fn replicated_readings_do_not_leak_into_the_held_out_error() {
         .unwrap();
         s.representations
             .iter()
-            .find(|r| r.rung.name == "lambert + table")
+            .find(|r| r.rung.name == "ggx + table")
             .and_then(|r| r.cv_rms_rel)
             .expect("the table is cross-validated")
     };
