@@ -708,7 +708,8 @@ mod fitted_tests {
         );
         let d = Blob::decode(&buf[..n]).unwrap();
         let r = d.materials[0].fitted.unwrap();
-        assert_eq!((usize::from(r.len), r.offset), (t.len(), 24));
+        // Header 16, model id and counts 4, four parameters 16.
+        assert_eq!((usize::from(r.len), r.offset), (t.len(), 36));
         let table = d.materials[0].fitted_table(&buf[..n]).unwrap();
         let m = Corrected {
             base: d.materials[0].model().unwrap(),
@@ -737,21 +738,22 @@ mod fitted_tests {
         resign(&mut c);
         assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Table(0));
         // A shape that runs past the end, a shape of one node, a reserved byte set.
+        let at = usize::from(r.offset);
         let mut c = buf;
-        c[24] = 21;
+        c[at] = 21;
         resign(&mut c);
         assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Length);
         let mut c = buf;
-        c[25] = 1;
+        c[at + 1] = 1;
         resign(&mut c);
         assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Table(0));
         let mut c = buf;
-        c[27] = 1;
+        c[at + 3] = 1;
         resign(&mut c);
         assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Table(0));
         // A smaller shape leaves bytes over: the length no longer matches.
         let mut c = buf;
-        c[26] = 4;
+        c[at + 2] = 4;
         resign(&mut c);
         assert_eq!(Blob::decode(&c[..n]).unwrap_err(), BlobError::Length);
         // Both a lookup table and a fitted table: refused when encoding.

@@ -423,11 +423,16 @@ impl ReportCmd {
     fn figures(&self, e: &Entry, fits: &[&FitReport]) -> Result<()> {
         let pick = |k: ModelKind| fits.iter().find(|r| r.model == k).copied();
         let six = legend(pick(ModelKind::Six).context("six fit")?)?;
-        let curves = [ModelKind::Six, ModelKind::Five, ModelKind::Minnaert]
-            .into_iter()
-            .filter_map(pick)
-            .map(legend)
-            .collect::<Result<Vec<_>>>()?;
+        let curves = [
+            ModelKind::Six,
+            ModelKind::Five,
+            ModelKind::Ggx,
+            ModelKind::Minnaert,
+        ]
+        .into_iter()
+        .filter_map(pick)
+        .map(legend)
+        .collect::<Result<Vec<_>>>()?;
         // The map at the measured incidence closest to 30 degrees.
         let map_ti = e
             .data

@@ -89,7 +89,7 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
     // --chosen: the base fit with its table; eval --fit reproduces the training error.
     let chosen: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(p("chosen.json")).unwrap()).unwrap();
-    assert_eq!(chosen["model"], "lambert");
+    assert_eq!(chosen["model"], "ggx");
     let nodes = &chosen["fitted_table"]["nodes"];
     assert!(
         brdf_fit::fitted_table::SHAPES
