@@ -14,12 +14,14 @@
 //!   specular lobes change fastest, `theta_d`, and `sin^2 phi_d` (reciprocal and isotropic by
 //!   construction); the `phi_d` nodes tied where `phi_d` is undefined. Two node counts
 //!   ([`SHAPES`]), chosen by cross-validation.
-//! * Fit ([`FittedTable::fit`]): minimise `sum w_j (A x - t)_j^2 + lambda ||R x||^2 +
-//!   1e-10 ||x||^2`, `A` the trilinear design, `R` second differences along every axis (first
-//!   differences along `phi_d` when it has two nodes), solved by a banded Cholesky of the
+//! * Fit ([`FittedTable::fit`]): minimise `sum w_j (A x - t)_j^2 + lambda (||R x||^2 + 0.01
+//!   ||x_far||^2) + 1e-10 ||x||^2`, `A` the trilinear design, `R` second differences along every
+//!   axis (first differences along `phi_d` when it has two nodes), `x_far` the cells two or
+//!   more steps from every reading, fading the correction to the base model there
+//!   ([`DECAY`]), solved by a banded Cholesky of the
 //!   normal equations; then the worst 2% of the points (dropout readings) get `w = 0` and the
 //!   fit is repeated. Last, Gauss-Newton steps from there minimise the error the table is
-//!   judged by, `sum w_j (exp(A x - t)_j - 1)^2 + lambda ||R x||^2`: the `ln f` fit predicts
+//!   judged by, `sum w_j (exp(A x - t)_j - 1)^2 + lambda (||R x||^2 + 0.01 ||x_far||^2)`: the `ln f` fit predicts
 //!   the geometric mean of noisy readings, which a relative error penalises (on the dark,
 //!   noisy green and blue channels of garnet red it missed held-out readings by 50% and 67%,
 //!   more than nearest-neighbour interpolation; refined, 40% and 46%).
@@ -77,6 +79,70 @@ const TRIM_ONE_IN: usize = 50;
 /// data and the smoothness term leave a direction free (cells far from every point), without
 /// measurably biasing constrained cells.
 const RIDGE: f64 = 1e-10;
+
+/// Pull towards no correction of the cells far from the data ([`FAR_CELLS`]), relative to
+/// the smoothness term: their penalty is `lambda (|R x|^2 + DECAY |x|^2)`. Second differences
+/// alone let the table continue the data's trend without cost wherever no reading constrains
+/// it, and a trend continued far enough explodes (fitted to krylon R's in-plane readings, the
+/// table predicted the paint's off-plane readings 58 times too bright); with the pull, a
+/// correction fades to the base model over about `DECAY^(-1/4)` (3) cells, so that where the
+/// measurements do not reach, the prediction is the base model's (`cargo run --release -p
+/// brdf-scene --example table_extrapolation`, docs/model-comparison.md). Cells near the data
+/// are left to the smoothness term: pulled too, the gaps between readings (which the
+/// cross-validation measures) were bridged worse (garnet B held out 0.46 -> 0.75).
+const DECAY: f64 = 0.01;
+
+/// A cell is far from the data when every covered cell ([`COVER_WEIGHT`]) is at least this
+/// many grid steps away along some axis (Chebyshev distance): the gaps between readings
+/// (one step) are bridged by the smoothness term alone.
+const FAR_CELLS: usize = 2;
+
+/// The cells some point informs ([`COVER_WEIGHT`]).
+fn covered_cells(shape: FittedShape, stencils: &[Stencil]) -> Vec<bool> {
+    let mut covered = vec![false; shape.cells()];
+    for s in stencils {
+        for &(c, w) in s {
+            if w > COVER_WEIGHT {
+                covered[c] = true;
+            }
+        }
+    }
+    covered
+}
+
+/// The cells at least [`FAR_CELLS`] grid steps from every covered cell (all of them when
+/// none is covered), by a breadth-first search from the covered cells over the 26 neighbours
+/// of each cell.
+fn far_from_data(shape: FittedShape, stencils: &[Stencil]) -> Vec<bool> {
+    let (nh, nd, np) = (shape.theta_h, shape.theta_d, shape.phi_d);
+    let mut dist = vec![usize::MAX; shape.cells()];
+    let mut queue = std::collections::VecDeque::new();
+    for (c, covered) in covered_cells(shape, stencils).into_iter().enumerate() {
+        if covered {
+            dist[c] = 0;
+            queue.push_back(c);
+        }
+    }
+    let steps = |n: usize, i: usize| i.saturating_sub(1)..=(i + 1).min(n - 1);
+    while let Some(c) = queue.pop_front() {
+        let (i, j, k) = (c / (nd * np), c / np % nd, c % np);
+        if dist[c] + 1 >= FAR_CELLS {
+            continue;
+        }
+        for a in steps(nh, i) {
+            for b in steps(nd, j) {
+                for e in steps(np, k) {
+                    let n = (a * nd + b) * np + e;
+                    if dist[n] == usize::MAX {
+                        dist[n] = dist[c] + 1;
+                        queue.push_back(n);
+                    }
+                }
+            }
+        }
+    }
+    dist.into_iter().map(|d| d >= FAR_CELLS).collect()
+}
 
 /// The refinement's cap on the relative error `e = f/y - 1`: a reading the prediction exceeds
 /// more than fivefold (`e > 4`) costs `REL_CAP^2` whatever the excess (Talwar's loss) and so
@@ -430,9 +496,10 @@ impl System {
         for ((d, r), t) in m.a.iter_mut().zip(&self.rtr.a).zip(&self.ties.a) {
             *d = lambda * r + t;
         }
-        for i in 0..n {
+        let far = far_from_data(self.shape, stencils);
+        for (i, &far) in far.iter().enumerate() {
             let at = m.at(i, i);
-            m.a[at] += RIDGE;
+            m.a[at] += RIDGE + if far { lambda * DECAY } else { 0.0 };
         }
         let mut rhs = vec![0.0; n];
         for ((s, &y), &w) in stencils.iter().zip(ln_y).zip(weights) {
@@ -503,7 +570,9 @@ impl System {
             .filter(|(_, &w)| w > 0.0)
             .map(|((s, y), w)| w * relative_loss((predict(x, s) - y).exp() - 1.0))
             .sum();
-        let total = data + lambda * self.rtr.quad(x);
+        let far = far_from_data(self.shape, stencils);
+        let decay: f64 = x.iter().zip(&far).filter(|(_, &f)| f).map(|(v, _)| v * v).sum();
+        let total = data + lambda * (self.rtr.quad(x) + DECAY * decay);
         if total.is_finite() {
             total
         } else {
@@ -689,14 +758,7 @@ fn fold_error(
 
 impl FittedTable {
     fn from_solution(shape: FittedShape, ln_f: Vec<f64>, stencils: &[Stencil], smoothness: f64) -> Self {
-        let mut covered = vec![false; shape.cells()];
-        for s in stencils {
-            for &(c, w) in s {
-                if w > COVER_WEIGHT {
-                    covered[c] = true;
-                }
-            }
-        }
+        let covered = covered_cells(shape, stencils);
         FittedTable {
             shape,
             ln_f,
@@ -1254,6 +1316,38 @@ mod tests {
         );
     }
 
+    /// Beyond the data a correction fades to the base model ([`DECAY`]): readings near the
+    /// mirror direction, all a factor e^2 above their base, leave the table at that factor
+    /// there and at about 1 far from them. (Second differences alone cost nothing for a
+    /// constant, and carried e^2 everywhere.)
+    #[test]
+    fn beyond_the_data_the_correction_fades_to_the_base() {
+        let pts: Vec<Point> = (0..40)
+            .map(|k| {
+                let t = (10.0 + k as f64).to_radians();
+                let phi = PI + 0.02 * (k % 5) as f64;
+                point(t, t + 0.01 * (k % 3) as f64, phi, 2f64.exp(), k + 2)
+            })
+            .collect();
+        // As `brdf select` fits it: grid and smoothness chosen by cross-validation.
+        let table = FittedTable::fit_cv(&pts, &[0.0; 40], &SHAPES).unwrap();
+        let smoothness = table.smoothness;
+        let near = table.eval(30f64.to_radians(), 30f64.to_radians(), PI).ln();
+        assert!(
+            (near - 2.0).abs() < 0.05,
+            "smoothness {smoothness}: near the data {near}"
+        );
+        for (ti, tr, phi) in [(70.0, 10.0, 0.0), (80.0, 80.0, 0.0), (60.0, 20.0, 90.0)] {
+            let (ti, tr, phi) = (f64::to_radians(ti), f64::to_radians(tr), f64::to_radians(phi));
+            assert!(!table.covers(ti, tr, phi));
+            let far = table.eval(ti, tr, phi).ln();
+            assert!(
+                far.abs() < 0.2,
+                "smoothness {smoothness}: far from the data {far}"
+            );
+        }
+    }
+
     #[test]
     fn trimmed_rms_ignores_one_dropout_in_fifty() {
         let mut rel = vec![0.01; 50];
@@ -1287,6 +1381,7 @@ mod tests {
             let ln_y: Vec<f64> = pts.iter().map(|&[a, b, c]| synthetic(a, b, c).ln()).collect();
             let w = vec![1.0; 30];
             let x = system.solve_untied(&stencils, &ln_y, &w, 0.3);
+            let far = far_from_data(shape, &stencils);
             // Residual of the normal equations, assembled densely.
             let n = shape.cells();
             let mut m = vec![vec![0.0; n]; n];
@@ -1315,7 +1410,15 @@ mod tests {
             }
             for i in 0..n {
                 let r: f64 = (0..n)
-                    .map(|k| (m[i][k] + if i == k { RIDGE } else { 0.0 }) * x[k])
+                    .map(|k| {
+                        (m[i][k]
+                            + if i == k {
+                                RIDGE + 0.3 * DECAY * f64::from(u8::from(far[i]))
+                            } else {
+                                0.0
+                            })
+                            * x[k]
+                    })
                     .sum();
                 assert!((r - rhs[i]).abs() < 1e-9, "{shape:?} row {i}: {r} vs {}", rhs[i]);
             }

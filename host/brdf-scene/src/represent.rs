@@ -144,9 +144,19 @@ pub const TABLE_BASE: ModelKind = ModelKind::Ggx;
 /// the table fitted to `ln(f / f_base)` at `train`'s points with its smoothness chosen by
 /// cross-validation on them, and its record for `--chosen`.
 pub fn table_rung(train: &Dataset, base_params: &[f64; MAX_PARAMS]) -> Result<(Rung, TableRecord), String> {
+    table_rung_over(TABLE_BASE, train, base_params)
+}
+
+/// [`table_rung`] over a base of any model `kind` (`base_params` its fit to `train`), for
+/// studies that compare bases (`cargo run --release -p brdf-scene --example
+/// table_extrapolation`).
+pub fn table_rung_over(
+    kind: ModelKind,
+    train: &Dataset,
+    base_params: &[f64; MAX_PARAMS],
+) -> Result<(Rung, TableRecord), String> {
     let name = &train.name;
-    let base =
-        Material::from_params(TABLE_BASE, base_params).map_err(|e| format!("{name}: table base: {e}"))?;
+    let base = Material::from_params(kind, base_params).map_err(|e| format!("{name}: table base: {e}"))?;
     let model = base.model().map_err(|e| format!("{name}: table base: {e}"))?;
     let base_ln: Vec<f64> = train
         .points

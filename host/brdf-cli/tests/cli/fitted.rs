@@ -252,8 +252,15 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
     std::fs::write(
         p("base.toml"),
         with(&format!(
-            "model = \"lambert\"\nparams = \"rho0={}\"",
-            chosen["params"]["rho0"]
+            "model = \"{}\"\nparams = \"{}\"",
+            chosen["model"].as_str().unwrap(),
+            chosen["params"]
+                .as_object()
+                .unwrap()
+                .iter()
+                .map(|(k, v)| format!("{k}={v}"))
+                .collect::<Vec<_>>()
+                .join(",")
         )),
     )
     .unwrap();
