@@ -4,7 +4,7 @@
 //! bundled measurement and all five outer folds. The figures of docs/model-comparison.md
 //! ("What `brdf select` picks, held out").
 //!
-//!     cargo run --release -p brdf-scene --example select_holdout
+//!     cargo run --release -p brdf-scene --example select_holdout [-- NAME_PART]
 
 use std::path::Path;
 
@@ -47,7 +47,13 @@ fn chosen_error(train: &Dataset, test: &[brdf_fit::Point]) -> (f64, String) {
 
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/measured");
-    let sets = bundled(&root).expect("bundled data");
+    // An optional argument keeps the datasets whose name contains it (`-- krylon`).
+    let only = std::env::args().nth(1).unwrap_or_default();
+    let sets: Vec<_> = bundled(&root)
+        .expect("bundled data")
+        .into_iter()
+        .filter(|(name, _)| name.contains(only.as_str()))
+        .collect();
     println!("| data | points | chosen (folds) | chosen, held out | 4-NN | ratio |");
     println!("|---|---|---|---|---|---|");
     let mut ratios = Vec::new();

@@ -226,7 +226,7 @@ pub fn choose(
     let physical_note = if allow_nonphysical {
         ""
     } else {
-        ", among reciprocal models bounded at grazing"
+        ", among reciprocal models whose albedo is bounded at grazing"
     };
     let reason = match best {
         Some(i) => format!(

@@ -702,7 +702,12 @@ fn model_lane<A: Arith>(kernel: &Kernel, g: &Lane, mt: &MTerms) -> f64 {
             let w2 = w * w;
             let f = k.f0 + (1.0 - k.f0) * (w2 * w2 * w);
             let shape = k.alpha2 * core::f64::consts::FRAC_1_PI / (den * den) * v * f;
-            k.ks * shape + k.diffuse
+            let shape = if f == 0.0 { 0.0 } else { shape };
+            if k.ks == 0.0 {
+                k.diffuse
+            } else {
+                k.ks * shape + k.diffuse
+            }
         }
         Kernel::Lambert { value } => *value,
     }

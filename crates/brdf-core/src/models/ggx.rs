@@ -69,8 +69,9 @@ impl<T: Float> Ggx<T> {
         self.params
     }
 
-    /// The specular term for `ks = 1`: `F D V`, in 1/sr (0 when either direction is at or
-    /// below the horizon).
+    /// The specular term for `ks = 1`: `F D V`, in 1/sr, for both directions above the
+    /// horizon. `V` grows without bound as both cosines approach 0 and overflows to infinity
+    /// in f32 below about 1e-33; `F = 0` (`f0 = 0` at `theta_d = 0`) then gives 0, not NaN.
     #[inline]
     pub fn specular_shape(&self, g: &Geometry<T>) -> T {
         let (ci, cr) = (g.cos_theta_i(), g.cos_theta_r());
@@ -82,6 +83,9 @@ impl<T: Float> Ggx<T> {
         let w = g.one_minus_cos_gamma();
         let w2 = w * w;
         let f = self.params.f0 + (T::ONE - self.params.f0) * (w2 * w2 * w);
+        if f == T::ZERO {
+            return T::ZERO;
+        }
         self.alpha2 * T::FRAC_1_PI / (den * den) * v * f
     }
 }
@@ -91,6 +95,10 @@ impl<T: Float> Brdf<T> for Ggx<T> {
     fn eval(&self, g: &Geometry<T>) -> T {
         if let Some(v) = g.outside() {
             return v;
+        }
+        if self.params.ks == T::ZERO {
+            // No specular term (and no `0 * inf` where V overflows).
+            return self.diffuse;
         }
         self.params.ks * self.specular_shape(g) + self.diffuse
     }
@@ -154,6 +162,28 @@ mod tests {
                     ((got - want) / want).abs() < 1e-12,
                     "{alpha} {f0} {ti} {tr} {phi}: {got} vs {want}"
                 );
+            }
+        }
+    }
+
+    /// Near the horizon V overflows f32; the value is then +inf (the device reports an error
+    /// for it), never NaN, whatever the weights.
+    #[test]
+    fn grazing_gives_a_number_or_infinity_never_nan() {
+        for p in [
+            [1.0f32, 0.001, 0.0, 0.0],
+            [0.0, 0.001, 0.0, 0.5],
+            [1e4, 1.0 / 1024.0, 1.0, 100.0],
+        ] {
+            let m = Ggx::<f32>::from_params(&p).unwrap();
+            for c in [1e-45f32, 1e-38, 1e-20, 1e-8, 1e-3] {
+                for cos_phi in [1.0f32, -1.0, 0.0] {
+                    let f = m.eval_cosines(c, c, cos_phi);
+                    assert!(
+                        !f.is_nan() && f >= 0.0,
+                        "{p:?} at cos {c}, cos phi {cos_phi}: {f}"
+                    );
+                }
             }
         }
     }
