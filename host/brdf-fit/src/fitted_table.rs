@@ -5,10 +5,10 @@
 //!
 //! It is the representation for measured paints and metals that the analytic models miss by
 //! tens of percent: held out from its fit, it predicts the bundled measurements better than
-//! 4-nearest-neighbour interpolation of the same points on 11 of 11 datasets (garnet R 3.3%,
+//! 4-nearest-neighbour interpolation of the same points on 11 of 11 datasets (garnet R 3.5%,
 //! MERL aluminium 4.5%, PTFE at 532 nm 0.9%, krylon B 9.7%; `cargo run --release -p brdf-fit
-//! --example table_holdout`, docs/model-comparison.md). `brdf select` offers it over a Lambert
-//! base (`brdf_scene::represent::table_rung`).
+//! --example table_holdout`, docs/model-comparison.md). `brdf select` offers it over the
+//! microfacet fit (`brdf_scene::represent::table_rung`).
 //!
 //! * Grid: [`brdf_core::fitted::axes`]: `theta_h` dense near the mirror direction, where
 //!   specular lobes change fastest, `theta_d`, and `sin^2 phi_d` (reciprocal and isotropic by
@@ -44,8 +44,9 @@ pub use brdf_core::fitted::FittedShape;
 /// 1,710 cells, 3,650 bytes stored), for the sharp specular peaks of glossy paints and
 /// metals, and one with five `phi_d` nodes (20 x 19 x 5 = 1,900 cells, 4,054 bytes), for
 /// surfaces whose scattering changes out of the plane of incidence. Each cell is one `u16`
-/// with its coverage bit and a 16-byte header ([`FittedShape::encoded_len`]); over a Lambert
-/// base the larger makes a one-material blob of 4,082 bytes, within a flash slot's 4,096.
+/// with its coverage bit and a 16-byte header ([`FittedShape::encoded_len`]); over the
+/// microfacet base `brdf select` uses the larger makes a one-material blob of 4,094 bytes,
+/// within a flash slot's 4,096.
 pub const SHAPES: [FittedShape; 2] = [
     FittedShape {
         theta_h: 30,
@@ -84,7 +85,7 @@ const RIDGE: f64 = 1e-10;
 /// the smoothness term: their penalty is `lambda (|R x|^2 + DECAY |x|^2)`. Second differences
 /// alone let the table continue the data's trend without cost wherever no reading constrains
 /// it, and a trend continued far enough explodes (fitted to krylon R's in-plane readings, the
-/// table predicted the paint's off-plane readings 58 times too bright); with the pull, a
+/// table missed the paint's off-plane readings by 5,900%, trimmed RMS); with the pull, a
 /// correction fades to the base model over about `DECAY^(-1/4)` (3) cells, so that where the
 /// measurements do not reach, the prediction is the base model's (`cargo run --release -p
 /// brdf-scene --example table_extrapolation`, docs/model-comparison.md). Cells near the data

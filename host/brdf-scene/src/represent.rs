@@ -131,13 +131,14 @@ pub fn representations(
 pub const TABLE_MIN_POINTS: usize = CV_LEAVE_ONE_OUT_BELOW;
 
 /// The base model of a fitted table: the microfacet model, so that where the measurements do
-/// not reach (outside the table's coverage, where the table's smoothness term extrapolates a
-/// correction) the prediction still follows a physical glossy lobe. Fitted to the in-plane
-/// readings only and judged off the plane, it predicts better than a Lambert base on each of
-/// eight measured surfaces tried (Cornell paints: garnet R 0.155 vs 0.206, krylon B 0.197 vs
-/// 0.372; PTFE 1.064 µm 0.043 vs 0.047; docs/model-comparison.md), and as well inside the
-/// coverage. The larger table ([`SHAPES`]: 20 x 19 x 5) with this base is a 4,094-byte blob, one
-/// flash slot (with a six-parameter base it would not fit).
+/// not reach (outside the table's coverage, where its correction fades to none) the prediction
+/// still follows a physical glossy lobe. Fitted to the in-plane readings only and judged off the
+/// plane, the table over it predicts better than over a Lambert base on each of the ten
+/// bundled datasets with off-plane readings (garnet R 0.149 vs 0.286, krylon B 0.168 vs 0.290;
+/// `cargo run --release -p brdf-scene --example table_extrapolation`,
+/// docs/model-comparison.md), and as well inside the coverage (median held-out ratio to 4-NN
+/// 0.81 against 0.83). The larger table ([`SHAPES`]: 20 x 19 x 5) with this base is a
+/// 4,094-byte blob, one flash slot (with a six-parameter base it would not fit).
 pub const TABLE_BASE: ModelKind = ModelKind::Ggx;
 
 /// The fitted-table rung over the base fit `base_params` (a [`TABLE_BASE`] fit to `train`):
