@@ -293,12 +293,14 @@ pub struct AnnealOutcome<T, M> {
     pub evals: u32,
 }
 
-/// Number of distinct geometries in `geometries`, counted up to `limit` (at most
-/// [`MAX_PARAMS`]): constant memory, `O(n limit)` comparisons. Directions with equal
-/// geometry (the same angles, or `phi` and `-phi`) are one direction to every model.
+/// Number of distinct direction pairs in `geometries`, counted up to `limit` (at most
+/// [`MAX_PARAMS`]): constant memory, `O(n limit)` comparisons. Pairs that are one to the
+/// family ([`Geometry::same_pair`]: the same angles, `phi` and `-phi`, and with `reciprocal`
+/// incidence and viewing swapped) count once.
 pub fn distinct_geometries<T: Float>(
     geometries: impl IntoIterator<Item = Geometry<T>>,
     limit: usize,
+    reciprocal: bool,
 ) -> usize {
     let limit = limit.min(MAX_PARAMS);
     let mut seen: [Option<Geometry<T>>; MAX_PARAMS] = [None; MAX_PARAMS];
@@ -307,7 +309,7 @@ pub fn distinct_geometries<T: Float>(
         if n >= limit {
             break;
         }
-        if !seen[..n].contains(&Some(g)) {
+        if !seen[..n].iter().flatten().any(|s| s.same_pair(&g, reciprocal)) {
             seen[n] = Some(g);
             n += 1;
         }
@@ -323,7 +325,7 @@ pub fn check_directions<T: Float>(
     geometries: impl IntoIterator<Item = Geometry<T>>,
 ) -> Result<(), AnnealError> {
     let needed = kind.param_count();
-    let distinct = distinct_geometries(geometries, needed);
+    let distinct = distinct_geometries(geometries, needed, kind.is_reciprocal());
     if distinct < needed {
         return Err(AnnealError::TooFewDirections { distinct, needed });
     }
@@ -921,7 +923,26 @@ mod tests {
         m.push_angles(0.1, 0.2, 0.5, 0.2).unwrap();
         m.push_angles(0.1, 0.2, -0.5, 0.2).unwrap();
         let g = m.as_slice().iter().map(|x| x.geometry);
-        assert_eq!(distinct_geometries(g, 6), 1);
+        assert_eq!(distinct_geometries(g, 6, false), 1);
+        // So are phi and 2 pi - phi (which round differently), and, to a reciprocal model,
+        // incidence and viewing swapped; to the five-parameter model a swap is another pair.
+        let pairs = |rows: &[[f64; 3]], reciprocal: bool| {
+            let g = rows
+                .iter()
+                .map(|&[a, b, c]| Geometry::<f64>::from_angles(a, b, c));
+            distinct_geometries(g, 6, reciprocal)
+        };
+        let tau = core::f64::consts::TAU;
+        assert_eq!(pairs(&[[0.2, 0.5, 2.1], [0.2, 0.5, tau - 2.1]], false), 1);
+        assert_eq!(
+            pairs(&[[0.2, 0.5, 2.1], [0.5, 0.2, 2.1], [0.5, 0.2, tau - 2.1]], true),
+            1
+        );
+        assert_eq!(pairs(&[[0.2, 0.5, 2.1], [0.5, 0.2, 2.1]], false), 2);
+        assert_eq!(pairs(&[[0.2, 0.5, 2.1], [0.2, 0.5 + 1e-9, 2.1]], true), 2);
+        let g32 = [[0.2f32, 0.5, 2.1], [0.5, 0.2, core::f32::consts::TAU - 2.1]]
+            .map(|[a, b, c]| Geometry::<f32>::from_angles(a, b, c));
+        assert_eq!(distinct_geometries(g32, 6, true), 1);
         let minnaert = SearchBox::for_kind(ModelKind::Minnaert);
         assert!(matches!(
             anneal::<f32, crate::models::Minnaert<f32>, _, 2>(&m, &minnaert, &cfg, &mut rng),

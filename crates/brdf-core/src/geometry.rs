@@ -225,6 +225,28 @@ impl<T: Float> Geometry<T> {
     pub fn cos_theta_i_minus_cos_theta_r(&self) -> T {
         self.cos_i_minus_cos_r
     }
+    /// Whether `self` and `other` are one direction pair to the family: every model depends
+    /// on `cos phi` only, so `phi` and `-phi` (or `360 - phi`) are one pair; with `reciprocal`
+    /// (for a reciprocal model) incidence and viewing swapped are one pair too. The
+    /// quantities the models read agree within [`SAME_PAIR_EPS`] times `T::EPSILON`, relative
+    /// (the two ways of writing a pair round differently by an ulp or two).
+    pub fn same_pair(&self, other: &Self, reciprocal: bool) -> bool {
+        let tol = T::from_f64(SAME_PAIR_EPS) * T::EPSILON;
+        let close = |a: T, b: T| {
+            let m = if a.abs() > b.abs() { a.abs() } else { b.abs() };
+            (a - b).abs() <= tol * m
+        };
+        let shared = close(self.cos_gamma, other.cos_gamma)
+            && close(self.one_minus_cos_gamma, other.one_minus_cos_gamma)
+            && close(self.cos_alpha, other.cos_alpha)
+            && close(self.one_minus_cos_alpha, other.one_minus_cos_alpha);
+        let as_is = close(self.cos_theta_i, other.cos_theta_i) && close(self.cos_theta_r, other.cos_theta_r);
+        let swapped = reciprocal
+            && close(self.cos_theta_i, other.cos_theta_r)
+            && close(self.cos_theta_r, other.cos_theta_i);
+        shared && (as_is || swapped)
+    }
+
     /// Both directions strictly above the horizon. False for NaN input.
     #[inline]
     pub fn above_horizon(&self) -> bool {
@@ -314,6 +336,12 @@ pub(crate) fn check_unit<T: Float>(w: [T; 3], what: &'static str) -> Result<(), 
     }
     Ok(())
 }
+
+/// Relative agreement, in units of the precision's epsilon, of two ways of writing one
+/// direction pair ([`Geometry::same_pair`]): 64 ulp covers the few roundings by which `phi` and
+/// `360 - phi`, or a pair and its swap, reach each quantity; distinct measured directions differ
+/// by at least a hundredth of a degree, a million times more in f64.
+pub const SAME_PAIR_EPS: f64 = 64.0;
 
 /// Largest accepted `| |w|^2 - 1 |` in [`Geometry::try_from_vectors`].
 pub const UNIT_NORM_TOLERANCE: f64 = 1e-4;

@@ -107,7 +107,12 @@ impl EvalCmd {
         };
         match self.precision {
             Precision::F64 => self.eval::<f64>(kind, &params, table, out, f64_text, true),
-            Precision::F32 => self.eval::<f32>(kind, &params, table, out, f32_text, false),
+            Precision::F32 => {
+                // The ranges hold for the parameters as given: rounding to f32 must not bring
+                // `alpha = 4.0000001` inside.
+                build::<f64>(kind, &params)?;
+                self.eval::<f32>(kind, &params, table, out, f32_text, false)
+            }
         }
     }
 

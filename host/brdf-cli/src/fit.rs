@@ -315,7 +315,7 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
         .collect();
     writeln!(
         out,
-        "  albedo at measured incidences: {} ({})",
+        "  albedo (measured incidences and 0-89 deg): {} ({})",
         albedos.join(", "),
         if e.albedo_conserves {
             "all <= 1"

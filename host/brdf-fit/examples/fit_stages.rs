@@ -23,7 +23,11 @@ fn main() {
     let outcome = fit(&problem, &FitOptions::default());
     let fitted = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    std::hint::black_box(uncertainty(&problem, &outcome, distinct_directions(data, 7)));
+    std::hint::black_box(uncertainty(
+        &problem,
+        &outcome,
+        distinct_directions(data, problem.kind(), 7),
+    ));
     let unc = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let model = AnyModel::new(ModelKind::Six, &outcome.params[..6]).expect("fitted parameters are valid");

@@ -12,7 +12,7 @@
 use brdf_core::{ModelKind, MAX_PARAMS};
 
 use crate::kernel::{assemble, factors};
-use crate::problem::{Problem, ProjectionSums};
+use crate::problem::{Problem, ProjectionSums, GGX_LN_ALPHA};
 
 /// `kr` nodes (searched as `ln kr`): log-spaced over the search box [0.01, 1000].
 const KR: [f64; 7] = [0.01, 0.0681, 0.464, 3.16, 21.5, 147.0, 1000.0];
@@ -24,9 +24,10 @@ const A: [f64; 6] = [0.05, 0.25, 0.6, 1.2, 2.2, 4.0];
 /// materials sit and where the lobe can stand in for a wrong `c`).
 const C: [f64; 9] = [0.0, 0.15, 0.3, 0.5, 0.8, 1.2, 1.8, 3.0, 5.0];
 const C_BRIGHT: [f64; 3] = [-0.9, -0.6, -0.3];
-/// Microfacet `alpha` nodes (searched as `ln alpha`) over the box [0.001, 4], log-spaced but
-/// denser where paints and metals sit (0.01–0.5).
-const ALPHA: [f64; 11] = [0.001, 0.003, 0.01, 0.025, 0.06, 0.13, 0.25, 0.45, 0.8, 1.5, 4.0];
+/// Microfacet `alpha` nodes (searched as `ln alpha`) inside the box's ends ([`GGX_LN_ALPHA`],
+/// the grid's first and last nodes: 1/1024 and 4), log-spaced but denser where paints and
+/// metals sit (0.01–0.5).
+const ALPHA: [f64; 9] = [0.003, 0.01, 0.025, 0.06, 0.13, 0.25, 0.45, 0.8, 1.5];
 /// Microfacet `f0` nodes over [0, 1]: dielectrics at 0.02–0.06, metals above 0.5.
 const F0: [f64; 6] = [0.0, 0.02, 0.05, 0.15, 0.4, 1.0];
 /// Minnaert `k` nodes over [0.01, 1].
@@ -55,7 +56,13 @@ pub fn grid_starts(problem: &Problem, starts: usize) -> Vec<[f64; MAX_PARAMS]> {
         ],
         ModelKind::Five => vec![KR.iter().map(|k| k.ln()).collect(), BETA.to_vec(), A.to_vec()],
         ModelKind::Minnaert => vec![K.to_vec()],
-        ModelKind::Ggx => vec![ALPHA.iter().map(|a| a.ln()).collect(), F0.to_vec()],
+        ModelKind::Ggx => vec![
+            std::iter::once(GGX_LN_ALPHA.0)
+                .chain(ALPHA.iter().map(|a| a.ln()))
+                .chain(std::iter::once(GGX_LN_ALPHA.1))
+                .collect(),
+            F0.to_vec(),
+        ],
         ModelKind::Lambert => vec![],
     };
     let nodes: Vec<(Vec<usize>, [f64; 2], f64)> = match kind {

@@ -142,14 +142,15 @@ impl Loss {
 /// Minnaert's. The core accepts any `c > -1`.
 pub const BRIGHTENING_C_MIN: f64 = -0.99;
 
-/// The microfacet roughness `alpha` the fitter searches: the device's range
-/// (`brdf_core::ranges::GGX`, from 1/1024) rounded in to 0.001, up to its top, 4.
-pub const GGX_ALPHA: (f64, f64) = (0.001, 4.0);
+/// The microfacet roughness `alpha` the fitter searches, as `ln alpha`: the device's whole
+/// range (`brdf_core::ranges::GGX`, 1/1024 to 4), each end moved in by 1e-12 in `ln alpha`
+/// so that `exp` of a bound rounds inside the range.
+pub const GGX_LN_ALPHA: (f64, f64) = (-6.931_471_805_598_2, 1.386_294_361_118_9);
 
 /// Search box of the internal parameters (see [`crate::kernel`]): `ln kr` in
 /// [ln 0.01, ln 1000], `beta = |b|` in [0, 200], `a` in [0.05, 4], `c` in [0, 5], the
 /// five-parameter `kd` in [0, 10], Minnaert `k` in [0.01, 1], the microfacet `ln alpha` in
-/// [ln 0.001, ln 4] ([`GGX_ALPHA`]) and `f0` in [0, 1]. The weights the model is
+/// [ln 1/1024, ln 4] ([`GGX_LN_ALPHA`]) and `f0` in [0, 1]. The weights the model is
 /// linear in (`kb`, the six-parameter `kd`, `ks`, `rho0`) are only non-negative: they carry the
 /// data's units, so any upper bound would make the fit depend on them (data in other units
 /// must give the same relative fit).
@@ -171,8 +172,8 @@ pub fn bounds(kind: ModelKind) -> ([f64; MAX_PARAMS], [f64; MAX_PARAMS]) {
         ),
         ModelKind::Minnaert => ([0.0, 0.01, 0.0, 0.0, 0.0, 0.0], [inf, 1.0, 0.0, 0.0, 0.0, 0.0]),
         ModelKind::Ggx => (
-            [0.0, GGX_ALPHA.0.ln(), 0.0, 0.0, 0.0, 0.0],
-            [inf, GGX_ALPHA.1.ln(), 1.0, inf, 0.0, 0.0],
+            [0.0, GGX_LN_ALPHA.0, 0.0, 0.0, 0.0, 0.0],
+            [inf, GGX_LN_ALPHA.1, 1.0, inf, 0.0, 0.0],
         ),
         ModelKind::Lambert => ([0.0; MAX_PARAMS], [inf, 0.0, 0.0, 0.0, 0.0, 0.0]),
     }
@@ -710,6 +711,26 @@ mod loss_tests {
             .eval(r * r)
             .0;
             assert!((cauchy - c * c * (1.0 + z).ln()).abs() < 1e-15 * (1.0 + cauchy));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The microfacet `alpha` box is the device's range, from inside: every `alpha` the fitter
+    /// reports passes `brdf_core::ranges::GGX`, and the ends are within 1e-11 of the range's.
+    #[test]
+    fn the_alpha_box_is_the_device_range_from_inside() {
+        let range = brdf_core::ranges::GGX[1];
+        for (ln, edge) in [
+            (GGX_LN_ALPHA.0, f64::from(range.min)),
+            (GGX_LN_ALPHA.1, f64::from(range.max)),
+        ] {
+            let alpha = ln.exp();
+            assert!(range.contains(alpha) && range.contains(alpha as f32), "{alpha}");
+            assert!((alpha / edge - 1.0).abs() < 1e-11, "{alpha} vs {edge}");
         }
     }
 }

@@ -224,6 +224,11 @@ impl FitSettings {
                 Ok(())
             }
         };
+        ignored(
+            r.brightening && !matches!(r.model, ModelKind::Six | ModelKind::SixCos2),
+            "brightening",
+            "lets the six-parameter models' c go below 0 (six, six-cos2 only)",
+        )?;
         let engine = match r.engine {
             EngineKind::Full => {
                 ignored(

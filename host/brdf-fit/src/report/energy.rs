@@ -1,5 +1,5 @@
-//! The energy check of a fit: albedo by quadrature at the measured incidences and the
-//! `kb + kd <= 1` bound.
+//! The energy check of a fit: albedo by quadrature at the measured incidences and at fixed
+//! incidences to 89° ([`ENERGY_INCIDENCES_DEG`]), and the analytic bound (`kb + kd <= 1`).
 
 use super::*;
 
@@ -22,10 +22,32 @@ pub struct Energy {
     pub bound: Option<f64>,
     /// The bound is at most 1.
     pub bound_conserves: bool,
-    /// Albedo at each measured incidence.
+    /// Albedo at each measured incidence and at [`ENERGY_INCIDENCES_DEG`], in increasing
+    /// incidence.
     pub albedo: Vec<IncidenceAlbedo>,
-    /// Every albedo is at most 1.
+    /// Every albedo is at most 1 (at the measured incidences and the fixed ones: a model's
+    /// albedo may rise towards grazing beyond the data, as the microfacet model's Fresnel
+    /// term makes it).
     pub albedo_conserves: bool,
+}
+
+/// Incidences (degrees) where every fit's albedo is checked besides the measured ones: a fit to
+/// data from 0–30° that conserved energy there reached 1.14 at 80° (a microfacet fit, its
+/// Fresnel term rising towards grazing) while the report said it conserved energy.
+pub const ENERGY_INCIDENCES_DEG: [f64; 8] = [0.0, 30.0, 45.0, 60.0, 70.0, 80.0, 85.0, 89.0];
+
+/// The measured incidences (radians) and [`ENERGY_INCIDENCES_DEG`], sorted, each once (a
+/// measured incidence within 1e-9 rad of a fixed one stands for it).
+pub fn checked_incidences(measured: &[f64]) -> Vec<f64> {
+    let mut all: Vec<f64> = measured.to_vec();
+    for d in ENERGY_INCIDENCES_DEG {
+        let t = d.to_radians();
+        if !measured.iter().any(|m| (m - t).abs() < 1e-9) {
+            all.push(t);
+        }
+    }
+    all.sort_by(f64::total_cmp);
+    all
 }
 
 /// Energy check of `model` at the incidences (radians) of a dataset.

@@ -617,8 +617,12 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         loss: problem.loss(),
         brightening: problem.brightening(),
         influence: influence(dataset, problem, outcome, opts),
-        uncertainty: uncertainty(problem, outcome, distinct_directions(dataset, k + 1)),
-        energy: energy_of(kind, params, &incidences),
+        uncertainty: uncertainty(
+            problem,
+            outcome,
+            distinct_directions(dataset, outcome.kind, k + 1),
+        ),
+        energy: energy_of(kind, params, &energy::checked_incidences(&incidences)),
         outside_ranges,
         fitted_table: None,
     }

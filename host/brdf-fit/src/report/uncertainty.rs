@@ -44,15 +44,19 @@ pub const PROFILE_DELTA_CHI2: f64 = 3.84;
 /// Smallest rise of `chi^2` when parameter `j` is held at half or twice its value or at a
 /// bound and the others are refitted; `None` if the parameter is zero or no move is
 /// possible.
-/// Distinct directions among the points of `d`, counted up to `limit` (`O(n limit)`).
-pub fn distinct_directions(d: &Dataset, limit: usize) -> usize {
+/// Distinct direction pairs among the points of `d` to the model `kind`, counted up to
+/// `limit` (`O(n limit)`): the rule of `brdf_core::anneal::distinct_geometries` (`phi` and
+/// `-phi` one pair, and for a reciprocal model a pair and its swap), so that a direction
+/// written twice never passes for two (it made the report call parameters determined with
+/// standard error 0 from two directions written three ways).
+pub fn distinct_directions(d: &Dataset, kind: ModelKind, limit: usize) -> usize {
     let mut seen: Vec<brdf_core::Geometry<f64>> = Vec::with_capacity(limit);
     for p in &d.points {
         if seen.len() >= limit {
             break;
         }
         let g = brdf_core::Geometry::<f64>::from_angles(p.theta_i, p.theta_r, p.phi);
-        if !seen.contains(&g) {
+        if !seen.iter().any(|s| s.same_pair(&g, kind.is_reciprocal())) {
             seen.push(g);
         }
     }
