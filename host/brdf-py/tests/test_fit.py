@@ -139,7 +139,9 @@ def test_imported_files_equal_the_cli_and_warn_its_rejects(cli, root):
 def test_albedo_equals_the_reports_energy_check(root):
     r = brdf.fit(str(root / KHAKI))
     rows = list(csv.DictReader(open(root / KHAKI)))
-    incidences = sorted({float(x["theta_i"]) for x in rows})
+    # The measured incidences and the report's fixed ones to 89 degrees.
+    incidences = sorted({float(x["theta_i"]) for x in rows} | {0.0, 30.0, 45.0, 60.0, 70.0, 80.0, 85.0, 89.0})
+    assert [a["theta_i"] for a in r.energy["albedo"]] == pytest.approx(incidences, abs=1e-9)
     got = brdf.albedo("six", r.params, incidences)
     assert list(got) == [a["albedo"] for a in r.energy["albedo"]]
     with pytest.raises(ValueError, match=r"theta_i at index \[1\]: theta_i: zenith 91 deg is outside \[0, 90\]"):
