@@ -228,10 +228,10 @@ impl<T: Float> Geometry<T> {
     /// Whether `self` and `other` are one direction pair to the family: every model depends
     /// on `cos phi` only, so `phi` and `-phi` (or `360 - phi`) are one pair; with `reciprocal`
     /// (for a reciprocal model) incidence and viewing swapped are one pair too. The
-    /// quantities the models read agree within [`SAME_PAIR_EPS`] times `T::EPSILON`, relative
+    /// quantities the models read agree within [`crate::tolerance::SAME_PAIR_EPS`] times `T::EPSILON`, relative
     /// (the two ways of writing a pair round differently by an ulp or two).
     pub fn same_pair(&self, other: &Self, reciprocal: bool) -> bool {
-        let tol = T::from_f64(SAME_PAIR_EPS) * T::EPSILON;
+        let tol = T::from_f64(crate::tolerance::SAME_PAIR_EPS) * T::EPSILON;
         let close = |a: T, b: T| {
             let m = if a.abs() > b.abs() { a.abs() } else { b.abs() };
             (a - b).abs() <= tol * m
@@ -336,12 +336,6 @@ pub(crate) fn check_unit<T: Float>(w: [T; 3], what: &'static str) -> Result<(), 
     }
     Ok(())
 }
-
-/// Relative agreement, in units of the precision's epsilon, of two ways of writing one
-/// direction pair ([`Geometry::same_pair`]): 64 ulp covers the few roundings by which `phi` and
-/// `360 - phi`, or a pair and its swap, reach each quantity; distinct measured directions differ
-/// by at least a hundredth of a degree, a million times more in f64.
-pub const SAME_PAIR_EPS: f64 = 64.0;
 
 /// Largest accepted `| |w|^2 - 1 |` in [`Geometry::try_from_vectors`].
 pub const UNIT_NORM_TOLERANCE: f64 = 1e-4;

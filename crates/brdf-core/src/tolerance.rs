@@ -147,3 +147,11 @@ pub const F32_LN_ULPS: f64 = 3.5;
 pub fn f32_pow_ulps(y: f64) -> f64 {
     2.0 + 1.8 * y.abs()
 }
+
+/// Relative agreement, in units of the precision's epsilon, of two ways of writing one
+/// direction pair ([`crate::Geometry::same_pair`]): 64 ulp covers the few roundings by which
+/// `phi` and `360 - phi`, or a pair and its swap, reach each quantity. Every quantity must
+/// agree, `1 - cos gamma` and `1 - cos alpha` among them (they change relatively fastest): to
+/// 1.4e-14 in f64, where no two directions an instrument tells apart pass for one, and to 7.6e-6
+/// in f32 (the device's FIT).
+pub const SAME_PAIR_EPS: f64 = 64.0;

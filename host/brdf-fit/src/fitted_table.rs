@@ -18,7 +18,7 @@
 //!   ||x_far||^2) + 1e-10 ||x||^2`, `A` the trilinear design, `R` second differences along every
 //!   axis (first differences along `phi_d` when it has two nodes), `x_far` the cells three or
 //!   more steps from every reading, fading the correction to the base model there
-//!   ([`DECAY`]), solved by a banded Cholesky of the
+//!   (`DECAY`), solved by a banded Cholesky of the
 //!   normal equations; then the worst 2% of the points (dropout readings) get `w = 0` and the
 //!   fit is repeated. Last, Gauss-Newton steps from there minimise the error the table is
 //!   judged by, `sum w_j (exp(A x - t)_j - 1)^2 + lambda (||R x||^2 + 0.01 ||x_far||^2)`: the `ln f` fit predicts
