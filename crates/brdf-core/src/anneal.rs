@@ -939,6 +939,13 @@ mod tests {
             1
         );
         assert_eq!(pairs(&[[0.2, 0.5, 2.1], [0.5, 0.2, 2.1]], false), 2);
+        // At the exact retro and mirror directions too (a `1 - cos` of 0 against ~1e-32).
+        let pi = core::f64::consts::PI;
+        assert_eq!(pairs(&[[0.5, 0.5, 0.0], [0.5, 0.5, tau]], false), 1);
+        assert_eq!(pairs(&[[0.5, 0.5, pi], [0.5, 0.5, 3.0 * pi]], false), 1);
+        let g32 = [[0.5f32, 0.5, 0.0], [0.5, 0.5, core::f32::consts::TAU]]
+            .map(|[a, b, c]| Geometry::<f32>::from_angles(a, b, c));
+        assert_eq!(distinct_geometries(g32, 6, false), 1);
         assert_eq!(pairs(&[[0.2, 0.5, 2.1], [0.2, 0.5 + 1e-9, 2.1]], true), 2);
         let g32 = [[0.2f32, 0.5, 2.1], [0.5, 0.2, core::f32::consts::TAU - 2.1]]
             .map(|[a, b, c]| Geometry::<f32>::from_angles(a, b, c));

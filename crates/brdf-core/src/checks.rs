@@ -59,6 +59,28 @@ impl AlbedoRule {
     /// 8 panels (35,840 evaluations), relative accuracy
     /// [`crate::tolerance::ALBEDO_DEFAULT_REL`] (see there for where it is measured).
     pub const DEFAULT: AlbedoRule = AlbedoRule { panels: 8 };
+
+    /// The rule that resolves `model`'s narrowest feature: [`AlbedoRule::DEFAULT`], or for
+    /// the microfacet model with `alpha < 1/32` (its mirror peak narrower than the default
+    /// rule resolves near grazing) `0.25 / alpha` panels rounded up to a power of two, at most
+    /// 256. Measured at 89° incidence (`f0 = 1`): with 8 panels `alpha = 0.01` errs by 2.2%,
+    /// 0.003 by 15%, 1/1024 by 82%; with this rule all agree with 512 panels within 4e-5
+    /// (test `albedo_rule_resolves_narrow_microfacet_peaks`). 256 panels cost 0.08 s per
+    /// incidence through the batch path.
+    pub fn for_model<T: crate::Float>(model: &crate::AnyModel<T>) -> AlbedoRule {
+        let crate::AnyModel::Ggx(m) = model else {
+            return Self::DEFAULT;
+        };
+        let alpha = m.params().alpha.to_f64();
+        if alpha >= 1.0 / 32.0 {
+            return Self::DEFAULT;
+        }
+        // `as` truncates (no `ceil` without std): one more panel than 0.25 / alpha.
+        let want = (0.25 / alpha) as u16 + 1;
+        AlbedoRule {
+            panels: want.next_power_of_two().clamp(Self::DEFAULT.panels, 256),
+        }
+    }
 }
 
 /// 8-point Gauss–Legendre nodes on [-1, 1] (positive half) and weights.

@@ -232,9 +232,11 @@ impl<T: Float> Geometry<T> {
     /// (the two ways of writing a pair round differently by an ulp or two).
     pub fn same_pair(&self, other: &Self, reciprocal: bool) -> bool {
         let tol = T::from_f64(crate::tolerance::SAME_PAIR_EPS) * T::EPSILON;
+        // The floor `tol * EPSILON`: at the exact mirror or retro direction a `1 - cos` is 0
+        // written one way and ~1e-32 (f64) or ~1e-14 (f32) written another (`phi` 0 or 360).
         let close = |a: T, b: T| {
             let m = if a.abs() > b.abs() { a.abs() } else { b.abs() };
-            (a - b).abs() <= tol * m
+            (a - b).abs() <= tol * m + tol * T::EPSILON
         };
         let shared = close(self.cos_gamma, other.cos_gamma)
             && close(self.one_minus_cos_gamma, other.one_minus_cos_gamma)

@@ -176,22 +176,24 @@ fn scalar_angles<T: Float + Send + Sync, M: Brdf<T> + Sync>(
 }
 
 /// Directional-hemispherical reflectance at incidences `theta_i` (degrees) through the batch
-/// path, by `brdf_core::checks::albedo_batch` with `panels` panels (the fit report's energy
-/// check uses the default 8).
+/// path, by `brdf_core::checks::albedo_batch` with `panels` panels, or (`None`) the fit
+/// report's rule for the model (`AlbedoRule::for_model`).
 #[pyfunction]
 pub(crate) fn albedo<'py>(
     py: Python<'py>,
     model: &str,
     params: &str,
     theta_i: PyReadonlyArray1<'py, f64>,
-    panels: u16,
+    panels: Option<u16>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     use brdf_core::checks::{albedo_batch, AlbedoRule};
     let kind = parse_kind(model)?;
     let m: AnyModel<f64> = build(kind, params)?;
-    if panels < 2 {
-        return Err(PyValueError::new_err(format!("panels {panels}: need at least 2")));
-    }
+    let rule = match panels {
+        Some(p) if p < 2 => return Err(PyValueError::new_err(format!("panels {p}: need at least 2"))),
+        Some(panels) => AlbedoRule { panels },
+        None => AlbedoRule::for_model(&m),
+    };
     let ti = slice(&theta_i, "theta_i")?;
     let out = py.detach(|| -> Result<Vec<f64>, Failure> {
         for (i, &v) in ti.iter().enumerate() {
@@ -205,7 +207,7 @@ pub(crate) fn albedo<'py>(
         let b = Batch::new(&m);
         Ok(ti
             .iter()
-            .map(|d| albedo_batch(&b, d.to_radians(), AlbedoRule { panels }))
+            .map(|d| albedo_batch(&b, d.to_radians(), rule))
             .collect())
     })?;
     Ok(PyArray1::from_vec(py, out))

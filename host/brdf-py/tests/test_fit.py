@@ -146,6 +146,12 @@ def test_albedo_equals_the_reports_energy_check(root):
     assert list(got) == [a["albedo"] for a in r.energy["albedo"]]
     with pytest.raises(ValueError, match=r"theta_i at index \[1\]: theta_i: zenith 91 deg is outside \[0, 90\]"):
         brdf.albedo("six", r.params, [0, 91])
+    # By default the report's rule: for a narrow microfacet peak at grazing incidence, more
+    # panels than 8 (which miss 82% of it at alpha = 1/1024, 89 degrees).
+    narrow = {"ks": 1.0, "alpha": 1 / 1024, "f0": 1.0, "kd": 0.0}
+    default = brdf.albedo("ggx", narrow, [89.0])
+    assert list(default) == list(brdf.albedo("ggx", narrow, [89.0], panels=256))
+    assert abs(default[0] - 1) < 0.01 and brdf.albedo("ggx", narrow, [89.0], panels=8)[0] < 0.5
     # A Lambertian surface of reflectance rho0 reflects rho0 at every incidence.
     lambert = brdf.albedo("lambert", "rho0=0.5", [0, 45, 80])
     np.testing.assert_allclose(lambert, 0.5, rtol=brdf._brdf.ALBEDO_DEFAULT_REL)

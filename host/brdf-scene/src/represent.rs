@@ -410,9 +410,29 @@ pub struct DataSelection {
 impl DataSelection {
     /// The fit the chosen representation comes from, with its fitted table when that was
     /// chosen: what `brdf select --chosen` writes and `brdf.select(...).chosen_fit` is.
+    ///
+    /// With a fitted table its `energy` is the representation's, base times table: the albedo
+    /// by quadrature at the base fit's incidences, and no analytic bound (the table has none).
+    /// The base's own check described a surface the device does not serve: MERL aluminium's
+    /// base conserved energy (albedo 0.04) where the chosen representation reflects 1.5.
     pub fn chosen_report(&self) -> Option<FitReport> {
         let mut fit = self.candidates.get(self.chosen_fit?)?.clone();
         fit.fitted_table = self.chosen_table.clone();
+        if let Some(record) = &fit.fitted_table {
+            let bytes = record.decode().ok()?;
+            let kind = fit.model;
+            let params = fit.params_array().ok()?;
+            let base = brdf_core::AnyModel::<f64>::new(kind, &params[..kind.param_count()]).ok()?;
+            let table = brdf_core::fitted::FittedTable::new(&bytes).ok()?;
+            let corrected = brdf_core::fitted::Corrected { base, table };
+            let rule = brdf_core::checks::AlbedoRule::for_model(&base);
+            for a in &mut fit.energy.albedo {
+                a.albedo = brdf_core::checks::albedo(&corrected, a.theta_i.to_radians(), rule);
+            }
+            fit.energy.bound = None;
+            fit.energy.bound_conserves = false;
+            fit.energy.albedo_conserves = fit.energy.albedo.iter().all(|a| a.albedo <= 1.0);
+        }
         Some(fit)
     }
 }

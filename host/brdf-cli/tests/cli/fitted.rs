@@ -90,6 +90,22 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
     let chosen: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(p("chosen.json")).unwrap()).unwrap();
     assert_eq!(chosen["model"], "ggx");
+    // Its energy is the representation's (base times table), not the bare base's: no
+    // analytic bound, and aluminium's table reflects far more than its base (albedo about 1.5
+    // at 60° against 0.04; the data are not in absolute units).
+    let energy = &chosen["energy"];
+    assert!(
+        energy["bound"].is_null() && energy["bound_conserves"] == false,
+        "{energy}"
+    );
+    let albedos: Vec<f64> = energy["albedo"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["albedo"].as_f64().unwrap())
+        .collect();
+    assert_eq!(energy["albedo_conserves"], albedos.iter().all(|&a| a <= 1.0));
+    assert!(albedos.iter().any(|&a| a > 1.0), "{albedos:?}");
     let nodes = &chosen["fitted_table"]["nodes"];
     assert!(
         brdf_fit::fitted_table::SHAPES

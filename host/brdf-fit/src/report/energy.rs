@@ -9,8 +9,9 @@ pub struct IncidenceAlbedo {
     /// Incidence zenith, degrees.
     #[serde(deserialize_with = "f64_or_null")]
     pub theta_i: f64,
-    /// Directional-hemispherical reflectance (default rule, accurate to
-    /// `brdf_core::tolerance::ALBEDO_DEFAULT_REL`).
+    /// Directional-hemispherical reflectance (`AlbedoRule::for_model`: the default rule,
+    /// accurate to `brdf_core::tolerance::ALBEDO_DEFAULT_REL`, or more panels for a narrow
+    /// microfacet peak).
     #[serde(deserialize_with = "f64_or_null")]
     pub albedo: f64,
 }
@@ -54,11 +55,12 @@ pub fn checked_incidences(measured: &[f64]) -> Vec<f64> {
 pub fn energy(model: &AnyModel<f64>, incidences: &[f64]) -> Energy {
     let bound = model.energy_bound();
     let batch = Batch::new(model);
+    let rule = AlbedoRule::for_model(model);
     let albedo: Vec<IncidenceAlbedo> = incidences
         .par_iter()
         .map(|&ti| IncidenceAlbedo {
             theta_i: degrees(ti),
-            albedo: albedo_batch(&batch, ti, AlbedoRule::DEFAULT),
+            albedo: albedo_batch(&batch, ti, rule),
         })
         .collect();
     Energy {

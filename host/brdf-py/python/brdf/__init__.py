@@ -208,16 +208,18 @@ def eval_vectors(model: str, params: Union[str, Mapping[str, float]], wi, wr, *,
     return _shaped(out.astype(dtype, copy=False), shape)
 
 
-def albedo(model: str, params: Union[str, Mapping[str, float]], theta_i, *, panels: int = 8):
+def albedo(model: str, params: Union[str, Mapping[str, float]], theta_i, *, panels: Optional[int] = None):
     """Directional-hemispherical reflectance (dimensionless) at incidence ``theta_i``
     (degrees, any shape), by the composite Gauss-Legendre rule of
-    ``brdf_core::checks::AlbedoRule`` with ``panels`` panels (8: the rule of the fit report's
-    energy check, so ``albedo(model, r.params, t)`` equals ``r.energy["albedo"]`` at the
-    measured incidences). Above 1 means the model does not conserve energy there.
+    ``brdf_core::checks::AlbedoRule`` with ``panels`` panels, or by default the rule of the
+    fit report's energy check (8 panels, more for a narrow microfacet peak:
+    ``AlbedoRule::for_model``), so that ``albedo(model, r.params, t)`` equals
+    ``r.energy["albedo"]`` at the report's incidences. Above 1 means the model does not
+    conserve energy there.
     """
     shape, (col,) = _columns(("theta_i",), (theta_i,))
     try:
-        out = _brdf.albedo(model, _params_text(params), col, _whole("panels", panels))
+        out = _brdf.albedo(model, _params_text(params), col, None if panels is None else _whole("panels", panels))
     except _brdf.ElementError as e:
         raise _located(("theta_i",), shape, e) from None
     return _shaped(out, shape)
