@@ -4,11 +4,11 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use brdf_fit::import::{import, Channel, Format};
+use brdf_fit::import::{import, Format, Pick};
 
 /// Imports and lists the rejects on standard error.
-pub fn import_reporting(path: &Path, format: Format, channel: Channel) -> Result<brdf_fit::import::Imported> {
-    let imp = import(path, format, channel).with_context(|| format!("cannot import {}", path.display()))?;
+pub fn import_reporting(path: &Path, format: Format, pick: Pick) -> Result<brdf_fit::import::Imported> {
+    let imp = import(path, format, pick).with_context(|| format!("cannot import {}", path.display()))?;
     for r in &imp.rejects {
         eprintln!("{}: rejected line {}: {}", path.display(), r.line, r.reason);
     }

@@ -12,8 +12,10 @@ use crate::common::named;
 use crate::formats::import_reporting;
 
 /// Convert a measurement file to the canonical CSV (theta_i,theta_r,phi,brdf in degrees,
-/// phi = 180 on the mirror side; plus `wavelength` for multi-wavelength files). Rejected rows
-/// (negative or zero BRDF, zenith >= 90 deg) are listed on standard error with their lines.
+/// phi = 180 on the mirror side; plus `wavelength` in um for spectral and multi-wavelength
+/// files, every band kept unless --band picks one). Readings at or below zero are kept (a
+/// dark surface's noise; fits weigh them with a noise floor); rejected rows (zenith >= 90 deg,
+/// non-finite values) are listed on standard error with their lines.
 #[derive(Debug, Args)]
 pub struct ImportCmd {
     /// Source format: cornell, nist, merl-inplane.
@@ -24,9 +26,12 @@ pub struct ImportCmd {
     /// Output CSV (standard output if omitted).
     #[arg(short = 'o', long)]
     output: Option<PathBuf>,
-    /// Colour channel (cornell only): r, g, b, either case; default r.
+    /// Colour channel (cornell RGB files only): r, g, b, either case; default r.
     #[arg(long, value_parser = named::<Channel>)]
     channel: Option<Channel>,
+    /// One band by its wavelength in um (cornell spectral and nist files; default every band).
+    #[arg(long, value_parser = crate::common::parse_positive)]
+    band: Option<f64>,
 }
 
 impl ImportCmd {
@@ -36,9 +41,9 @@ impl ImportCmd {
                 anyhow::bail!("-o {} is the input: it would be overwritten", out.display());
             }
         }
-        let channel =
-            brdf_fit::import::channel_for(Some(self.format), self.channel).map_err(|e| anyhow::anyhow!(e))?;
-        let imp = import_reporting(&self.input, self.format, channel)?;
+        let pick = brdf_fit::import::pick_for(Some(self.format), self.channel, self.band)
+            .map_err(|e| anyhow::anyhow!(e))?;
+        let imp = import_reporting(&self.input, self.format, pick)?;
         match &self.output {
             Some(path) => {
                 let f = std::fs::File::create(path)

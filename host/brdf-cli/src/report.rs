@@ -93,7 +93,22 @@ impl ReportCmd {
         let mut entries = Vec::new();
         for (slug, title, format, file, channel) in SOURCES {
             let path = self.data.join(file);
-            let imp = import_reporting(&path, format, channel)?;
+            let imp = import_reporting(&path, format, channel.into())?;
+            // The report's pages compare representations in relative error and `ln f`, which
+            // readings at or below zero have none of: they are left out, and said so.
+            let dark = imp
+                .datasets
+                .iter()
+                .flat_map(|d| &d.points)
+                .filter(|p| p.brdf <= 0.0)
+                .count();
+            if dark > 0 {
+                eprintln!(
+                    "{}: {dark} reading(s) at or below zero left out of the report (positive readings only)",
+                    path.display()
+                );
+            }
+            let imp = imp.positive_only();
             let many = imp.datasets.len() > 1;
             for d in imp.datasets.iter() {
                 let group = d

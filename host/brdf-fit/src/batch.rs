@@ -10,6 +10,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::embedded::{fit_embedded, EmbeddedError};
+use crate::noise::{floor_for, FloorChoice, NoiseError, NoiseFloor};
 use crate::problem::{Loss, Problem, Residual, Stop};
 use crate::report::{report, FitReport};
 use crate::{fit, Dataset, FitOptions};
@@ -46,6 +47,26 @@ pub enum FitError {
     /// The embedded engine could not run.
     #[error(transparent)]
     Embedded(#[from] EmbeddedError),
+    /// A reading at or below zero that these settings cannot weigh.
+    #[error("{dataset}: line {line}: brdf {value} is at or below zero, and {why}")]
+    Dark {
+        /// Dataset name.
+        dataset: String,
+        /// The first such reading's line.
+        line: u64,
+        /// Its value.
+        value: f64,
+        /// Why the settings cannot use it, and what can.
+        why: &'static str,
+    },
+    /// No noise floor can be estimated.
+    #[error("{dataset}: {source}")]
+    Noise {
+        /// Dataset name.
+        dataset: String,
+        /// Why.
+        source: NoiseError,
+    },
 }
 
 /// Which fitting engine.
@@ -71,6 +92,8 @@ pub struct FitSettings {
     pub loss: Loss,
     /// Six-parameter `c` searched below 0 (see [`Problem::with_brightening`]).
     pub brightening: bool,
+    /// The noise floor of the relative residual ([`crate::noise`]).
+    pub noise_floor: FloorChoice,
     /// Search settings of the full engine (its seed also seeds the embedded one).
     pub options: FitOptions,
     /// The engine.
@@ -85,16 +108,26 @@ impl FitSettings {
             residual: Residual::Relative,
             loss: Loss::default(),
             brightening: false,
+            noise_floor: FloorChoice::Auto,
             options: FitOptions::default(),
             engine: Engine::Full,
         }
     }
 
+    /// The noise floor these settings give `d` (`None`: none), as the report states it.
+    pub fn floor(&self, d: &Dataset) -> Result<Option<NoiseFloor>, FitError> {
+        floor_for(self.noise_floor, &d.points).map_err(|source| FitError::Noise {
+            dataset: d.name.clone(),
+            source,
+        })
+    }
+
     /// The least-squares problem these settings pose on `d`.
-    pub fn problem(&self, d: &Dataset) -> Problem {
-        Problem::from_dataset(self.kind, self.residual, d)
+    pub fn problem(&self, d: &Dataset) -> Result<Problem, FitError> {
+        let floor = self.floor(d)?.map_or(0.0, |f| f.value);
+        Ok(Problem::with_floor(self.kind, self.residual, &d.points, floor)
             .with_loss(self.loss)
-            .with_brightening(self.brightening)
+            .with_brightening(self.brightening))
     }
 
     /// Whether these settings can fit `d`: one distinct direction per parameter, and for the
@@ -117,6 +150,32 @@ impl FitSettings {
                 });
             }
         }
+        if let Some(p) = d.points.iter().find(|p| p.brdf <= 0.0) {
+            let why = match (self.engine, self.residual) {
+                (Engine::Embedded { .. }, _) => Some(
+                    "the embedded engine has no noise floor (fit with the full engine, or leave \
+                     the dark readings out)",
+                ),
+                (_, Residual::Log) => Some(
+                    "log residuals take the logarithm of every reading (relative residuals \
+                     weigh dark readings with a noise floor)",
+                ),
+                (_, Residual::Relative) if self.noise_floor == FloorChoice::Given(0.0) => Some(
+                    "noise floor 0 leaves relative residuals no scale for it (give a floor, \
+                     or leave it to be estimated)",
+                ),
+                _ => None,
+            };
+            if let Some(why) = why {
+                return Err(FitError::Dark {
+                    dataset: d.name.clone(),
+                    line: p.line,
+                    value: p.brdf,
+                    why,
+                });
+            }
+            self.floor(d)?;
+        }
         Ok(())
     }
 
@@ -130,12 +189,19 @@ impl FitSettings {
     /// budget, at most [`crate::request::BUDGET_EVALS`] evaluations).
     pub fn fit_until(&self, d: &Dataset, stop: &Stop) -> Result<FitReport, FitError> {
         self.check(d)?;
-        let problem = self.problem(d).with_stop(stop.clone());
+        let problem = self.problem(d)?.with_stop(stop.clone());
         let outcome = match self.engine {
             Engine::Full => fit(&problem, &self.options),
             Engine::Embedded { budget } => fit_embedded(self.kind, d, &problem, budget, self.options.seed)?,
         };
-        Ok(report(d, &problem, &outcome, &self.options))
+        let mut r = report(d, &problem, &outcome, &self.options);
+        r.noise_floor = self.floor(d)?;
+        // A stop that arrived after the search but during the report (whose profile refits
+        // end early on it) still makes the result a stopped one: never "converged".
+        if stop.requested() {
+            r.converged = false;
+        }
+        Ok(r)
     }
 }
 

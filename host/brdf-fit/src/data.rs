@@ -111,8 +111,9 @@ pub struct Loaded {
 pub struct LoadOptions {
     /// Skip invalid rows (each reported in [`Loaded::skipped`]) instead of failing.
     pub skip_invalid: bool,
-    /// Accept `brdf = 0` (only absolute residuals can use it); otherwise `brdf` must be > 0.
-    pub allow_zero_brdf: bool,
+    /// Accept readings at or below zero (a dark surface's noisy readings; fits weigh them
+    /// with a noise floor, [`crate::noise`]); otherwise `brdf` must be above 0.
+    pub dark_readings: bool,
 }
 
 /// Why a file cannot be used. Every variant names the file; row errors name line and column.
@@ -269,10 +270,10 @@ pub const PHI_LIMIT_DEG: f64 = 720.0;
 impl Point {
     /// Validates a row as `brdf fit` does: every value finite, zeniths in [0, 90) degrees,
     /// `|phi|` at most [`PHI_LIMIT_DEG`],
-    /// `brdf > 0` (`>= 0` with `allow_zero_brdf`, for absolute residuals) and, unless 0, in
+    /// `brdf > 0` (any sign with `dark_readings`) and, unless 0, its magnitude in
     /// [`BRDF_MAGNITUDE`], `sigma` and
     /// `weight` above 0; `line` is where it came from.
-    pub fn from_degrees(r: RowDegrees, allow_zero_brdf: bool, line: u64) -> Result<Point, RowError> {
+    pub fn from_degrees(r: RowDegrees, dark_readings: bool, line: u64) -> Result<Point, RowError> {
         let finite = |v: f64, column| {
             if v.is_finite() {
                 Ok(v)
@@ -300,21 +301,16 @@ impl Point {
             "[-720, 720] degrees",
         )?;
         let brdf = finite(r.brdf, "brdf")?;
-        let brdf = if allow_zero_brdf {
-            in_range(brdf, brdf >= 0.0, "brdf", ">= 0")?
+        let brdf = if dark_readings {
+            brdf
         } else {
-            in_range(
-                brdf,
-                brdf > 0.0,
-                "brdf",
-                "> 0 (relative and log residuals divide by it)",
-            )?
+            in_range(brdf, brdf > 0.0, "brdf", "> 0 (this use needs positive readings)")?
         };
         let brdf = in_range(
             brdf,
-            brdf == 0.0 || BRDF_MAGNITUDE.contains(&brdf),
+            brdf == 0.0 || BRDF_MAGNITUDE.contains(&brdf.abs()),
             "brdf",
-            "[1e-100, 1e100] 1/sr (is the unit right?)",
+            "[1e-100, 1e100] 1/sr in magnitude (is the unit right?)",
         )?;
         let positive = |v: Option<f64>, column| -> Result<Option<f64>, RowError> {
             match v {
@@ -486,7 +482,7 @@ fn parse_row(
         sigma: optional(cols.sigma, "sigma")?,
         weight: optional(cols.weight, "weight")?,
     };
-    Point::from_degrees(row, opts.allow_zero_brdf, line)
+    Point::from_degrees(row, opts.dark_readings, line)
 }
 
 /// Reads and validates one file. Without `skip_invalid` the first bad row is an error; with
@@ -689,7 +685,8 @@ mod tests {
         assert!(seen.iter().all(|&s| s));
     }
 
-    /// The ends of [`BRDF_MAGNITUDE`] are accepted, and a zero where zeros are allowed.
+    /// The ends of [`BRDF_MAGNITUDE`] are accepted, and zero and negative readings where
+    /// dark readings are.
     #[test]
     fn brdf_magnitudes_at_the_ends_are_accepted() {
         let row = |brdf| RowDegrees {
@@ -704,7 +701,12 @@ mod tests {
             assert_eq!(Point::from_degrees(row(v), false, 1).unwrap().brdf, v);
         }
         assert_eq!(Point::from_degrees(row(0.0), true, 1).unwrap().brdf, 0.0);
+        assert_eq!(Point::from_degrees(row(-1e-3), true, 1).unwrap().brdf, -1e-3);
+        assert!(Point::from_degrees(row(-1e-3), false, 1).is_err());
+        assert!(Point::from_degrees(row(0.0), false, 1).is_err());
         assert!(Point::from_degrees(row(1.0000001e100), true, 1).is_err());
+        assert!(Point::from_degrees(row(-1.0000001e100), true, 1).is_err());
+        assert!(Point::from_degrees(row(-1e-101), true, 1).is_err());
     }
 
     #[test]

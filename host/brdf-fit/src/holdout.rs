@@ -83,7 +83,9 @@ pub fn bundled(root: &Path) -> Result<Vec<(String, Dataset)>, DataError> {
         ("krylon_blue_RGB.astm", "krylon"),
     ] {
         for (ch, c) in [(Channel::R, "R"), (Channel::G, "G"), (Channel::B, "B")] {
-            let d = import(&cornell.join(file), Format::Cornell, ch)?;
+            // Positive readings only: the nearest-neighbour baseline interpolates `ln f`, and
+            // the figures of this study were measured on them.
+            let d = import(&cornell.join(file), Format::Cornell, ch)?.positive_only();
             sets.extend(d.datasets.into_iter().map(|d| (format!("{paint} {c}"), d)));
         }
     }
@@ -91,7 +93,8 @@ pub fn bundled(root: &Path) -> Result<Vec<(String, Dataset)>, DataError> {
         &root.join("ptfe-germer-nist/PTFE.data.csv"),
         Format::Nist,
         Channel::R,
-    )?;
+    )?
+    .positive_only();
     for d in ptfe.datasets {
         let wavelength = d
             .name
@@ -106,7 +109,8 @@ pub fn bundled(root: &Path) -> Result<Vec<(String, Dataset)>, DataError> {
         &root.join("merl-aluminium-inplane/aluminum_brdf.csv"),
         Format::MerlInPlane,
         Channel::R,
-    )?;
+    )?
+    .positive_only();
     sets.extend(
         merl.datasets
             .into_iter()

@@ -25,6 +25,7 @@ pub mod holdout;
 pub mod import;
 pub mod kernel;
 pub mod lm;
+pub mod noise;
 pub mod pack;
 pub mod params;
 pub mod problem;

@@ -197,6 +197,11 @@ pub struct Problem {
     residual: Residual,
     pts: Vec<Prepared>,
     y: Vec<f64>,
+    /// Denominator of the relative residual: `y`, or `sqrt(y^2 + floor^2)` under a noise
+    /// floor ([`Problem::with_floor`]), so that readings at or below zero stay finite.
+    d: Vec<f64>,
+    /// The noise floor, 1/sr (0: none): in the relative residual and relative errors.
+    floor: f64,
     /// Per-point factor of the residual's weight (sqrt(weight) or from sigma).
     w: Vec<f64>,
     /// Robust loss of the cost.
@@ -243,14 +248,37 @@ impl Stop {
 }
 
 impl Problem {
-    /// Prepares `points` for fitting `kind` with `residual`.
+    /// Prepares `points` for fitting `kind` with `residual` (no noise floor: every reading
+    /// must be above zero for relative and log residuals; see [`Problem::with_floor`]).
     pub fn new(kind: ModelKind, residual: Residual, points: &[Point]) -> Self {
+        Self::with_floor(kind, residual, points, 0.0)
+    }
+
+    /// [`Problem::new`] with a noise floor `floor >= 0` (1/sr) on the relative residual,
+    /// which becomes `(f - y) / sqrt(y^2 + floor^2)`: the relative error above the floor, the
+    /// absolute error in units of the floor below it, finite for readings at or below zero
+    /// ([`crate::noise`]). A point with a `sigma` keeps the residual `(f - y) / sigma`. With
+    /// `floor` 0 this is exactly [`Problem::new`]. Log residuals take no floor (`ln y` of a
+    /// dark reading has none) and absolute ones need none: for them the floor only enters
+    /// [`Problem::relative_error`] (the report's relative metrics).
+    pub fn with_floor(kind: ModelKind, residual: Residual, points: &[Point], floor: f64) -> Self {
+        let d: Vec<f64> = points
+            .iter()
+            .map(|p| {
+                if floor > 0.0 && residual == Residual::Relative {
+                    p.brdf.hypot(floor)
+                } else {
+                    p.brdf
+                }
+            })
+            .collect();
         let w = points
             .iter()
-            .map(|p| match (p.sigma, p.weight) {
+            .zip(&d)
+            .map(|(p, &d)| match (p.sigma, p.weight) {
                 (Some(s), _) => match residual {
                     Residual::Absolute => 1.0 / s,
-                    Residual::Relative | Residual::Log => p.brdf / s,
+                    Residual::Relative | Residual::Log => d / s,
                 },
                 (None, Some(w)) => w.sqrt(),
                 (None, None) => 1.0,
@@ -261,6 +289,8 @@ impl Problem {
             residual,
             pts: points.iter().map(Prepared::from_point).collect(),
             y: points.iter().map(|p| p.brdf).collect(),
+            d,
+            floor,
             w,
             loss: Loss::default(),
             brightening: false,
@@ -336,6 +366,7 @@ impl Problem {
         let mut p = self.clone();
         p.pts.remove(i);
         p.y.remove(i);
+        p.d.remove(i);
         p.w.remove(i);
         p.irls.remove(i);
         p
@@ -344,6 +375,17 @@ impl Problem {
     /// Residual `r_i` (weighted, in the residual form) of model value `f` at point `i`.
     pub fn residual_of(&self, i: usize, f: f64) -> f64 {
         self.residual_at(i, f)
+    }
+
+    /// Relative error of model value `f` at point `i`, unweighted: `(f - y) / y`, or
+    /// `(f - y) / sqrt(y^2 + floor^2)` under a noise floor (whatever the residual form).
+    pub fn relative_error(&self, i: usize, f: f64) -> f64 {
+        (f - self.y[i]) / self.y[i].hypot(self.floor)
+    }
+
+    /// The noise floor of the relative residual, 1/sr (0: none).
+    pub fn floor(&self) -> f64 {
+        self.floor
     }
 
     /// From a whole dataset.
@@ -380,7 +422,7 @@ impl Problem {
     fn residual_at(&self, i: usize, f: f64) -> f64 {
         let (y, w) = (self.y[i], self.w[i]);
         match self.residual {
-            Residual::Relative => w * (f - y) / y,
+            Residual::Relative => w * (f - y) / self.d[i],
             Residual::Absolute => w * (f - y),
             Residual::Log => {
                 if f > 0.0 {
@@ -436,9 +478,9 @@ impl Problem {
             for (k, (f, g)) in fs.iter_mut().zip(&mut gs).take(pts.len()).enumerate() {
                 let i = c * CHUNK + k;
                 let r = self.residual_at(i, *f);
-                let (y, w) = (self.y[i], self.w[i]);
+                let (d, w) = (self.d[i], self.w[i]);
                 let mut scale = match self.residual {
-                    Residual::Relative => w / y,
+                    Residual::Relative => w / d,
                     Residual::Absolute => w,
                     Residual::Log => w / *f,
                 };
@@ -494,7 +536,7 @@ impl Problem {
         };
         let scale = robust
             * match self.residual {
-                Residual::Relative => self.w[i] / self.y[i],
+                Residual::Relative => self.w[i] / self.d[i],
                 Residual::Absolute => self.w[i],
                 Residual::Log => self.w[i] / f,
             };
@@ -538,7 +580,8 @@ impl Problem {
     pub fn projection_scale(&self, i: usize) -> f64 {
         let s = match self.residual {
             Residual::Absolute => self.w[i],
-            Residual::Relative | Residual::Log => self.w[i] / self.y[i],
+            Residual::Relative => self.w[i] / self.d[i],
+            Residual::Log => self.w[i] / self.y[i],
         };
         s * self.irls[i].sqrt()
     }

@@ -11,6 +11,7 @@ use thiserror::Error;
 use crate::anneal::AnnealOptions;
 use crate::batch::{Engine, FitSettings};
 use crate::embedded::DEFAULT_BUDGET;
+use crate::noise::FloorChoice;
 use crate::problem::{Loss, LossKind, Residual};
 use crate::FitOptions;
 
@@ -111,9 +112,12 @@ pub enum OptionError {
     LossScale(f64),
     /// The embedded engine minimises relative least squares only.
     #[error(
-        "the embedded engine fits relative residuals with the linear loss and no brightening; {0} is set"
+        "the embedded engine fits relative residuals with the linear loss, no brightening and no noise floor; {0} is set"
     )]
     Embedded(String),
+    /// The noise floor is not a finite number at or above zero.
+    #[error("noise_floor {0} is not a finite number at or above 0 (1/sr)")]
+    NoiseFloor(f64),
     /// More agreeing searches asked for than chains run.
     #[error("agree {agree} is more than chains {chains}: the fit could never converge")]
     AgreeAboveChains {
@@ -162,6 +166,9 @@ pub struct FitRequest {
     pub brightening: bool,
     /// [`BUDGET_EVALS`] (embedded engine only; default [`DEFAULT_BUDGET`]).
     pub budget_evals: Option<u64>,
+    /// The noise floor of the relative residual, 1/sr, `>= 0` (0: none); estimated per
+    /// dataset when `None` ([`crate::noise`]). Not for log residuals or the embedded engine.
+    pub noise_floor: Option<f64>,
 }
 
 /// Default scale of a robust loss: a 10% relative error.
@@ -183,6 +190,7 @@ impl FitRequest {
             loss_scale: None,
             brightening: false,
             budget_evals: None,
+            noise_floor: None,
         }
     }
 }
@@ -217,6 +225,11 @@ impl FitSettings {
                 });
             }
         }
+        if let Some(s) = r.noise_floor {
+            if !(s.is_finite() && s >= 0.0) {
+                return Err(OptionError::NoiseFloor(s));
+            }
+        }
         let ignored = |given: bool, name: &'static str, applies: &'static str| {
             if given {
                 Err(OptionError::Ignored { name, applies })
@@ -228,6 +241,11 @@ impl FitSettings {
             r.brightening && !matches!(r.model, ModelKind::Six | ModelKind::SixCos2),
             "brightening",
             "lets the six-parameter models' c go below 0 (six, six-cos2 only)",
+        )?;
+        ignored(
+            r.noise_floor.is_some() && r.residual == Residual::Log,
+            "noise_floor",
+            "applies to relative residuals (and the relative metrics of absolute ones), not log ones",
         )?;
         let engine = match r.engine {
             EngineKind::Full => {
@@ -246,6 +264,7 @@ impl FitSettings {
                     ),
                     (r.loss != LossKind::Linear, format!("loss {}", r.loss)),
                     (r.brightening, "brightening".to_owned()),
+                    (r.noise_floor.is_some(), "noise_floor".to_owned()),
                 ];
                 if let Some((_, what)) = set.into_iter().find(|(bad, _)| *bad) {
                     return Err(OptionError::Embedded(what));
@@ -272,6 +291,7 @@ impl FitSettings {
                 scale: r.loss_scale.unwrap_or(DEFAULT_LOSS_SCALE),
             },
             brightening: r.brightening,
+            noise_floor: r.noise_floor.map_or(FloorChoice::Auto, FloorChoice::Given),
             options: FitOptions {
                 seed: r.seed,
                 chains,

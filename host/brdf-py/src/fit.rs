@@ -10,16 +10,16 @@ pub(crate) struct Settings {
     pub(crate) settings: FitSettings,
     pub(crate) skip_invalid: bool,
     pub(crate) format: Option<Format>,
-    pub(crate) channel: Channel,
-    /// Whether a channel was given (not the default).
-    pub(crate) channel_given: bool,
+    /// The channel or band of a file to read.
+    pub(crate) pick: Pick,
 }
 
 #[pymethods]
 impl Settings {
     #[new]
     #[pyo3(signature = (model, seed, residual, engine, chains, agree, hops, anneal_evals,
-                        loss, loss_scale, brightening, budget_evals, skip_invalid, format, channel))]
+                        loss, loss_scale, brightening, budget_evals, skip_invalid, format, channel,
+                        band, noise_floor))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &str,
@@ -37,6 +37,8 @@ impl Settings {
         skip_invalid: bool,
         format: Option<&str>,
         channel: Option<&str>,
+        band: Option<f64>,
+        noise_floor: Option<f64>,
     ) -> PyResult<Self> {
         let d = FitRequest::new(kind_of(model)?);
         let request = FitRequest {
@@ -51,31 +53,30 @@ impl Settings {
             loss_scale,
             brightening,
             budget_evals,
+            noise_floor,
             ..d
         };
         let settings =
             FitSettings::from_options(&request).map_err(|e| PyValueError::new_err(e.to_string()))?;
         let format = format.map(parse::<Format>).transpose()?;
         let channel = channel.map(parse::<Channel>).transpose()?;
-        let channel_given = channel.is_some();
-        let channel = brdf_fit::import::channel_for(format, channel).map_err(PyValueError::new_err)?;
+        let pick = brdf_fit::import::pick_for(format, channel, band).map_err(PyValueError::new_err)?;
         Ok(Settings {
             settings,
             skip_invalid,
             format,
-            channel,
-            channel_given,
+            pick,
         })
     }
 }
 
 impl Settings {
-    /// Refuses the options that apply to files only (`format`, `channel`, `skip_invalid`)
-    /// when the data are arrays, where they would be ignored.
+    /// Refuses the options that apply to files only (`format`, `channel`, `band`,
+    /// `skip_invalid`) when the data are arrays, where they would be ignored.
     pub(crate) fn for_arrays(&self) -> PyResult<()> {
-        if self.format.is_some() || self.channel_given || self.skip_invalid {
+        if self.format.is_some() || self.pick != Pick::default() || self.skip_invalid {
             return Err(PyValueError::new_err(
-                "format, channel and skip_invalid apply to files; arrays are used as given",
+                "format, channel, band and skip_invalid apply to files; arrays are used as given",
             ));
         }
         Ok(())
@@ -151,7 +152,7 @@ pub(crate) fn load(s: &Settings, paths: &[String]) -> PyResult<(Vec<Dataset>, Ve
     for f in paths {
         let path = std::path::Path::new(f);
         if let Some(format) = s.format {
-            let imp = import(path, format, s.channel)
+            let imp = import(path, format, s.pick)
                 .map_err(|e| PyValueError::new_err(format!("cannot import {f}: {e}")))?;
             for r in &imp.rejects {
                 notes.push(format!("{f}: rejected line {}: {}", r.line, r.reason));
@@ -161,7 +162,8 @@ pub(crate) fn load(s: &Settings, paths: &[String]) -> PyResult<(Vec<Dataset>, Ve
         }
         let opts = LoadOptions {
             skip_invalid: s.skip_invalid,
-            allow_zero_brdf: s.settings.residual == Residual::Absolute,
+            // Kept: the fit weighs them with a noise floor or refuses them naming the line.
+            dark_readings: true,
         };
         let loaded =
             load_csv(path, opts).map_err(|e| PyValueError::new_err(format!("cannot use {f}: {e}")))?;
@@ -255,10 +257,9 @@ pub(crate) type Columns<'a, 'py> = (
 );
 
 /// A dataset from arrays for `settings` (which must not name file options), each row checked
-/// as `brdf fit` checks a CSV row (a BRDF of 0 allowed for absolute residuals).
+/// as `brdf fit` checks a CSV row (readings at or below zero kept, as `brdf fit` keeps them).
 pub(crate) fn dataset(name: String, settings: &Settings, columns: Columns<'_, '_>) -> PyResult<Dataset> {
     settings.for_arrays()?;
-    let allow_zero = settings.settings.residual == Residual::Absolute;
     let (theta_i, theta_r, phi, brdf, sigma, weight) = columns;
     if sigma.is_some() && weight.is_some() {
         return Err(PyValueError::new_err("sigma and weight cannot be used together"));
@@ -284,7 +285,7 @@ pub(crate) fn dataset(name: String, settings: &Settings, columns: Columns<'_, '_
                 weight: wt.map(|w| w[i]),
             };
             // `line` is the 1-based row number, as a CSV file's data rows would count.
-            Point::from_degrees(row, allow_zero, i as u64 + 1).map_err(|e| Failure::At(i, e.to_string()))
+            Point::from_degrees(row, true, i as u64 + 1).map_err(|e| Failure::At(i, e.to_string()))
         })
         .collect::<Result<Vec<Point>, Failure>>()?;
     Ok(Dataset { name, points })

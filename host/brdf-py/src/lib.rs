@@ -17,7 +17,7 @@ use brdf_core::batch::par::{self, Inputs};
 use brdf_core::batch::{Batch, BatchError};
 use brdf_core::names::UnknownName;
 use brdf_core::{AnyModel, Brdf, Float, ModelKind};
-use brdf_fit::import::{import, Channel, Format};
+use brdf_fit::import::{import, Channel, Format, Pick};
 use brdf_fit::{
     load_csv, Dataset, FitOptions, FitRequest, FitSettings, LoadOptions, Point, Residual, RowDegrees,
 };

@@ -1,5 +1,6 @@
 """`brdf.fit`: the report `brdf fit --json` prints, from files and from arrays."""
 
+import collections.abc
 import csv
 import json
 import warnings
@@ -35,7 +36,7 @@ def test_result_fields(root):
     r = brdf.fit(str(root / KHAKI))
     assert list(r.params) == ["kb", "kr", "b", "a", "kd", "c"]
     assert set(r.std_errors) == set(r.params)
-    assert isinstance(r.undetermined, dict)
+    assert isinstance(r.undetermined, collections.abc.Mapping)
     assert r.metrics["rms_rel"] < 0.01
     assert "albedo" in r.energy
 
@@ -56,8 +57,11 @@ def test_arrays_fit_like_the_file(root):
 
 
 def test_bad_rows_are_located():
-    data = {"theta_i": [10, 20, 30], "theta_r": [10, 20, 30], "phi": [0, 0, 0], "brdf": [0.1, -1, 0.2]}
-    with pytest.raises(ValueError, match=r"data at index \[1\]: column brdf: -1 is outside > 0"):
+    data = {"theta_i": [10, 20, 30], "theta_r": [10, 95, 30], "phi": [0, 0, 0], "brdf": [0.1, 0.3, 0.2]}
+    with pytest.raises(ValueError, match=r"data at index \[1\]: column theta_r: 95 is outside \[0, 90\)"):
+        brdf.fit(data)
+    data = {"theta_i": [10, 20, 30], "theta_r": [10, 20, 30], "phi": [0, 0, 0], "brdf": [0.1, -1e101, 0.2]}
+    with pytest.raises(ValueError, match=r"data at index \[1\]: column brdf: .* in magnitude"):
         brdf.fit(data)
     with pytest.raises(ValueError, match="missing `brdf`"):
         brdf.fit({"theta_i": [1], "theta_r": [1], "phi": [1]})
@@ -239,10 +243,52 @@ def test_array_data_is_taken_as_given_or_refused(root):
 def test_repr_of_an_absolute_residual_fit_with_a_zero_reading(root):
     (d,) = brdf.read(str(root / KHAKI))
     d["brdf"][0] = 0.0
-    r = brdf.fit(d, residual="absolute", model="lambert")
-    # Before: repr raised TypeError (the relative error is null where a reading is 0).
+    r = brdf.fit(d, residual="absolute", model="lambert", noise_floor=0)
+    # Before: repr raised TypeError (the relative error is null where a reading is 0 and no
+    # noise floor gives it a scale).
     assert r.metrics["rms_rel"] is None
     assert repr(r).endswith("rms_rel undefined)")
+
+
+def test_dark_readings_are_kept_and_weighed_with_a_noise_floor(root):
+    (d,) = brdf.read(str(root / KHAKI))
+    d["brdf"][3] = -1e-3
+    d["brdf"][7] = 0.0
+    r = brdf.fit(d)
+    floor = r.report["noise_floor"]
+    assert (floor["source"], floor["at_or_below_zero"]) == ("estimated", 2)
+    assert floor["value"] == pytest.approx(floor["sigma_a"] / floor["relative_noise"], rel=1e-12)
+    assert r.metrics["rms_rel"] is not None and r.metrics["log_rmse"] is None
+    given = brdf.fit(d, noise_floor=0.01)
+    assert given.report["noise_floor"]["source"] == "given"
+    # The rules of the CLI: no floor leaves relative residuals no scale; log residuals refuse.
+    with pytest.raises(ValueError, match="line 4: brdf -0.001 is at or below zero"):
+        brdf.fit(d, noise_floor=0)
+    with pytest.raises(ValueError, match="logarithm"):
+        brdf.fit(d, residual="log")
+    with pytest.raises(ValueError, match="noise_floor"):
+        brdf.fit(d, noise_floor=-1.0)
+    with pytest.raises(TypeError, match="noise_floor must be a number"):
+        brdf.fit(d, noise_floor="0.1")
+
+
+def test_a_result_cannot_be_edited_into_a_silent_wrong_answer(root):
+    r = brdf.fit(str(root / KHAKI), model="lambert")
+    before = r.eval(10.0, 20.0, 30.0)
+    # Before: the edit was taken, and eval, pack and to_json went on using the fitted text.
+    with pytest.raises(TypeError):
+        r.params["rho0"] = 2 * r.params["rho0"]
+    with pytest.raises(TypeError):
+        r.report["params"]["rho0"] = 0.0
+    with pytest.raises(AttributeError, match="read-only"):
+        r.params = {"rho0": 1.0}
+    with pytest.raises(AttributeError, match="read-only"):
+        del r.converged
+    assert r.eval(10.0, 20.0, 30.0) == before
+    # An editable copy evaluates as its values say.
+    p = dict(r.params)
+    p["rho0"] *= 2
+    assert brdf.eval("lambert", p, 10.0, 20.0, 30.0) == pytest.approx(2 * before, rel=1e-12)
 
 
 def test_skip_invalid_leaves_out_a_dataset_it_cannot_fit_as_the_cli(cli, root, tmp_path):

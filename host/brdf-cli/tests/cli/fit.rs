@@ -660,3 +660,101 @@ fn options_that_would_be_ignored_are_refused() {
         "the data were overwritten"
     );
 }
+
+/// A spectral Cornell file: `brdf import` writes every reading of every band with its
+/// wavelength (µm), zeros included; `--band` picks one, or says which bands there are;
+/// `brdf fit --format cornell --band` fits a dark band with every reading and the report
+/// states the noise floor; `--noise-floor 0` refuses the dark readings naming a line.
+#[test]
+fn spectral_files_import_every_band_and_fit_dark_bands_with_a_noise_floor() {
+    let astm = repo("data/measured/cornell-spectral/krylon_blue.astm");
+    let csv = ok(&["import", "cornell", &astm]);
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("theta_i,theta_r,phi,brdf,wavelength"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 31 * 1439);
+    let zeros = rows
+        .iter()
+        .filter(|r| r[3].parse::<f64>().unwrap() <= 0.0)
+        .count();
+    assert_eq!(zeros, 1218, "every reading at zero kept");
+    assert_eq!((rows[0][4], rows[31 * 1439 - 1][4]), ("0.4", "0.7"));
+    // The canonical CSV reads back as 31 datasets, one per wavelength.
+    let dir = tempfile::tempdir().unwrap();
+    let one = ok(&["import", "cornell", &astm, "--band", "0.4"]);
+    assert_eq!(one.lines().count(), 1440);
+    let path = dir.path().join("krylon-400.csv");
+    std::fs::write(&path, &one).unwrap();
+    let json = ok(&["fit", "--model", "lambert", "--json", path.to_str().unwrap()]);
+    let r: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert!(
+        r["dataset"].as_str().unwrap().ends_with("[wavelength=0.4]"),
+        "{}",
+        r["dataset"]
+    );
+    assert_eq!(r["n"], 1439);
+    assert_eq!(r["noise_floor"]["source"], "estimated");
+    assert_eq!(r["noise_floor"]["at_or_below_zero"], 194);
+    // The same band read on the fly.
+    let json = ok(&[
+        "fit", "--model", "lambert", "--json", "--format", "cornell", "--band", "0.4", &astm,
+    ]);
+    let direct: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(direct["params"], r["params"]);
+    let given = ok(&[
+        "fit",
+        "--model",
+        "lambert",
+        "--json",
+        "--noise-floor",
+        "0.01",
+        path.to_str().unwrap(),
+    ]);
+    let given: serde_json::Value = serde_json::from_str(&given).unwrap();
+    assert_eq!(
+        (
+            given["noise_floor"]["source"].as_str(),
+            given["noise_floor"]["value"].as_f64()
+        ),
+        (Some("given"), Some(0.01))
+    );
+    for (args, says) in [
+        (
+            vec!["import", "cornell", &astm, "--band", "0.405"],
+            "no band at 0.405 um; its bands are 0.4, 0.41, 0.42",
+        ),
+        (vec!["import", "cornell", &astm, "--channel", "r"], "spectral"),
+        (
+            vec!["import", "merl-inplane", &astm, "--band", "0.4"],
+            "cornell and nist formats only",
+        ),
+        (vec!["fit", "--noise-floor", "0", path.to_str().unwrap()], "line "),
+        (
+            vec!["fit", "--noise-floor=-1", path.to_str().unwrap()],
+            "at or above 0",
+        ),
+        (
+            vec!["fit", "--noise-floor", "nan", path.to_str().unwrap()],
+            "at or above 0",
+        ),
+        (
+            vec!["fit", "--residual", "log", path.to_str().unwrap()],
+            "logarithm",
+        ),
+        (
+            vec![
+                "fit",
+                "--residual",
+                "log",
+                "--noise-floor",
+                "0.1",
+                path.to_str().unwrap(),
+            ],
+            "ignored",
+        ),
+    ] {
+        let out = brdf(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(says), "{args:?}: {err}");
+    }
+}

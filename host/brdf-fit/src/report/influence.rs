@@ -126,7 +126,7 @@ pub fn influence(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opt
             }
             let f = without.values(&q);
             let rel2: f64 = (0..without.len())
-                .map(|k| ((f[k] - without.target(k)) / without.target(k)).powi(2))
+                .map(|k| without.relative_error(k, f[k]).powi(2))
                 .sum();
             let pt = &dataset.points[i];
             let r = problem.residual_of(i, values[i]);

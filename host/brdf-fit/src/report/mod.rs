@@ -95,27 +95,41 @@ pub struct Metrics {
     /// Mean squared error, 1/sr^2.
     #[serde(deserialize_with = "f64_or_null")]
     pub mse: f64,
-    /// Root-mean-square relative error `(f - y) / y`.
+    /// Root-mean-square relative error `(f - y) / y` (`(f - y) / sqrt(y^2 + S^2)` under a
+    /// noise floor `S`, [`crate::noise`]).
     #[serde(deserialize_with = "f64_or_null")]
     pub rms_rel: f64,
-    /// Largest `|f - y| / y`.
+    /// Largest `|f - y| / y` (floored as `rms_rel`).
     #[serde(deserialize_with = "f64_or_null")]
     pub max_rel: f64,
-    /// Root-mean-square of `ln f - ln y`.
+    /// Root-mean-square of `ln f - ln y` (undefined, `null`, with readings at or below zero).
     #[serde(deserialize_with = "f64_or_null")]
     pub log_rmse: f64,
 }
 
 /// Metrics of model values `f` against measurements `y`.
 pub fn metrics(f: &[f64], y: &[f64]) -> Metrics {
+    metrics_floored(f, y, 0.0)
+}
+
+/// [`metrics`] with the relative errors taken over `sqrt(y^2 + floor^2)` (a noise floor,
+/// [`crate::noise`]; `floor` 0 gives [`metrics`]). `log_rmse` is NaN when a reading is at or
+/// below zero.
+pub fn metrics_floored(f: &[f64], y: &[f64], floor: f64) -> Metrics {
     let n = f.len().max(1) as f64;
     let (mut se, mut sr, mut mr, mut sl) = (0.0, 0.0, 0.0_f64, 0.0);
     for (&f, &y) in f.iter().zip(y) {
         se += (f - y) * (f - y);
-        let rel = (f - y) / y;
+        let rel = (f - y) / y.hypot(floor);
         sr += rel * rel;
         mr = mr.max(rel.abs());
-        let l = if f > 0.0 { f.ln() - y.ln() } else { f64::INFINITY };
+        let l = if y <= 0.0 {
+            f64::NAN
+        } else if f > 0.0 {
+            f.ln() - y.ln()
+        } else {
+            f64::INFINITY
+        };
         sl += l * l;
     }
     Metrics {
@@ -244,6 +258,11 @@ pub struct FitReport {
     /// are the base model's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fitted_table: Option<crate::fitted_table::TableRecord>,
+    /// The noise floor of the relative residual and of the relative metrics
+    /// ([`crate::noise`]), when the data had readings at or below zero or a floor was given
+    /// ([`crate::FitSettings::fit`] sets it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_floor: Option<crate::noise::NoiseFloor>,
 }
 
 /// Why a fit result could not be read back.
@@ -562,6 +581,7 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
     let kind: ModelKind = outcome.kind;
     let values = problem.values(&outcome.q);
     let y: Vec<f64> = dataset.points.iter().map(|p| p.brdf).collect();
+    let floor = problem.floor();
     let groups = dataset.incidence_groups();
     let incidences: Vec<f64> = groups.iter().map(|g| g.0).collect();
     let per_incidence = groups
@@ -574,7 +594,7 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
             IncidenceMetrics {
                 theta_i: degrees(*ti),
                 n: f.len(),
-                metrics: metrics(&f, &yy),
+                metrics: metrics_floored(&f, &yy, floor),
             }
         })
         .collect();
@@ -601,7 +621,7 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
                 .map(|(n, v)| ((*n).to_owned(), *v))
                 .collect(),
         ),
-        metrics: metrics(&values, &y),
+        metrics: metrics_floored(&values, &y, floor),
         per_incidence,
         n,
         k,
@@ -625,5 +645,6 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         energy: energy_of(kind, params, &energy::checked_incidences(&incidences)),
         outside_ranges,
         fitted_table: None,
+        noise_floor: None,
     }
 }

@@ -1,7 +1,7 @@
 //! The importers on the bundled measured files (data/measured): every row kept or reported, and the
 //! mapping to the canonical convention checked by where each material's peak lies.
 
-use brdf_fit::import::{import, Channel, Format, Imported};
+use brdf_fit::import::{import, Channel, Format, Imported, Pick};
 
 /// The largest value at each incidence (from `min_theta_i` degrees up) must lie on the
 /// forward side (within 30 degrees of phi = 180) and within `max_offset` degrees of the
@@ -66,11 +66,23 @@ fn cornell_garnet_red_every_row_accounted_for() {
     )
     .unwrap();
     assert_eq!(imp.rows_in, 1439, "NUM_POINTS of the file");
-    assert_eq!(imp.points() + imp.rejects.len(), imp.rows_in);
-    assert!(imp.rejects.iter().all(|r| r.reason.contains("not positive")));
-    // The one R = 0 row of the file is line 1459 (22 header lines, 1439 rows).
-    assert_eq!(imp.rejects.iter().map(|r| r.line).collect::<Vec<_>>(), [1459]);
-    println!("garnet R: {} points, {} rejects", imp.points(), imp.rejects.len());
+    assert_eq!(imp.points(), imp.rows_in, "every reading kept");
+    assert!(imp.rejects.is_empty());
+    // The one R = 0 row of the file is line 1459 (22 header lines, 1439 rows): kept, and
+    // moved to the rejects by line only for a study of positive readings.
+    let dark: Vec<u64> = imp.datasets[0]
+        .points
+        .iter()
+        .filter(|p| p.brdf <= 0.0)
+        .map(|p| p.line)
+        .collect();
+    assert_eq!(dark, [1459]);
+    let positive = imp.clone().positive_only();
+    assert_eq!(
+        positive.rejects.iter().map(|r| r.line).collect::<Vec<_>>(),
+        [1459]
+    );
+    println!("garnet R: {} points", imp.points());
     // Broad gloss lobe, off-specular towards grazing at large incidence.
     assert_eq!(peaks_forward(&imp, 0.0, 25.0), 8);
     let b = import(
@@ -79,11 +91,59 @@ fn cornell_garnet_red_every_row_accounted_for() {
         Channel::G,
     )
     .unwrap();
-    assert_eq!(b.points() + b.rejects.len(), 1439);
+    assert_eq!(b.points(), 1439);
     assert!(
-        !b.rejects.is_empty(),
-        "the G channel has negative values, each reported"
+        b.datasets[0].points.iter().any(|p| p.brdf < 0.0),
+        "the G channel has negative values (gamut mapping), each kept"
     );
+}
+
+/// The spectral originals: every reading of every band, one dataset per band in file order,
+/// each value the file's own (spot-checked against the text of a line).
+#[test]
+fn cornell_spectral_every_reading_of_every_band() {
+    for (file, zeros) in [("garnet_red.astm", 213), ("krylon_blue.astm", 1218)] {
+        let path = brdf_tests::measured(&format!("cornell-spectral/{file}"));
+        let imp = import(&path, Format::Cornell, Pick::default()).unwrap();
+        assert_eq!(imp.datasets.len(), 31, "{file}: 400, 410, ..., 700 nm");
+        assert_eq!((imp.points(), imp.rejects.len()), (31 * 1439, 0), "{file}");
+        for (k, d) in imp.datasets.iter().enumerate() {
+            let nm = 400 + 10 * k;
+            let um = brdf_core::Compact(nm as f64 / 1000.0);
+            assert!(d.name.ends_with(&format!("[wavelength={um}]")), "{}", d.name);
+            assert_eq!(d.points.len(), 1439);
+        }
+        let dark = imp
+            .datasets
+            .iter()
+            .flat_map(|d| &d.points)
+            .filter(|p| p.brdf <= 0.0)
+            .count();
+        assert_eq!(dark, zeros, "{file}: the readings printed as 0.000000");
+        // A line's 31 values, as the file prints them, are the bands' values at that line.
+        let text = std::fs::read_to_string(&path).unwrap();
+        let line = imp.datasets[0].points[700].line;
+        let fields: Vec<f64> = text
+            .lines()
+            .nth(line as usize - 1)
+            .unwrap()
+            .split(',')
+            .map(|f| f.trim().parse().unwrap())
+            .collect();
+        for (k, d) in imp.datasets.iter().enumerate() {
+            assert_eq!(d.points[700].brdf, fields[4 + k], "{file} line {line} band {k}");
+            assert_eq!(d.points[700].line, line);
+        }
+        // Same directions as the RGB file of the same paint (the same 1,439 rows).
+        let rgb = brdf_tests::measured(&format!(
+            "cornell-medium-gloss-paints/{}_RGB.astm",
+            file.trim_end_matches(".astm")
+        ));
+        let rgb = import(&rgb, Format::Cornell, Channel::R).unwrap();
+        for (a, b) in rgb.datasets[0].points.iter().zip(&imp.datasets[15].points) {
+            assert!((a.theta_i - b.theta_i).abs() < 1e-12 && (a.phi - b.phi).abs() < 1e-12);
+        }
+    }
 }
 
 #[test]
@@ -133,7 +193,9 @@ fn the_chosen_fitted_table_is_one_the_device_can_store() {
         Format::Cornell,
         Channel::R,
     )
-    .unwrap();
+    .unwrap()
+    // Positive readings only: the case was found on them (the table fits `ln f`).
+    .positive_only();
     let d = &imp.datasets[0];
     let base = brdf_fit::FitSettings::new(brdf_core::ModelKind::Lambert)
         .fit(d)

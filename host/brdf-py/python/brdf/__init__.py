@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import types
 import warnings
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
 
@@ -233,28 +234,46 @@ class FitResult:
     correlation matrix), ``undetermined`` (name -> reason, for parameters the data do not
     determine), ``metrics``, ``energy``, ``converged`` and ``report`` (the whole report as
     a dict). ``to_json()`` is the text ``brdf fit --json`` prints for the same input.
+
+    A result is read-only: :meth:`eval`, :func:`pack` and :func:`to_json` use the report as
+    the fit wrote it, so an edited parameter would be silently ignored by them. Assigning an
+    attribute or changing a mapping raises ``TypeError`` or ``AttributeError``; to evaluate
+    other parameters, pass them to :func:`eval` (``dict(result.params)`` is an editable copy).
     """
 
     def __init__(self, text: str):
-        self._text = text
-        self.report: Dict[str, Any] = json.loads(text)
-        r = self.report
-        self.dataset: str = r["dataset"]
-        self.model: str = r["model"]
-        self.params: Dict[str, float] = dict(_pairs(r["params"]))
+        r = json.loads(text)
         unc = r.get("uncertainty", {})
-        self.std_errors: Dict[str, Optional[float]] = {
-            name: u.get("se") for name, u in _pairs(unc.get("params", {}))
+        fields = {
+            "_text": text,
+            "report": _frozen(r),
+            "dataset": r["dataset"],
+            "model": r["model"],
+            "params": _frozen(dict(_pairs(r["params"]))),
+            "std_errors": _frozen({name: u.get("se") for name, u in _pairs(unc.get("params", {}))}),
+            "undetermined": _frozen(
+                {
+                    name: (u.get("note") or "")
+                    for name, u in _pairs(unc.get("params", {}))
+                    if not u.get("determined", True)
+                }
+            ),
+            "correlation": _frozen(unc.get("correlation")),
+            "metrics": _frozen(r["metrics"]),
+            "energy": _frozen(r["energy"]),
+            "converged": r["converged"],
         }
-        self.undetermined: Dict[str, str] = {
-            name: (u.get("note") or "")
-            for name, u in _pairs(unc.get("params", {}))
-            if not u.get("determined", True)
-        }
-        self.correlation = unc.get("correlation")
-        self.metrics: Dict[str, float] = r["metrics"]
-        self.energy: Dict[str, Any] = r["energy"]
-        self.converged: bool = r["converged"]
+        for k, v in fields.items():
+            object.__setattr__(self, k, v)
+
+    def __setattr__(self, name, value):
+        raise AttributeError(
+            f"a FitResult is read-only (`{name}`): eval, pack and to_json use the report as fitted; "
+            "pass edited parameters to brdf.eval instead"
+        )
+
+    def __delattr__(self, name):
+        self.__setattr__(name, None)
 
     def to_json(self) -> str:
         """The report exactly as ``brdf fit --json`` prints one (without its final newline)."""
@@ -277,6 +296,15 @@ class FitResult:
         return f"FitResult({self.dataset!r}, {self.model}: {ps}; rms_rel {rms})"
 
 
+def _frozen(v):
+    """A read-only view of a parsed JSON value: objects as mapping proxies, arrays as tuples."""
+    if isinstance(v, dict):
+        return types.MappingProxyType({k: _frozen(x) for k, x in v.items()})
+    if isinstance(v, list):
+        return tuple(_frozen(x) for x in v)
+    return v
+
+
 def _pairs(v):
     """Name/value pairs from the report's ordered maps (a list of pairs or an object)."""
     if isinstance(v, dict):
@@ -287,7 +315,7 @@ def _pairs(v):
 def _settings(model, seed, residual, engine, options) -> "_brdf.Settings":
     known = {
         "chains", "agree", "hops", "anneal_evals", "loss", "loss_scale", "brightening",
-        "budget_evals", "skip_invalid", "format", "channel",
+        "budget_evals", "skip_invalid", "format", "channel", "band", "noise_floor",
     }
     unknown = set(options) - known
     if unknown:
@@ -302,6 +330,8 @@ def _settings(model, seed, residual, engine, options) -> "_brdf.Settings":
         _flag("brightening", o.get("brightening", False)),
         whole["budget_evals"], _flag("skip_invalid", o.get("skip_invalid", False)),
         None if o.get("format") is None else _text("format", o["format"]), None if o.get("channel") is None else _text("channel", o["channel"]),
+        None if o.get("band") is None else _number("band", o["band"]),
+        None if o.get("noise_floor") is None else _number("noise_floor", o["noise_floor"]),
     )
 
 
@@ -404,7 +434,9 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
     ``theta_i``, ``theta_r``, ``phi`` (degrees), ``brdf`` (1/sr) and optionally ``sigma``
     or ``weight``. Options as the CLI's flags: ``chains``, ``agree``, ``hops``,
     ``anneal_evals``, ``loss``, ``loss_scale``, ``brightening``, ``budget_evals``,
-    ``skip_invalid``, ``channel``; ``name`` names an array dataset.
+    ``noise_floor`` (1/sr; estimated where readings are at or below zero when not given, 0
+    for none), ``skip_invalid``, ``channel``, ``band`` (a wavelength in µm of a spectral
+    file); ``name`` names an array dataset.
 
     Returns a :class:`FitResult` for one dataset, a list of them for several (a file with
     ``sample``/``wavelength`` columns, or several files).
@@ -530,16 +562,25 @@ def select(
     return Selection(text, candidates, blob, chosen)
 
 
-def read(path, format: Optional[str] = None, channel: Optional[str] = None, *, skip_invalid: bool = False):
+def read(
+    path,
+    format: Optional[str] = None,
+    channel: Optional[str] = None,
+    *,
+    band: Optional[float] = None,
+    skip_invalid: bool = False,
+):
     """The datasets of a file as ``brdf fit`` reads it (``format`` as ``--format``:
-    ``cornell``, ``nist``, ``merl-inplane``; ``channel`` r, g or b for Cornell files).
+    ``cornell``, ``nist``, ``merl-inplane``; ``channel`` r, g or b for Cornell RGB files;
+    ``band`` one wavelength in µm of a spectral Cornell or NIST file, every band otherwise,
+    each its own dataset named ``FILE[wavelength=…]``). Readings at or below zero are kept.
 
     Returns a list of dicts, one per dataset: ``name`` and float64 arrays ``theta_i``,
     ``theta_r``, ``phi`` (degrees, canonical convention) and ``brdf`` (1/sr), plus ``sigma``
     or ``weight`` where the file gives them. Rows the CLI would skip or reject are reported
     as warnings.
     """
-    opts = {"format": format, "channel": channel, "skip_invalid": skip_invalid}
+    opts = {"format": format, "channel": channel, "band": band, "skip_invalid": skip_invalid}
     s = _settings("six", 1, "relative", "full", opts)
     sets, notes = _brdf.read_paths(s, [os.fspath(path)])
     for note in notes:

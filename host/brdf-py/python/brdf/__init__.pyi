@@ -52,15 +52,15 @@ def eval_vectors(
 def albedo(model: str, params: Params, theta_i: ArrayLike, *, panels: Optional[int] = None) -> Union[np.ndarray, np.floating]: ...
 
 class FitResult:
-    report: Dict[str, Any]
+    report: Mapping[str, Any]
     dataset: str
     model: str
-    params: Dict[str, float]
-    std_errors: Dict[str, Optional[float]]
-    undetermined: Dict[str, str]
+    params: Mapping[str, float]
+    std_errors: Mapping[str, Optional[float]]
+    undetermined: Mapping[str, str]
     correlation: Any
-    metrics: Dict[str, float]
-    energy: Dict[str, Any]
+    metrics: Mapping[str, float]
+    energy: Mapping[str, Any]
     converged: bool
     def __init__(self, text: str) -> None: ...
     def to_json(self) -> str: ...
@@ -88,6 +88,7 @@ def read(
     format: Optional[str] = None,
     channel: Optional[str] = None,
     *,
+    band: Optional[float] = None,
     skip_invalid: bool = False,
 ) -> List[Dict[str, Any]]: ...
 class Selection:
