@@ -276,6 +276,7 @@ pub fn legend(r: &brdf_fit::report::FitReport) -> Result<brdf_plot::Fitted> {
     Ok(brdf_plot::Fitted {
         label: format!("{} (RMS rel {:.1}%)", r.model.name(), 100.0 * r.metrics.rms_rel),
         model: r.model()?,
+        floor: r.noise_floor.as_ref().map_or(0.0, |f| f.value),
     })
 }
 

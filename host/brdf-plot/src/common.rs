@@ -111,6 +111,7 @@ pub(crate) fn khaki() -> (brdf_fit::Dataset, crate::Fitted) {
     let fit = crate::Fitted {
         label: "six".into(),
         model,
+        floor: 0.0,
     };
     (data, fit)
 }

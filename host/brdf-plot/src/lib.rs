@@ -13,7 +13,7 @@
 //! let p = [0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2];
 //! let data = synth::in_plane(ModelKind::Six, &p, &[0.0, 10.0, 30.0], 5.0, 0.01, 7).unwrap();
 //! let model = AnyModel::new(ModelKind::Six, &p).unwrap();
-//! let fits = [Fitted { label: "six".into(), model }];
+//! let fits = [Fitted { label: "six".into(), model, floor: 0.0 }];
 //! in_plane("khaki.png".as_ref(), "Khaki, in-plane", &data, &fits).unwrap();
 //! ```
 //!
@@ -70,4 +70,7 @@ pub struct Fitted {
     pub label: String,
     /// The model.
     pub model: AnyModel<f64>,
+    /// The fit's noise floor, 1/sr (0: none): relative residuals are drawn over
+    /// `sqrt(y^2 + floor^2)`, as the fit weighed them (`brdf_fit::noise`).
+    pub floor: f64,
 }

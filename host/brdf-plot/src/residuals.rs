@@ -11,7 +11,8 @@ use brdf_fit::Dataset;
 use crate::common::{deg, err, render, Res, FONT};
 use crate::{Fitted, PlotError};
 
-/// (c) Relative residuals `(f - y) / y` in percent against the viewing angle: the signed
+/// (c) Relative residuals `(f - y) / y` in percent (over `sqrt(y^2 + S^2)` under the fit's
+/// noise floor `S`) against the viewing angle: the signed
 /// scattering angle for in-plane points, `theta_r` (marked as such) otherwise; one colour per
 /// incidence angle.
 pub fn residuals(path: &Path, title: &str, data: &Dataset, fit: &Fitted) -> Result<(), PlotError> {
@@ -26,11 +27,19 @@ pub fn residuals(path: &Path, title: &str, data: &Dataset, fit: &Fitted) -> Resu
                 let f = fit.model.eval_angles(p.theta_i, p.theta_r, p.phi);
                 let in_plane = p.phi.sin().abs() < 0.02 || p.theta_r < 1e-6;
                 let s = if in_plane && p.phi.cos() > 0.0 { -1.0 } else { 1.0 };
-                (s * p.theta_r.to_degrees(), 100.0 * (f - p.brdf) / p.brdf)
+                (
+                    s * p.theta_r.to_degrees(),
+                    100.0 * (f - p.brdf) / p.brdf.hypot(fit.floor),
+                )
             })
             .collect();
         series.push((ti, pts));
     }
+    let y_desc = if fit.floor > 0.0 {
+        format!("(model - measured) / sqrt(measured^2 + {:.2e}^2) (%)", fit.floor)
+    } else {
+        "(model - measured) / measured (%)".to_owned()
+    };
     let all = series.iter().flat_map(|s| s.1.iter().map(|p| p.1));
     let bound = all.fold(1.0f64, |m, v| m.max(v.abs())).min(1000.0) * 1.1;
     fn draw<DB: DrawingBackend>(
@@ -39,6 +48,7 @@ pub fn residuals(path: &Path, title: &str, data: &Dataset, fit: &Fitted) -> Resu
         label: &str,
         series: &[(f64, Vec<(f64, f64)>)],
         bound: f64,
+        y_desc: &str,
     ) -> Res {
         // Title and legend above the chart, so that no data point hides behind them.
         let (head, body) = root.split_vertically(100);
@@ -72,7 +82,7 @@ pub fn residuals(path: &Path, title: &str, data: &Dataset, fit: &Fitted) -> Resu
         chart
             .configure_mesh()
             .x_desc("viewing angle (deg): signed theta_s in plane (+ forward), theta_r off plane")
-            .y_desc("(model - measured) / measured (%)")
+            .y_desc(y_desc)
             .label_style((FONT, 14))
             .axis_desc_style((FONT, 15))
             .light_line_style(WHITE)
@@ -96,8 +106,8 @@ pub fn residuals(path: &Path, title: &str, data: &Dataset, fit: &Fitted) -> Resu
     render(
         path,
         (1000, 700),
-        |r| draw(r, title, &fit.label, &series, bound),
-        |r| draw(r, title, &fit.label, &series, bound),
+        |r| draw(r, title, &fit.label, &series, bound, &y_desc),
+        |r| draw(r, title, &fit.label, &series, bound, &y_desc),
     )
 }
 
