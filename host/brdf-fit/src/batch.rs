@@ -13,7 +13,8 @@ use crate::embedded::{fit_embedded, EmbeddedError};
 use crate::noise::{floor_for, FloorChoice, NoiseError, NoiseFloor};
 use crate::problem::{Loss, Problem, Residual, Stop};
 use crate::report::{report, FitReport};
-use crate::{fit, Dataset, FitOptions};
+use crate::spectral::{families, mark, share, BandShape};
+use crate::{fit, Dataset, FitOptions, FitOutcome};
 
 /// Why a dataset was not fitted.
 #[derive(Debug, Error)]
@@ -94,6 +95,9 @@ pub struct FitSettings {
     pub brightening: bool,
     /// The noise floor of the relative residual ([`crate::noise`]).
     pub noise_floor: FloorChoice,
+    /// How the bands of one spectral measurement are fitted ([`crate::spectral`]; shared
+    /// only with the full engine and least squares; independent by default).
+    pub bands: BandShape,
     /// Search settings of the full engine (its seed also seeds the embedded one).
     pub options: FitOptions,
     /// The engine.
@@ -109,6 +113,7 @@ impl FitSettings {
             loss: Loss::default(),
             brightening: false,
             noise_floor: FloorChoice::Auto,
+            bands: BandShape::Independent,
             options: FitOptions::default(),
             engine: Engine::Full,
         }
@@ -188,13 +193,35 @@ impl FitSettings {
     /// end early and the report says "not converged"; the embedded engine runs to its
     /// budget, at most [`crate::request::BUDGET_EVALS`] evaluations).
     pub fn fit_until(&self, d: &Dataset, stop: &Stop) -> Result<FitReport, FitError> {
+        let (problem, outcome) = self.search_until(d, stop)?;
+        self.report_of(d, &problem, &outcome, stop)
+    }
+
+    /// Whether these settings fit the bands of one measurement with one shape.
+    pub fn shares_bands(&self) -> bool {
+        self.bands == BandShape::Shared && self.engine == Engine::Full && self.loss.is_linear()
+    }
+
+    /// The search of [`FitSettings::fit_until`], without the report.
+    fn search_until(&self, d: &Dataset, stop: &Stop) -> Result<(Problem, FitOutcome), FitError> {
         self.check(d)?;
         let problem = self.problem(d)?.with_stop(stop.clone());
         let outcome = match self.engine {
             Engine::Full => fit(&problem, &self.options),
             Engine::Embedded { budget } => fit_embedded(self.kind, d, &problem, budget, self.options.seed)?,
         };
-        let mut r = report(d, &problem, &outcome, &self.options);
+        Ok((problem, outcome))
+    }
+
+    /// The report of [`FitSettings::fit_until`] for `outcome`.
+    fn report_of(
+        &self,
+        d: &Dataset,
+        problem: &Problem,
+        outcome: &FitOutcome,
+        stop: &Stop,
+    ) -> Result<FitReport, FitError> {
+        let mut r = report(d, problem, outcome, &self.options);
         r.noise_floor = self.floor(d)?;
         // A stop that arrived after the search but during the report (whose profile refits
         // end early on it) still makes the result a stopped one: never "converged".
@@ -242,7 +269,110 @@ pub fn fit_streamed(
 }
 
 /// [`fit_streamed`], every fit abandoned when `stop` is requested ([`FitSettings::fit_until`]).
+/// The bands of one spectral measurement ([`crate::spectral::families`]) are fitted with one
+/// shape when the settings share bands ([`FitSettings::shares_bands`]); their results come
+/// when the whole family is done.
 pub fn fit_streamed_until(
+    settings: &FitSettings,
+    datasets: &[Dataset],
+    stop: &Stop,
+    mut each: impl FnMut(usize, &Result<FitReport, FitError>),
+) -> Vec<Result<FitReport, FitError>> {
+    let names: Vec<&str> = datasets.iter().map(|d| d.name.as_str()).collect();
+    let families = families(&names);
+    if families.is_empty() {
+        return fit_each_streamed(settings, datasets, stop, each);
+    }
+    let mut family_of = vec![None; datasets.len()];
+    for (k, f) in families.iter().enumerate() {
+        for &i in f {
+            family_of[i] = Some(k);
+        }
+    }
+    // Every dataset's own search in parallel; then each family's shared shape.
+    let mut searched: Vec<Option<Result<(Problem, FitOutcome), FitError>>> = datasets
+        .par_iter()
+        .map(|d| Some(settings.search_until(d, stop)))
+        .collect();
+    let mut out: Vec<Option<Result<FitReport, FitError>>> = (0..datasets.len()).map(|_| None).collect();
+    for family in &families {
+        let ok: Vec<(&Problem, &FitOutcome)> = family
+            .iter()
+            .filter_map(|&i| match &searched[i] {
+                Some(Ok((p, o))) => Some((p, o)),
+                _ => None,
+            })
+            .collect();
+        if !settings.shares_bands() || ok.len() < family.len() {
+            continue;
+        }
+        let problems: Vec<&Problem> = ok.iter().map(|(p, _)| *p).collect();
+        let own: Vec<FitOutcome> = ok.iter().map(|(_, o)| (*o).clone()).collect();
+        let (shared, total) = share(&problems, &own);
+        let reports: Result<Vec<FitReport>, FitError> = family
+            .par_iter()
+            .zip(&shared)
+            .zip(&problems)
+            .map(|((&i, o), p)| settings.report_of(&datasets[i], p, o, stop))
+            .collect();
+        match reports {
+            Ok(mut reports) => {
+                mark(&mut reports, BandShape::Shared, Some(total));
+                for (&i, r) in family.iter().zip(reports) {
+                    out[i] = Some(Ok(r));
+                }
+            }
+            Err(e) => out[family[0]] = Some(Err(e)),
+        }
+    }
+    let mut pending = Vec::new();
+    for i in 0..datasets.len() {
+        if out[i].is_none() {
+            match searched[i].take().expect("each search is taken once") {
+                Ok(found) => pending.push((i, found)),
+                Err(e) => out[i] = Some(Err(e)),
+            }
+        }
+    }
+    let reports: Vec<Result<FitReport, FitError>> = pending
+        .par_iter()
+        .map(|(i, (p, o))| settings.report_of(&datasets[*i], p, o, stop))
+        .collect();
+    for ((i, _), r) in pending.iter().zip(reports) {
+        out[*i] = Some(r);
+    }
+    // Independent bands of a family still say so.
+    for family in &families {
+        if family
+            .iter()
+            .all(|&i| matches!(out[i], Some(Ok(ref r)) if r.bands.is_none()))
+        {
+            let mut reports: Vec<FitReport> = family
+                .iter()
+                .map(|&i| match out[i].take() {
+                    Some(Ok(r)) => r,
+                    _ => unreachable!("checked above"),
+                })
+                .collect();
+            mark(&mut reports, BandShape::Independent, None);
+            for (&i, r) in family.iter().zip(reports) {
+                out[i] = Some(Ok(r));
+            }
+        }
+    }
+    let out: Vec<Result<FitReport, FitError>> = out
+        .into_iter()
+        .map(|r| r.expect("every dataset has a result"))
+        .collect();
+    for (i, r) in out.iter().enumerate() {
+        each(i, r);
+    }
+    out
+}
+
+/// Every dataset fitted on its own, each result handed on in input order as soon as it and
+/// all before it are done.
+fn fit_each_streamed(
     settings: &FitSettings,
     datasets: &[Dataset],
     stop: &Stop,

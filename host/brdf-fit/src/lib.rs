@@ -31,6 +31,7 @@ pub mod params;
 pub mod problem;
 pub mod report;
 pub mod request;
+pub mod spectral;
 pub mod synth;
 
 pub use batch::{fit_all, fit_streamed, fit_streamed_until, fittable, Engine, FitError, FitSettings};

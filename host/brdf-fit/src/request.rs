@@ -13,6 +13,7 @@ use crate::batch::{Engine, FitSettings};
 use crate::embedded::DEFAULT_BUDGET;
 use crate::noise::FloorChoice;
 use crate::problem::{Loss, LossKind, Residual};
+use crate::spectral::BandShape;
 use crate::FitOptions;
 
 /// Which fitting engine, by name (`full`, `embedded`); [`Engine`] adds the embedded budget.
@@ -169,6 +170,9 @@ pub struct FitRequest {
     /// The noise floor of the relative residual, 1/sr, `>= 0` (0: none); estimated per
     /// dataset when `None` ([`crate::noise`]). Not for log residuals or the embedded engine.
     pub noise_floor: Option<f64>,
+    /// How the bands of one spectral measurement are fitted ([`crate::spectral`]); `None`:
+    /// independently. Shared needs the full engine and the linear loss.
+    pub bands: Option<BandShape>,
 }
 
 /// Default scale of a robust loss: a 10% relative error.
@@ -191,6 +195,7 @@ impl FitRequest {
             brightening: false,
             budget_evals: None,
             noise_floor: None,
+            bands: None,
         }
     }
 }
@@ -230,6 +235,12 @@ impl FitSettings {
                 return Err(OptionError::NoiseFloor(s));
             }
         }
+        if r.bands == Some(BandShape::Shared) && r.loss != LossKind::Linear {
+            return Err(OptionError::Ignored {
+                name: "bands shared",
+                applies: "fits the bands of a spectral file with least squares (the linear loss) only",
+            });
+        }
         let ignored = |given: bool, name: &'static str, applies: &'static str| {
             if given {
                 Err(OptionError::Ignored { name, applies })
@@ -265,6 +276,7 @@ impl FitSettings {
                     (r.loss != LossKind::Linear, format!("loss {}", r.loss)),
                     (r.brightening, "brightening".to_owned()),
                     (r.noise_floor.is_some(), "noise_floor".to_owned()),
+                    (r.bands == Some(BandShape::Shared), "bands shared".to_owned()),
                 ];
                 if let Some((_, what)) = set.into_iter().find(|(bad, _)| *bad) {
                     return Err(OptionError::Embedded(what));
@@ -292,6 +304,7 @@ impl FitSettings {
             },
             brightening: r.brightening,
             noise_floor: r.noise_floor.map_or(FloorChoice::Auto, FloorChoice::Given),
+            bands: r.bands.unwrap_or_default(),
             options: FitOptions {
                 seed: r.seed,
                 chains,

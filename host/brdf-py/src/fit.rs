@@ -19,7 +19,7 @@ impl Settings {
     #[new]
     #[pyo3(signature = (model, seed, residual, engine, chains, agree, hops, anneal_evals,
                         loss, loss_scale, brightening, budget_evals, skip_invalid, format, channel,
-                        band, noise_floor))]
+                        band, noise_floor, bands))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &str,
@@ -39,6 +39,7 @@ impl Settings {
         channel: Option<&str>,
         band: Option<f64>,
         noise_floor: Option<f64>,
+        bands: Option<&str>,
     ) -> PyResult<Self> {
         let d = FitRequest::new(kind_of(model)?);
         let request = FitRequest {
@@ -54,6 +55,7 @@ impl Settings {
             brightening,
             budget_evals,
             noise_floor,
+            bands: bands.map(parse::<brdf_fit::spectral::BandShape>).transpose()?,
             ..d
         };
         let settings =

@@ -701,6 +701,12 @@ fn spectral_files_import_every_band_and_fit_dark_bands_with_a_noise_floor() {
     ]);
     let direct: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(direct["params"], r["params"]);
+    // The floored fit reads back: it packs into a blob.
+    let fits = dir.path().join("krylon-400.json");
+    std::fs::write(&fits, &json).unwrap();
+    let blob = dir.path().join("krylon-400.bin");
+    ok(&["pack", fits.to_str().unwrap(), "-o", blob.to_str().unwrap()]);
+    assert!(std::fs::metadata(&blob).unwrap().len() > 0);
     let given = ok(&[
         "fit",
         "--model",

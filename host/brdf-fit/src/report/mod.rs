@@ -263,6 +263,10 @@ pub struct FitReport {
     /// ([`crate::FitSettings::fit`] sets it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_floor: Option<crate::noise::NoiseFloor>,
+    /// When the dataset is one band of a spectral measurement fitted with its other bands:
+    /// how (one shape for all bands, or each on its own), and how many ([`crate::spectral`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bands: Option<crate::spectral::BandsInfo>,
 }
 
 /// Why a fit result could not be read back.
@@ -325,7 +329,7 @@ pub enum ReadError {
 /// --chosen` write it; a test keeps the list equal to the struct's). A reader refuses any
 /// other ([`ReadError::Field`]): consumers that need only the model read whole reports, so
 /// without the list a misspelt key would be skipped as one of the report's own.
-pub const FIT_RESULT_FIELDS: [&str; 23] = [
+pub const FIT_RESULT_FIELDS: [&str; 25] = [
     "dataset",
     "model",
     "params",
@@ -349,6 +353,8 @@ pub const FIT_RESULT_FIELDS: [&str; 23] = [
     "energy",
     "outside_ranges",
     "fitted_table",
+    "noise_floor",
+    "bands",
 ];
 
 impl ReadError {
@@ -646,5 +652,6 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         outside_ranges,
         fitted_table: None,
         noise_floor: None,
+        bands: None,
     }
 }

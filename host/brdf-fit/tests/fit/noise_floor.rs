@@ -209,3 +209,64 @@ fn a_dark_band_of_a_real_paint_fits_with_every_reading() {
     );
     assert!(r.params_array().unwrap().iter().all(|v| v.is_finite()));
 }
+
+/// The 31 bands of a real paint fitted with one shape: every band's nonlinear parameters are
+/// the same, its weights its own; the summed cost is no worse than any band's own shape gives
+/// (the candidates the shared search starts from), and above the sum of the independent
+/// optima (each band free). Independent bands say so.
+#[test]
+fn the_bands_of_a_spectral_file_share_one_shape() {
+    use brdf_fit::spectral::BandShape;
+    let path = brdf_tests::measured("cornell-spectral/garnet_red.astm");
+    let d = import(&path, Format::Cornell, Pick::default()).unwrap().datasets;
+    let settings = FitSettings {
+        bands: BandShape::Shared,
+        ..FitSettings::new(ModelKind::Six)
+    };
+    let t = std::time::Instant::now();
+    let shared: Vec<_> = brdf_fit::fit_streamed(&settings, &d, |_, _| {})
+        .into_iter()
+        .map(Result::unwrap)
+        .collect();
+    let seconds = t.elapsed().as_secs_f64();
+    let independent: Vec<_> = brdf_fit::fit_streamed(
+        &FitSettings {
+            bands: BandShape::Independent,
+            ..settings
+        },
+        &d,
+        |_, _| {},
+    )
+    .into_iter()
+    .map(Result::unwrap)
+    .collect();
+    let shape = |r: &brdf_fit::report::FitReport| {
+        let p = r.params_array().unwrap();
+        [p[1], p[2], p[3], p[5]]
+    };
+    let info = shared[0].bands.clone().unwrap();
+    assert_eq!((info.shape, info.bands), (BandShape::Shared, 31));
+    let total = info.shared_cost.unwrap();
+    let sum_shared: f64 = shared.iter().map(|r| r.cost).sum();
+    let sum_own: f64 = independent.iter().map(|r| r.cost).sum();
+    for (s, i) in shared.iter().zip(&independent) {
+        assert_eq!(shape(s), shape(&shared[0]), "{}", s.dataset);
+        assert_eq!(s.dataset, i.dataset);
+        assert_eq!(i.bands.as_ref().unwrap().shape, BandShape::Independent);
+    }
+    // The projection's summed cost and the bands' own costs at the shared shape agree.
+    assert!((total / sum_shared - 1.0).abs() < 1e-6, "{total} vs {sum_shared}");
+    assert!(
+        sum_shared >= sum_own * (1.0 - 1e-9),
+        "{sum_shared} below the free optimum {sum_own}"
+    );
+    println!(
+        "garnet, 31 bands, six: shared shape {:?}, summed cost {sum_shared:.4} against {sum_own:.4} \
+         with every band free, in {seconds:.1} s; converged {} ({:?})",
+        shape(&shared[0]),
+        shared[0].converged,
+        shared[0].search.not_converged
+    );
+    // The default fits bands independently.
+    assert_eq!(FitSettings::new(ModelKind::Six).bands, BandShape::Independent);
+}

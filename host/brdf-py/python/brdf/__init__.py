@@ -315,7 +315,7 @@ def _pairs(v):
 def _settings(model, seed, residual, engine, options) -> "_brdf.Settings":
     known = {
         "chains", "agree", "hops", "anneal_evals", "loss", "loss_scale", "brightening",
-        "budget_evals", "skip_invalid", "format", "channel", "band", "noise_floor",
+        "budget_evals", "skip_invalid", "format", "channel", "band", "noise_floor", "bands",
     }
     unknown = set(options) - known
     if unknown:
@@ -332,6 +332,7 @@ def _settings(model, seed, residual, engine, options) -> "_brdf.Settings":
         None if o.get("format") is None else _text("format", o["format"]), None if o.get("channel") is None else _text("channel", o["channel"]),
         None if o.get("band") is None else _number("band", o["band"]),
         None if o.get("noise_floor") is None else _number("noise_floor", o["noise_floor"]),
+        None if o.get("bands") is None else _text("bands", o["bands"]),
     )
 
 
@@ -436,7 +437,8 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
     ``anneal_evals``, ``loss``, ``loss_scale``, ``brightening``, ``budget_evals``,
     ``noise_floor`` (1/sr; estimated where readings are at or below zero when not given, 0
     for none), ``skip_invalid``, ``channel``, ``band`` (a wavelength in µm of a spectral
-    file); ``name`` names an array dataset.
+    file), ``bands`` (``independent``, the default, or ``shared``: one shape for all bands
+    of a spectral file, weights per band); ``name`` names an array dataset.
 
     Returns a :class:`FitResult` for one dataset, a list of them for several (a file with
     ``sample``/``wavelength`` columns, or several files).

@@ -1,0 +1,337 @@
+//! Spectral fits: the bands of one measurement fitted with one shape.
+//!
+//! A spectral file (`import` of a Cornell spectral file, a CSV with a `wavelength` column)
+//! gives one dataset per band, `FILE[wavelength=0.55]`. Fitted band by band the shape
+//! parameters jump between neighbouring bands where a band says little about them (dark
+//! bands, a weak lobe), although the surface's geometry does not change with wavelength. The
+//! dichromatic form shares the **shape** — the nonlinear parameters (`kr`, `b`, `a`, `c`; the
+//! microfacet `alpha`, `f0`; Minnaert's `k`) — across the bands of one measurement, and keeps
+//! the **weights** the model is linear in (`kb`, `kd`; `rho0`) per band. Variable projection
+//! already solves the weights exactly for a shape, band by band, so the shared fit searches
+//! the shape alone on the summed cost `F(shape) = sum over bands of min_weights cost_band`:
+//!
+//! 1. every band's own fit (the full search, in parallel) gives a candidate shape;
+//! 2. `F` is evaluated at each candidate; the [`STARTS`] best are polished by Nelder–Mead on
+//!    `F` in the search box (each restarted once from where it ended);
+//! 3. each band's report is that of its weights at the best shape.
+//!
+//! "Converged" holds when at least two polishes from different candidates reach the best
+//! `F` within [`crate::fit::AGREEMENT`] and every band's own fit converged; otherwise the
+//! reports say why not. Only with the full engine and least squares: a robust loss (whose
+//! reweighting the shared polish would not see) and the embedded engine fit bands
+//! independently.
+//!
+//! **Not the default**: judged by held-out error (`cargo run --release -p brdf-fit --example
+//! spectral_holdout`), one shape predicts the held-out directions of every band of both
+//! bundled paints worse than each band's own fit (median over bands 62.4% against 57.1% for
+//! Garnet Red, 41.1% against 40.1% for Krylon Blue, six-parameter model): the bands' shapes
+//! differ more than their noise. Sharing is for a device that stores one shape per
+//! material, or a spectrum too noisy band by band.
+
+use brdf_core::{ModelKind, MAX_PARAMS};
+use serde::{Deserialize, Serialize};
+
+use crate::fit::{FitOutcome, SearchSummary, AGREEMENT};
+use crate::kernel::{assemble, to_internal, to_natural};
+use crate::problem::{nonlinear_indices, Problem};
+use crate::report::FitReport;
+
+/// How the bands of one measurement are fitted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BandShape {
+    /// One shape for all bands, weights per band.
+    Shared,
+    /// Every band on its own (the default: it predicts held-out directions better on the
+    /// bundled spectral paints, see the module docs).
+    #[default]
+    Independent,
+}
+
+impl brdf_core::names::Named for BandShape {
+    const WHAT: &'static str = "bands";
+    const ALL: &'static [BandShape] = &[BandShape::Shared, BandShape::Independent];
+    /// Name on the command line, in Python and in results.
+    fn name(self) -> &'static str {
+        match self {
+            BandShape::Shared => "shared",
+            BandShape::Independent => "independent",
+        }
+    }
+}
+
+brdf_core::named_str!(BandShape);
+
+/// Candidate shapes polished by Nelder–Mead.
+pub const STARTS: usize = 3;
+
+/// What a band's report says about the fit it is part of.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BandsInfo {
+    /// `shared` or `independent`.
+    pub shape: BandShape,
+    /// Bands fitted together (this one included).
+    pub bands: usize,
+    /// The summed cost `F` of all bands at the shared shape (shared fits only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shared_cost: Option<f64>,
+}
+
+/// The datasets that are bands of one measurement: groups of indices (in input order) whose
+/// names differ only in their `wavelength=` group, two or more bands each.
+pub fn families(names: &[&str]) -> Vec<Vec<usize>> {
+    let key = |name: &str| -> Option<String> {
+        let (file, group) = name.rsplit_once('[')?;
+        let group = group.strip_suffix(']')?;
+        let rest: Vec<&str> = group
+            .split(',')
+            .filter(|g| !g.starts_with("wavelength="))
+            .collect();
+        (rest.len() < group.split(',').count()).then(|| format!("{file}[{}]", rest.join(",")))
+    };
+    let mut out: Vec<(String, Vec<usize>)> = Vec::new();
+    for (i, n) in names.iter().enumerate() {
+        if let Some(k) = key(n) {
+            match out.iter_mut().find(|(f, _)| *f == k) {
+                Some((_, members)) => members.push(i),
+                None => out.push((k, vec![i])),
+            }
+        }
+    }
+    out.into_iter().map(|(_, m)| m).filter(|m| m.len() > 1).collect()
+}
+
+/// The summed projected cost of `problems` at nonlinear parameters `nl`, and each band's
+/// weights there.
+fn shared_cost(problems: &[&Problem], nl: &[f64]) -> (f64, Vec<[f64; 2]>) {
+    let mut total = 0.0;
+    let mut lins = Vec::with_capacity(problems.len());
+    for p in problems {
+        let (lin, cost) = p.project(nl);
+        total += cost;
+        lins.push(lin);
+    }
+    (total, lins)
+}
+
+/// Nelder–Mead on `f` over the unit cube (coordinates clamped into it), from `x0`; returns the
+/// best point, its value, and whether the simplex met the tolerance (not the iteration limit
+/// or a stop).
+fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], stop: &dyn Fn() -> bool) -> (Vec<f64>, f64, bool) {
+    let d = x0.len();
+    let clamp = |x: Vec<f64>| -> Vec<f64> { x.into_iter().map(|v| v.clamp(0.0, 1.0)).collect() };
+    let mut simplex: Vec<(Vec<f64>, f64)> = Vec::with_capacity(d + 1);
+    simplex.push((x0.to_vec(), f(x0)));
+    for j in 0..d {
+        let mut x = x0.to_vec();
+        x[j] += if x[j] > 0.5 { -0.05 } else { 0.05 };
+        let fx = f(&x);
+        simplex.push((x, fx));
+    }
+    let mut met = false;
+    for _ in 0..400 * d.max(1) {
+        if stop() {
+            break;
+        }
+        simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let (best, worst) = (simplex[0].1, simplex[d].1);
+        let size = simplex[1..]
+            .iter()
+            .flat_map(|(x, _)| x.iter().zip(&simplex[0].0).map(|(a, b)| (a - b).abs()))
+            .fold(0.0_f64, f64::max);
+        if (worst - best).abs() <= 1e-13 * best.abs().max(f64::MIN_POSITIVE) && size < 1e-9 {
+            met = true;
+            break;
+        }
+        let centroid: Vec<f64> = (0..d)
+            .map(|j| simplex[..d].iter().map(|(x, _)| x[j]).sum::<f64>() / d as f64)
+            .collect();
+        let along = |t: f64| -> Vec<f64> {
+            clamp(
+                centroid
+                    .iter()
+                    .zip(&simplex[d].0)
+                    .map(|(c, w)| c + t * (c - w))
+                    .collect(),
+            )
+        };
+        let xr = along(1.0);
+        let fr = f(&xr);
+        if fr < simplex[0].1 {
+            let xe = along(2.0);
+            let fe = f(&xe);
+            simplex[d] = if fe < fr { (xe, fe) } else { (xr, fr) };
+        } else if fr < simplex[d - 1].1 {
+            simplex[d] = (xr, fr);
+        } else {
+            let xc = along(if fr < simplex[d].1 { 0.5 } else { -0.5 });
+            let fc = f(&xc);
+            if fc < simplex[d].1.min(fr) {
+                simplex[d] = (xc, fc);
+            } else {
+                let x0 = simplex[0].0.clone();
+                for (x, fx) in simplex.iter_mut().skip(1) {
+                    *x = x.iter().zip(&x0).map(|(a, b)| b + 0.5 * (a - b)).collect();
+                    *fx = f(x);
+                }
+            }
+        }
+    }
+    simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let (x, fx) = simplex.swap_remove(0);
+    (x, fx, met)
+}
+
+/// The shared-shape fit of `problems` (the bands of one measurement, same model and settings)
+/// from their own fits `own` (one outcome per band): one outcome per band, each with its
+/// weights at the best shape, and the summed cost there.
+pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64) {
+    let started = std::time::Instant::now();
+    let kind: ModelKind = problems[0].kind();
+    let idx = nonlinear_indices(kind);
+    let (lo, hi) = problems[0].bounds();
+    let d = idx.len();
+    let to_u = |q: &[f64; MAX_PARAMS]| -> Vec<f64> {
+        idx.iter()
+            .map(|&j| ((q[j] - lo[j]) / (hi[j] - lo[j])).clamp(0.0, 1.0))
+            .collect()
+    };
+    let to_nl = |u: &[f64]| -> Vec<f64> {
+        idx.iter()
+            .zip(u)
+            .map(|(&j, &v)| lo[j] + (hi[j] - lo[j]) * v)
+            .collect()
+    };
+    let evals = std::cell::Cell::new(0usize);
+    let f = |u: &[f64]| {
+        evals.set(evals.get() + 1);
+        shared_cost(problems, &to_nl(u)).0
+    };
+    let stop = || problems.iter().any(|p| p.stopped());
+    // Candidates: every band's own shape, ranked by the summed cost.
+    let mut candidates: Vec<(Vec<f64>, f64)> = own
+        .iter()
+        .map(|o| {
+            let u = to_u(&to_internal(kind, &o.params[..kind.param_count()]));
+            let fu = f(&u);
+            (u, fu)
+        })
+        .collect();
+    candidates.sort_by(|a, b| a.1.total_cmp(&b.1));
+    candidates.dedup_by(|a, b| a.0 == b.0);
+    let polished: Vec<(Vec<f64>, f64, bool)> = if d == 0 {
+        vec![(Vec::new(), candidates[0].1, true)]
+    } else {
+        candidates
+            .iter()
+            .take(STARTS)
+            .map(|(u, _)| {
+                // Restarted once from its own end: a simplex that collapsed early moves on.
+                let (u1, _, _) = nelder_mead(&f, u, &stop);
+                nelder_mead(&f, &u1, &stop)
+            })
+            .collect()
+    };
+    let best = polished
+        .iter()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .expect("at least one candidate");
+    let agreeing = polished
+        .iter()
+        .filter(|p| (p.1 - best.1).abs() <= AGREEMENT * best.1.abs().max(f64::MIN_POSITIVE))
+        .count();
+    let nl = to_nl(&best.0);
+    let (total, lins) = shared_cost(problems, &nl);
+    let why_not = if stop() {
+        Some("the fit was stopped before its search ended".to_owned())
+    } else if let Some(k) = own.iter().position(|o| !o.converged) {
+        Some(format!(
+            "band {} of {}: its own fit, a candidate shape, did not converge",
+            k + 1,
+            own.len()
+        ))
+    } else if d > 0 && polished.len() > 1 && agreeing < 2 {
+        Some(format!(
+            "{agreeing} of {} shape polishes reached the best summed cost",
+            polished.len()
+        ))
+    } else if !best.2 {
+        Some("the shape polish met its iteration limit".to_owned())
+    } else {
+        None
+    };
+    let seconds = started.elapsed().as_secs_f64();
+    let outcomes = problems
+        .iter()
+        .zip(&lins)
+        .zip(own)
+        .map(|((p, lin), o)| {
+            let mut q = assemble(kind, &nl, *lin);
+            for j in 0..kind.param_count() {
+                q[j] = q[j].clamp(lo[j], hi[j]);
+            }
+            FitOutcome {
+                kind,
+                q,
+                params: to_natural(kind, &q[..kind.param_count()]),
+                cost: p.cost(&q),
+                chain_costs: polished.iter().map(|p| p.1).collect(),
+                evals: o.evals + evals.get(),
+                converged: why_not.is_none(),
+                search: SearchSummary {
+                    chains: o.search.chains,
+                    lobe_probes: o.search.lobe_probes,
+                    hops: o.search.hops,
+                    agreeing,
+                    not_converged: why_not.clone(),
+                },
+                seconds: o.seconds + seconds,
+            }
+        })
+        .collect();
+    (outcomes, total)
+}
+
+/// The bands info of the reports of a family fitted with `shape` (see [`BandsInfo`]).
+pub fn mark(reports: &mut [FitReport], shape: BandShape, shared_cost: Option<f64>) {
+    let bands = reports.len();
+    for r in reports {
+        r.bands = Some(BandsInfo {
+            shape,
+            bands,
+            shared_cost,
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn families_are_the_bands_of_one_file_and_sample() {
+        let names = [
+            "a.csv[wavelength=0.4]",
+            "b.csv",
+            "a.csv[wavelength=0.5]",
+            "a.csv[sample=x,wavelength=0.4]",
+            "a.csv[sample=x,wavelength=0.5]",
+            "a.csv[sample=y,wavelength=0.4]",
+            "c.csv[wavelength=0.4]",
+            "a.csv[sample=x]",
+        ];
+        assert_eq!(families(&names), vec![vec![0, 2], vec![3, 4]]);
+    }
+
+    #[test]
+    fn nelder_mead_finds_a_smooth_minimum_in_the_box() {
+        let f = |x: &[f64]| (x[0] - 0.3).powi(2) + 10.0 * (x[1] - 0.7).powi(2) + 1.0;
+        let (x, fx, met) = nelder_mead(&f, &[0.9, 0.1], &|| false);
+        assert!(met && (fx - 1.0).abs() < 1e-12, "{fx}");
+        assert!((x[0] - 0.3).abs() < 1e-5 && (x[1] - 0.7).abs() < 1e-5, "{x:?}");
+        // A minimum outside the box ends on its face.
+        let g = |x: &[f64]| (x[0] + 1.0).powi(2) + (x[1] - 0.5).powi(2);
+        let (x, _, _) = nelder_mead(&g, &[0.5, 0.5], &|| false);
+        assert!(x[0] == 0.0 && (x[1] - 0.5).abs() < 1e-5, "{x:?}");
+    }
+}
