@@ -89,8 +89,7 @@ impl AngleReader {
         let file = path.display().to_string();
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(true)
-            .from_path(path)
-            .with_context(|| format!("cannot open {file}"))?;
+            .from_reader(brdf_fit::data::open_input(path).with_context(|| format!("cannot open {file}"))?);
         let headers = reader
             .headers()
             .with_context(|| format!("{file}: cannot read the header row"))?

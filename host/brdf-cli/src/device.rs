@@ -71,7 +71,8 @@ impl DeviceArgs {
         let mut link = Link::new(transport);
         let loaded = match &self.blob {
             Some(path) => {
-                let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+                let bytes = brdf_fit::data::read_input_bytes(path)
+                    .with_context(|| format!("cannot read {}", path.display()))?;
                 let blob = Blob::decode(&bytes).map_err(|e| anyhow!("{}: {e}", path.display()))?;
                 link.load(&bytes)
                     .with_context(|| format!("the device refused {}", path.display()))?;

@@ -88,7 +88,8 @@ impl EvalCmd {
         let (kind, params) = match (&self.fit, self.model, &self.params) {
             (Some(path), _, _) => {
                 let shown = path.display().to_string();
-                let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {shown}"))?;
+                let text =
+                    brdf_fit::data::read_input(path).with_context(|| format!("cannot read {shown}"))?;
                 let one = brdf_fit::report::FittedModel::one_of(&text, &shown, self.index)
                     .map_err(|e| anyhow!(e))?;
                 table = one.table;

@@ -41,7 +41,8 @@ fn default_hardware_elf() -> PathBuf {
 impl FlashCmd {
     pub fn run(self) -> Result<()> {
         let file = self.blob.display().to_string();
-        let bytes = std::fs::read(&self.blob).with_context(|| format!("cannot read {file}"))?;
+        let bytes =
+            brdf_fit::data::read_input_bytes(&self.blob).with_context(|| format!("cannot read {file}"))?;
         let blob = Blob::decode(&bytes).map_err(|e| anyhow!("{file}: {e}"))?;
         let elf = self.elf.clone().unwrap_or_else(default_hardware_elf);
         let map = SlotMap::from_elf(&elf)?;

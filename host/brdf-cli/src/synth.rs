@@ -67,6 +67,20 @@ impl SynthCmd {
                 "--step must be in [0.01, 90) and --phi-step in [0.01, 180] degrees"
             ));
         }
+        // The points are made in memory (56 bytes each) before they are written: bounded.
+        let per_incidence = match self.form {
+            Form::InPlane => synth::theta_s_grid(self.step).len() as f64,
+            Form::Full => {
+                (((90.0 - 1e-9) / self.step).floor() + 1.0) * ((180.0 / self.phi_step).floor() + 1.0)
+            }
+        };
+        let points = per_incidence * theta_i.len() as f64;
+        if points > MAX_SYNTH_POINTS as f64 {
+            return Err(anyhow!(
+                "{points:.3e} points asked for (incidences x directions); at most {MAX_SYNTH_POINTS:.0e}: \
+                 use coarser steps or fewer incidences"
+            ));
+        }
         let invalid = |e| anyhow!("invalid parameters for model {}: {e}", self.model.name());
         let stdout = std::io::stdout();
         let mut w = csv::Writer::from_writer(std::io::BufWriter::new(stdout.lock()));
@@ -112,6 +126,11 @@ impl SynthCmd {
         Ok(())
     }
 }
+
+/// Most points `brdf synth` makes (about 0.6 GB while they are made): a 1-degree
+/// full-hemisphere grid (16,290 directions) at every whole incidence from 0 to 89 is 1.47
+/// million.
+pub const MAX_SYNTH_POINTS: usize = 10_000_000;
 
 /// Degrees, rounded to 1e-9 so that grid angles print as written.
 fn fmt_angle(rad: f64) -> String {

@@ -272,7 +272,7 @@ impl Point {
     /// `|phi|` at most [`PHI_LIMIT_DEG`],
     /// `brdf > 0` (any sign with `dark_readings`) and, unless 0, its magnitude in
     /// [`BRDF_MAGNITUDE`], `sigma` and
-    /// `weight` above 0; `line` is where it came from.
+    /// `weight` above 0 and in [`BRDF_MAGNITUDE`]; `line` is where it came from.
     pub fn from_degrees(r: RowDegrees, dark_readings: bool, line: u64) -> Result<Point, RowError> {
         let finite = |v: f64, column| {
             if v.is_finite() {
@@ -312,9 +312,16 @@ impl Point {
             "brdf",
             "[1e-100, 1e100] 1/sr in magnitude (is the unit right?)",
         )?;
+        // Above 0 and within the magnitudes a BRDF may have: a `sigma` of 1e160 made every
+        // squared residual underflow to 0 and a fit of garbage "converged" at cost 0.
         let positive = |v: Option<f64>, column| -> Result<Option<f64>, RowError> {
             match v {
-                Some(v) => Ok(Some(in_range(finite(v, column)?, v > 0.0, column, "> 0")?)),
+                Some(v) => Ok(Some(in_range(
+                    finite(v, column)?,
+                    v > 0.0 && BRDF_MAGNITUDE.contains(&v),
+                    column,
+                    "[1e-100, 1e100] (above 0; is the unit right?)",
+                )?)),
                 None => Ok(None),
             }
         };
@@ -491,8 +498,10 @@ pub fn load_csv(path: &Path, opts: LoadOptions) -> Result<Loaded, DataError> {
     let file = path.display().to_string();
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(true)
-        .from_path(path)
-        .map_err(|e| csv_error(&file, e))?;
+        .from_reader(open_input(path).map_err(|source| DataError::Io {
+            file: file.clone(),
+            source,
+        })?);
     let headers = reader.headers().map_err(|e| csv_error(&file, e))?.clone();
     if headers.iter().all(|h| h.trim().is_empty()) {
         return Err(DataError::Empty { file });
@@ -535,13 +544,19 @@ pub fn load_csv(path: &Path, opts: LoadOptions) -> Result<Loaded, DataError> {
                 return Err(err);
             }
         };
-        let mut key = Vec::new();
-        for (idx, name) in [(cols.sample, "sample"), (cols.wavelength, "wavelength")] {
-            if let Some(i) = idx {
-                key.push(format!("{name}={}", record.get(i).unwrap_or("").trim()));
+        let key = match group_key(&record, &cols) {
+            Ok(key) => key,
+            Err(message) => {
+                if opts.skip_invalid {
+                    skipped.push(Skipped {
+                        line,
+                        reason: message,
+                    });
+                    continue;
+                }
+                return Err(DataError::Csv { file, line, message });
             }
-        }
-        let key = key.join(",");
+        };
         let slot = *group_index.entry(key.clone()).or_insert_with(|| {
             groups.push((key, Vec::new()));
             groups.len() - 1
@@ -568,6 +583,64 @@ pub fn load_csv(path: &Path, opts: LoadOptions) -> Result<Loaded, DataError> {
         })
         .collect();
     Ok(Loaded { datasets, skipped })
+}
+
+/// Opens an input file: a regular file (or a link to one) only. A device, a directory or a
+/// pipe is refused before it is opened: `/dev/zero` read as data grew without bound until the
+/// process aborted, and opening a pipe waited for a writer forever. Every reader of a user's
+/// file (data, fit results, blobs, scenes, direction lists) opens it here; what it reads is
+/// then bounded by the file's size.
+pub fn open_input(path: &Path) -> std::io::Result<std::fs::File> {
+    if !std::fs::metadata(path)?.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file (a device, a directory or a pipe)",
+        ));
+    }
+    std::fs::File::open(path)
+}
+
+/// [`open_input`] read whole as text.
+pub fn read_input(path: &Path) -> std::io::Result<String> {
+    std::io::read_to_string(open_input(path)?)
+}
+
+/// [`open_input`] read whole as bytes.
+pub fn read_input_bytes(path: &Path) -> std::io::Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    std::io::Read::read_to_end(&mut open_input(path)?, &mut bytes)?;
+    Ok(bytes)
+}
+
+/// A wavelength as dataset names and messages print it: to the femtometre (in µm), shortest
+/// form, so that one band has one name however a file writes it.
+pub fn wavelength_text(um: f64) -> String {
+    brdf_core::Compact((um * 1e9).round() / 1e9).to_string()
+}
+
+/// The dataset a row belongs to: `sample=..,wavelength=..` from its columns. A sample is any
+/// text but empty; a wavelength a number above 0, grouped by value (0.5, 0.50 and 5e-1 are one
+/// band; they were three datasets, each fitted on a third of the data), written in its
+/// shortest form to the femtometre.
+fn group_key(record: &csv::StringRecord, cols: &Columns) -> Result<String, String> {
+    let mut key = Vec::new();
+    if let Some(i) = cols.sample {
+        let text = record.get(i).unwrap_or("").trim();
+        if text.is_empty() {
+            return Err("column sample: empty (name the sample of every row)".to_owned());
+        }
+        key.push(format!("sample={text}"));
+    }
+    if let Some(i) = cols.wavelength {
+        let text = record.get(i).unwrap_or("").trim();
+        match text.parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => {
+                key.push(format!("wavelength={}", wavelength_text(v)));
+            }
+            _ => return Err(format!("column wavelength: `{text}` is not a wavelength above 0")),
+        }
+    }
+    Ok(key.join(","))
 }
 
 fn csv_error(file: &str, e: csv::Error) -> DataError {
@@ -641,7 +714,7 @@ mod tests {
         duplicate_column: "theta_i,theta_r,phi,brdf,phi\n0,0,0,1,0\n" => "column `phi` appears twice";
         sigma_and_weight: "theta_i,theta_r,phi,brdf,sigma,weight\n0,0,0,1,1,1\n" => "`sigma` and `weight`";
         short_row: "theta_i,theta_r,phi,brdf\n0,0,0\n" => "line 2: found 3 fields, expected 4";
-        zero_sigma: "theta_i,theta_r,phi,brdf,sigma\n0,0,0,1,0\n" => "column sigma: 0 is outside > 0";
+        zero_sigma: "theta_i,theta_r,phi,brdf,sigma\n0,0,0,1,0\n" => "column sigma: 0 is outside [1e-100, 1e100] (above 0";
         zero_bytes: "" => "empty file";
         theta_s_and_phi: "theta_i,theta_s,phi,brdf\n10,20,77,0.1\n" => "`theta_s` and `phi` cannot be used together";
     }
@@ -752,5 +825,50 @@ mod tests {
         assert!(l.skipped[0].reason.contains("`bad` is not a number"));
         let total: usize = l.datasets.iter().map(|d| d.points.len()).sum();
         assert_eq!(total + l.skipped.len(), 4, "every row is used or listed");
+    }
+
+    /// A band written three ways was three datasets, each fitted on a third of the data; a
+    /// wavelength that is not one, or an empty sample, formed a dataset of its own.
+    #[test]
+    fn a_band_is_one_dataset_however_written_and_bad_groups_are_refused() {
+        let text =
+            "wavelength,theta_i,theta_r,phi,brdf\n0.5,0,0,0,1\n0.50,0,10,0,1\n5e-1,0,20,0,1\n0.6,0,0,0,1\n";
+        let (_f, r) = load(text, LoadOptions::default());
+        let l = r.unwrap();
+        let names: Vec<&str> = l
+            .datasets
+            .iter()
+            .map(|d| d.name.rsplit_once('[').unwrap().1)
+            .collect();
+        assert_eq!(names, ["wavelength=0.5]", "wavelength=0.6]"]);
+        assert_eq!(l.datasets[0].points.len(), 3);
+        for (bad, says) in [
+            ("nan", "wavelength: `nan`"),
+            ("inf", "wavelength: `inf`"),
+            ("-1", "wavelength: `-1`"),
+            ("", "wavelength: ``"),
+        ] {
+            let (_f, r) = load(
+                &format!("wavelength,theta_i,theta_r,phi,brdf\n0.5,0,0,0,1\n{bad},0,10,0,1\n"),
+                LoadOptions::default(),
+            );
+            let e = r.unwrap_err().to_string();
+            assert!(e.contains("line 3") && e.contains(says), "{bad}: {e}");
+        }
+        let (_f, r) = load(
+            "sample,theta_i,theta_r,phi,brdf\nA,0,0,0,1\n ,0,10,0,1\n",
+            LoadOptions::default(),
+        );
+        let e = r.unwrap_err().to_string();
+        assert!(e.contains("line 3") && e.contains("sample: empty"), "{e}");
+        // sigma and weight within the magnitudes a BRDF may have.
+        for col in ["sigma", "weight"] {
+            let (_f, r) = load(
+                &format!("theta_i,theta_r,phi,brdf,{col}\n0,0,0,1,1e160\n"),
+                LoadOptions::default(),
+            );
+            let e = r.unwrap_err().to_string();
+            assert!(e.contains(col) && e.contains("[1e-100, 1e100]"), "{e}");
+        }
     }
 }

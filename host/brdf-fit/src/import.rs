@@ -20,7 +20,7 @@ use std::path::Path;
 
 use brdf_core::names::Named;
 
-use crate::data::{DataError, Dataset, Point, Skipped};
+use crate::data::{wavelength_text as um_text, DataError, Dataset, Point, Skipped};
 
 /// Supported source formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -223,7 +223,7 @@ fn unsign(zenith: f64, azimuth: f64) -> (f64, f64) {
 }
 
 fn read_text(path: &Path) -> Result<String, DataError> {
-    std::fs::read_to_string(path).map_err(|source| DataError::Io {
+    crate::data::read_input(path).map_err(|source| DataError::Io {
         file: path.display().to_string(),
         source,
     })
@@ -324,11 +324,6 @@ pub fn wavelength_column(name: &str) -> Option<f64> {
 /// shortest round-trip form.
 fn band_name(um: f64) -> String {
     format!("wavelength={}", um_text(um))
-}
-
-/// A wavelength in µm as names and messages print it: to the femtometre, shortest form.
-fn um_text(um: f64) -> String {
-    brdf_core::Compact((um * 1e9).round() / 1e9).to_string()
 }
 
 /// Classifies the `VARS` columns after the angles: all colour channels or all bands, each

@@ -287,7 +287,7 @@ pub fn pack(
         let (file, fits) = match *source {
             FitSource::File(path) => {
                 let file = path.display().to_string();
-                let text = std::fs::read_to_string(path).map_err(|error| PackError::Read {
+                let text = crate::data::read_input(path).map_err(|error| PackError::Read {
                     file: file.clone(),
                     error,
                 })?;

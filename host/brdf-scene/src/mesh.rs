@@ -324,12 +324,13 @@ impl Mesh {
         if triangles.is_empty() {
             return Err(MeshError::Empty { file: name });
         }
-        // Weld bit-identical positions.
+        // Weld bit-identical positions, -0 and 0 as one (exporters write `-0.000000`: a
+        // corner split in two opened a closed shell, and its winding went unchecked).
         let mut map: HashMap<[u64; 3], u32> = HashMap::new();
         let mut welded: Vec<[f64; 3]> = Vec::new();
         let mut remap = Vec::with_capacity(vertices.len());
         for v in &vertices {
-            let key = [v[0].to_bits(), v[1].to_bits(), v[2].to_bits()];
+            let key = [v[0] + 0.0, v[1] + 0.0, v[2] + 0.0].map(f64::to_bits);
             let id = *map.entry(key).or_insert_with(|| {
                 welded.push(*v);
                 (welded.len() - 1) as u32
@@ -582,11 +583,18 @@ impl Mesh {
         let mut volume = vec![0.0f64; n];
         let mut lo = vec![[f64::INFINITY; 3]; n];
         let mut hi = vec![[f64::NEG_INFINITY; 3]; n];
+        // The signed volume about a point of each shell, not about the origin: at geocentric
+        // coordinates (6.4e6 m) the terms about the origin cancel to rounding noise larger
+        // than a small shell's volume (a 0.5 m cube read as -1.35 m^3, its inverse as
+        // positive).
+        let mut anchor: Vec<Option<[f64; 3]>> = vec![None; n];
         for (k, f) in self.facets.iter().enumerate() {
             let r = root(&mut parent, k);
             let v = f.vertices;
             let p = v.map(|i| self.vertices[i as usize]);
-            volume[r] += v3::dot(p[0], v3::cross(p[1], p[2])) / 6.0;
+            let o = *anchor[r].get_or_insert(p[0]);
+            let q = p.map(|x| v3::sub(x, o));
+            volume[r] += v3::dot(q[0], v3::cross(q[1], q[2])) / 6.0;
             for q in p {
                 for c in 0..3 {
                     lo[r][c] = lo[r][c].min(q[c]);
@@ -717,6 +725,19 @@ impl Mesh {
                          or join its solids into one)",
                         solids.len()
                     ),
+                ));
+            }
+            // Facets after the first `endsolid` (without a second `solid`) were dropped too.
+            if let Some((k, _)) = text
+                .lines()
+                .enumerate()
+                .skip_while(|(_, l)| l.split_whitespace().next() != Some("endsolid"))
+                .skip(1)
+                .find(|(_, l)| !l.trim().is_empty())
+            {
+                return Err(refuse(
+                    Origin::Line(k as u64 + 1),
+                    "text after `endsolid`: one solid per STL file, nothing after it".to_owned(),
                 ));
             }
         } else if let (Some(count), false) = (count, binary) {
@@ -1054,6 +1075,60 @@ mod tests {
         std::fs::write(&p, format!("{a}{b}")).unwrap();
         let e = Mesh::load(&p).unwrap_err().to_string();
         assert!(e.contains("line 10") && e.contains("second `solid`"), "{e}");
+        // Facets after the first `endsolid`, with no second `solid`, were dropped in silence.
+        let tail = b.replace("solid b\n", "").replace("endsolid b\n", "");
+        std::fs::write(&p, format!("{a}{tail}")).unwrap();
+        let e = Mesh::load(&p).unwrap_err().to_string();
+        assert!(e.contains("line 10") && e.contains("after `endsolid`"), "{e}");
+        std::fs::write(&p, format!("{a}\n  \n")).unwrap();
+        assert_eq!(
+            Mesh::load(&p).unwrap().facets.len(),
+            1,
+            "blank lines after it are fine"
+        );
+    }
+
+    /// An inside-out cube written with one corner as `-0` was welded as an open shell (its
+    /// winding unchecked); one at geocentric coordinates had a signed volume of rounding noise
+    /// (the right winding refused, the inverse accepted). Both are checked now.
+    #[test]
+    fn an_inside_out_shell_is_found_whatever_its_zeros_and_its_offset() {
+        let cube = |o: [f64; 3], h: f64, inside_out: bool, neg_zero: bool| -> String {
+            let mut t = String::new();
+            for k in 0..8 {
+                let c = [k & 1, (k >> 1) & 1, (k >> 2) & 1].map(|b| b as f64 * h);
+                let p: Vec<String> = (0..3)
+                    .map(|i| {
+                        let v = o[i] + c[i];
+                        if neg_zero && k == 0 && i == 0 && v == 0.0 {
+                            "-0".to_owned()
+                        } else {
+                            format!("{v}")
+                        }
+                    })
+                    .collect();
+                t += &format!("v {}\n", p.join(" "));
+            }
+            // Outward (counter-clockwise from outside) faces of the unit cube.
+            for f in ["1 3 4 2", "5 6 8 7", "1 2 6 5", "3 7 8 4", "1 5 7 3", "2 4 8 6"] {
+                let mut ids: Vec<&str> = f.split(' ').collect();
+                if inside_out {
+                    ids.reverse();
+                }
+                t += &format!("f {}\n", ids.join(" "));
+            }
+            t
+        };
+        assert!(obj(&cube([0.0; 3], 1.0, false, true)).is_ok());
+        let e = obj(&cube([0.0; 3], 1.0, true, true)).unwrap_err().to_string();
+        assert!(e.contains("negative volume"), "{e}");
+        let far = [6.4e6, 1.0e5, 3.0e5];
+        assert!(
+            obj(&cube(far, 0.5, false, false)).is_ok(),
+            "an outward cube far from the origin"
+        );
+        let e = obj(&cube(far, 0.5, true, false)).unwrap_err().to_string();
+        assert!(e.contains("negative volume"), "{e}");
     }
 
     /// A device is refused unread, whatever its name says (`/dev/zero` was read until memory

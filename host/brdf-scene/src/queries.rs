@@ -369,10 +369,15 @@ pub fn read_directions(path: &Path) -> Result<Vec<Direction>, DirectionsError> {
         file: file.clone(),
         message: e.to_string(),
     };
-    let mut r = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .from_path(path)
-        .map_err(csv_err)?;
+    let mut r =
+        csv::ReaderBuilder::new()
+            .has_headers(true)
+            .from_reader(
+                brdf_fit::data::open_input(path).map_err(|e| DirectionsError::Csv {
+                    file: file.clone(),
+                    message: e.to_string(),
+                })?,
+            );
     let headers = r.headers().map_err(csv_err)?.clone();
     let find = |name: &str, required: bool| -> Result<Option<usize>, DirectionsError> {
         let mut hits = headers.iter().enumerate().filter(|(_, h)| h.trim() == name);

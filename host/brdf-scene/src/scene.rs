@@ -368,7 +368,7 @@ impl Scene {
     /// the scene file).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        let text = brdf_fit::data::read_input(path).map_err(|source| SceneError::Io {
             file: file.clone(),
             source,
         })?;
@@ -584,7 +584,7 @@ fn resolve_material(
     if let Some(fit) = &e.fit {
         let path = dir.join(fit.get_ref());
         let shown = path.display().to_string();
-        let text = std::fs::read_to_string(&path)
+        let text = brdf_fit::data::read_input(&path)
             .map_err(|err| field(fit.span(), "fit", format!("{shown}: {err}")))?;
         let one = FittedModel::one_of(&text, &shown, index).map_err(|m| field(fit.span(), "fit", m))?;
         return Ok((
@@ -596,7 +596,8 @@ fn resolve_material(
     let blob = e.blob.as_ref().expect("exactly one source is given");
     let path = dir.join(blob.get_ref());
     let shown = path.display().to_string();
-    let bytes = std::fs::read(&path).map_err(|err| field(blob.span(), "blob", format!("{shown}: {err}")))?;
+    let bytes = brdf_fit::data::read_input_bytes(&path)
+        .map_err(|err| field(blob.span(), "blob", format!("{shown}: {err}")))?;
     let decoded = brdf_wire::blob::Blob::decode(&bytes)
         .map_err(|err| field(blob.span(), "blob", format!("{shown}: {err}")))?;
     let n = decoded.materials.len();

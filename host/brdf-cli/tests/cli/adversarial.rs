@@ -835,3 +835,55 @@ fn fit_refuses_repeated_directions() {
     let out = run(&["fit", "--model", "lambert", f.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
 }
+
+/// `/dev/zero` read as data grew without bound until the process aborted, and a named pipe
+/// was waited on forever: every input a command reads is refused unless it is a regular file,
+/// naming it, within seconds.
+#[test]
+fn devices_and_pipes_are_refused_as_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("pipe.csv");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let scene = |key: &str, value: &str| {
+        let p = dir.path().join(format!("{key}.toml"));
+        std::fs::write(
+            &p,
+            format!(
+                "mesh = \"{mesh}\"\n\n[[material]]\npart = \"*\"\n{key} = \"{value}\"\n\n[sensor]\nmode = \"monostatic\"\nazimuth_deg = [0, 10, 5]\nelevation_deg = [0, 1, 1]\n",
+                mesh = format!("{}/../../data/scenes/target.obj", env!("CARGO_MANIFEST_DIR"))
+            ),
+        )
+        .unwrap();
+        p.display().to_string()
+    };
+    let angles = dir.path().join("angles.csv");
+    std::fs::write(&angles, "theta_i,theta_r,phi\n10,10,0\n").unwrap();
+    let angles = angles.display().to_string();
+    for input in ["/dev/zero", fifo.to_str().unwrap()] {
+        let fit_scene = scene("fit", input);
+        let blob_scene = scene("blob", input);
+        for args in [
+            vec!["fit", input],
+            vec!["select", input],
+            vec!["pack", input, "-o", "/dev/null"],
+            vec!["eval", "--fit", input, &angles],
+            vec!["eval", "--model", "lambert", "--params", "rho0=0.5", input],
+            vec!["scene", "lrcs", input],
+            vec!["scene", "lrcs", &fit_scene],
+            vec!["scene", "lrcs", &blob_scene],
+        ] {
+            let child = brdf()
+                .args(&args)
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap();
+            let out = finish_within(child, Duration::from_secs(20), &format!("{args:?}"));
+            let err = text(&out.stderr);
+            assert!(
+                !out.status.success() && err.contains("not a regular file"),
+                "{args:?}: {err}"
+            );
+        }
+    }
+}
