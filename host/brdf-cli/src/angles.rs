@@ -77,7 +77,7 @@ impl Chunk {
 #[derive(Debug)]
 pub struct AngleReader {
     file: String,
-    reader: csv::Reader<std::fs::File>,
+    reader: csv::Reader<brdf_fit::data::LineBounded<std::fs::File>>,
     headers: csv::StringRecord,
     cols: [usize; 3],
     record: csv::StringRecord,
@@ -89,7 +89,7 @@ impl AngleReader {
         let file = path.display().to_string();
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(true)
-            .from_reader(brdf_fit::data::open_input(path).with_context(|| format!("cannot open {file}"))?);
+            .from_reader(brdf_fit::data::open_stream(path).with_context(|| format!("cannot open {file}"))?);
         let headers = reader
             .headers()
             .with_context(|| format!("{file}: cannot read the header row"))?

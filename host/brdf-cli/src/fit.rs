@@ -97,6 +97,9 @@ impl FitCmd {
                 Ok(r) => r,
                 Err(e) => bail!("{e}"),
             };
+            if let Some(note) = r.noise_floor.as_ref().and_then(|f| f.note.as_ref()) {
+                eprintln!("warning: {}: {note}", r.dataset);
+            }
             if let (Some(w), Some(path)) = (csv.as_mut(), &self.output) {
                 w.row(r)
                     .with_context(|| format!("cannot write {}", path.display()))?;
@@ -183,7 +186,7 @@ impl ResultsCsv {
             match r.params.0.get(j) {
                 Some((name, v)) => {
                     row.push(name.clone());
-                    row.push(format!("{v:.10e}"));
+                    row.push(format!("{v:e}"));
                 }
                 None => row.extend([String::new(), String::new()]),
             }
@@ -192,19 +195,19 @@ impl ResultsCsv {
         for v in [
             m.rmse, m.mse, m.rms_rel, m.max_rel, m.log_rmse, r.aic, r.bic, r.cost,
         ] {
-            row.push(format!("{v:.10e}"));
+            row.push(format!("{v:e}"));
         }
         row.push(r.converged.to_string());
-        row.push(r.energy.bound.map_or(String::new(), |b| format!("{b:.10e}")));
+        row.push(r.energy.bound.map_or(String::new(), |b| format!("{b:e}")));
         let max_albedo = r.energy.albedo.iter().map(|a| a.albedo).fold(f64::NAN, f64::max);
-        row.push(format!("{max_albedo:.10e}"));
+        row.push(format!("{max_albedo:e}"));
         row.push(r.energy.albedo_conserves.to_string());
         row.push(if r.influence.dominant {
             r.influence.points[0].line.to_string()
         } else {
             String::new()
         });
-        row.push(format!("{:.10e}", r.seconds));
+        row.push(format!("{:e}", r.seconds));
         row.push(r.undetermined().join(" "));
         let flags: Vec<String> = r
             .uncertainty

@@ -280,14 +280,8 @@ pub fn fit_streamed_until(
 ) -> Vec<Result<FitReport, FitError>> {
     let names: Vec<&str> = datasets.iter().map(|d| d.name.as_str()).collect();
     let families = families(&names);
-    if families.is_empty() {
+    if families.is_empty() || !settings.shares_bands() {
         return fit_each_streamed(settings, datasets, stop, each);
-    }
-    let mut family_of = vec![None; datasets.len()];
-    for (k, f) in families.iter().enumerate() {
-        for &i in f {
-            family_of[i] = Some(k);
-        }
     }
     // Every dataset's own search in parallel; then each family's shared shape.
     let mut searched: Vec<Option<Result<(Problem, FitOutcome), FitError>>> = datasets
@@ -303,7 +297,8 @@ pub fn fit_streamed_until(
                 _ => None,
             })
             .collect();
-        if !settings.shares_bands() || ok.len() < family.len() {
+        // A band whose own search failed reports its error; the rest are fitted alone.
+        if ok.len() < family.len() {
             continue;
         }
         let problems: Vec<&Problem> = ok.iter().map(|(p, _)| *p).collect();
@@ -340,25 +335,6 @@ pub fn fit_streamed_until(
         .collect();
     for ((i, _), r) in pending.iter().zip(reports) {
         out[*i] = Some(r);
-    }
-    // Independent bands of a family still say so.
-    for family in &families {
-        if family
-            .iter()
-            .all(|&i| matches!(out[i], Some(Ok(ref r)) if r.bands.is_none()))
-        {
-            let mut reports: Vec<FitReport> = family
-                .iter()
-                .map(|&i| match out[i].take() {
-                    Some(Ok(r)) => r,
-                    _ => unreachable!("checked above"),
-                })
-                .collect();
-            mark(&mut reports, BandShape::Independent, None);
-            for (&i, r) in family.iter().zip(reports) {
-                out[i] = Some(Ok(r));
-            }
-        }
     }
     let out: Vec<Result<FitReport, FitError>> = out
         .into_iter()

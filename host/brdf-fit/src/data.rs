@@ -600,6 +600,55 @@ pub fn open_input(path: &Path) -> std::io::Result<std::fs::File> {
     std::fs::File::open(path)
 }
 
+/// Longest line [`open_stream`] passes on, bytes: a row of numbers is a few hundred.
+pub const MAX_STREAM_LINE: usize = 1 << 20;
+
+/// Opens an input that is read as it arrives (`brdf eval`'s directions): a regular file or a
+/// pipe (`/dev/stdin` fed by another program; a named pipe waits for its writer, as pipes
+/// do). A device or a directory is refused, and a line longer than [`MAX_STREAM_LINE`] is an
+/// error, so an endless line (`/dev/zero`, a pipe of zeros) cannot grow memory without bound.
+pub fn open_stream(path: &Path) -> std::io::Result<LineBounded<std::fs::File>> {
+    use std::os::unix::fs::FileTypeExt;
+    let kind = std::fs::metadata(path)?.file_type();
+    if !(kind.is_file() || kind.is_fifo()) {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file or a pipe (a device or a directory)",
+        ));
+    }
+    Ok(LineBounded {
+        inner: std::fs::File::open(path)?,
+        since_newline: 0,
+    })
+}
+
+/// A reader that fails once a line exceeds [`MAX_STREAM_LINE`] bytes ([`open_stream`]).
+#[derive(Debug)]
+pub struct LineBounded<R> {
+    inner: R,
+    since_newline: usize,
+}
+
+impl<R: std::io::Read> std::io::Read for LineBounded<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        for &b in &buf[..n] {
+            if b == b'\n' {
+                self.since_newline = 0;
+            } else {
+                self.since_newline += 1;
+                if self.since_newline > MAX_STREAM_LINE {
+                    return Err(std::io::Error::new(
+                        std::io::ErrorKind::InvalidData,
+                        format!("a line longer than {MAX_STREAM_LINE} bytes: not a table of numbers"),
+                    ));
+                }
+            }
+        }
+        Ok(n)
+    }
+}
+
 /// [`open_input`] read whole as text.
 pub fn read_input(path: &Path) -> std::io::Result<String> {
     std::io::read_to_string(open_input(path)?)

@@ -22,6 +22,14 @@ use serde::{Deserialize, Serialize};
 
 use crate::data::Point;
 
+/// An estimated floor above more than this share of the readings is doubted in
+/// [`NoiseFloor::note`]: noise around zero darkens a few directions of a band, and a floor
+/// above most of them says the zeros are something else — Krylon Blue's bright bands
+/// (440–520 nm) have three readings at 0.000000 each among readings of 0.03 and up, and their
+/// estimated floors (0.2–0.67 1/sr) lie above 80–99% of the band, so the band is fitted
+/// almost by absolute error.
+pub const FLOOR_ABOVE_MOST: f64 = 0.5;
+
 /// The relative noise `sigma_r` assumed when the floor is estimated: 5%. The Cornell paints'
 /// held-out points are predicted to 5–9% by a four-nearest-neighbour interpolant of their
 /// other points (docs/model-comparison.md), which bounds their relative scatter from above;
@@ -57,6 +65,10 @@ pub struct NoiseFloor {
     pub at_or_below_zero: usize,
     /// Readings at or below the floor (they count by absolute error more than relative).
     pub at_or_below_floor: usize,
+    /// A doubt about an estimated floor: it lies above most readings
+    /// ([`FLOOR_ABOVE_MOST`]), as when the readings at zero are dropouts in a bright band.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
 }
 
 /// An estimate of the absolute noise from the readings themselves: `None` when no reading is
@@ -116,17 +128,30 @@ pub fn floor_for(choice: FloorChoice, points: &[Point]) -> Result<Option<NoiseFl
             relative_noise: None,
             at_or_below_zero: zero,
             at_or_below_floor: at_or_below(s),
+            note: None,
         }),
         FloorChoice::Given(_) => None,
         FloorChoice::Auto => estimate(points)?.map(|e| {
             let s = e.sigma_a / ASSUMED_RELATIVE_NOISE;
+            let below = at_or_below(s);
+            let share = below as f64 / points.len() as f64;
             NoiseFloor {
                 value: s,
                 source: "estimated".to_owned(),
                 sigma_a: Some(e.sigma_a),
                 relative_noise: Some(ASSUMED_RELATIVE_NOISE),
                 at_or_below_zero: zero,
-                at_or_below_floor: at_or_below(s),
+                at_or_below_floor: below,
+                note: (share > FLOOR_ABOVE_MOST).then(|| {
+                    format!(
+                        "the estimated noise floor {} 1/sr lies above {:.0}% of the readings: the {zero} \
+                         reading(s) at or below zero may be dropouts rather than noise around zero, \
+                         and the fit weighs this dataset almost by absolute error; give a floor \
+                         (noise_floor) if that is not meant",
+                        brdf_core::Compact(s),
+                        100.0 * share
+                    )
+                }),
             }
         }),
     })

@@ -230,3 +230,13 @@ def test_azimuths_beyond_two_turns_are_refused(precision):
     for phi in (1e20, 1e300, 720.5):
         with pytest.raises(ValueError, match=r"theta_i/theta_r/phi at index \[1\]: column phi: azimuth .* outside \[-720, 720\]"):
             brdf.eval("lambert", "rho0=0.5", 30, 30, [10, phi], precision=precision)
+
+
+def test_masked_arrays_are_refused_not_unmasked():
+    # np.asarray dropped the mask, so masked elements were evaluated and fitted.
+    m = np.ma.masked_array([10.0, 20.0], mask=[False, True])
+    with pytest.raises(TypeError, match="theta_r: a masked array"):
+        brdf.eval("lambert", {"rho0": 0.5}, 10.0, m, 0.0)
+    data = {"theta_i": [10.0, 20.0], "theta_r": m, "phi": [0.0, 0.0], "brdf": [0.1, 0.1]}
+    with pytest.raises(TypeError, match="masked array"):
+        brdf.fit(data, model="lambert")

@@ -848,6 +848,47 @@ fn fan(
 /// Lines of the face statements the OBJ reader will turn into faces, in order; refuses face
 /// statements that cannot be a facet (fewer than three vertices, a polyline of three or more
 /// vertices, which the reader would take for a face) with their line.
+/// The statements of the OBJ format (geometry, grouping, display and free-form ones), which
+/// the reader takes or skips knowingly; any other word beginning a line is an error.
+const OBJ_STATEMENTS: [&str; 36] = [
+    "v",
+    "vt",
+    "vn",
+    "vp",
+    "f",
+    "l",
+    "p",
+    "o",
+    "g",
+    "s",
+    "mg",
+    "usemtl",
+    "mtllib",
+    "cstype",
+    "deg",
+    "bmat",
+    "step",
+    "curv",
+    "curv2",
+    "surf",
+    "parm",
+    "trim",
+    "hole",
+    "scrv",
+    "sp",
+    "end",
+    "con",
+    "bevel",
+    "c_interp",
+    "d_interp",
+    "lod",
+    "shadow_obj",
+    "trace_obj",
+    "ctech",
+    "stech",
+    "call",
+];
+
 fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
     let text = String::from_utf8_lossy(bytes);
     let mut out = Vec::new();
@@ -874,6 +915,31 @@ fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
                     message: "a polyline (`l`) of 3 or more vertices has no surface and cannot \
                               be part of a target"
                         .into(),
+                })
+            }
+            // A fourth vertex coordinate is a homogeneous weight the reader divides by (w = 2
+            // halved the target, w = -1 mirrored it): only 1 is taken.
+            Some("v") => {
+                let w: Vec<&str> = line.split_whitespace().skip(1).collect();
+                if w.len() == 4 && w[3].parse::<f64>() != Ok(1.0) {
+                    return Err(MeshError::Parse {
+                        file: file.to_owned(),
+                        at,
+                        message: format!(
+                            "vertex weight w = {} (a fourth coordinate): positions are x y z, or \
+                             x y z 1",
+                            w[3]
+                        ),
+                    });
+                }
+            }
+            // A statement the reader does not know is skipped by it: a misspelt `v0 1 0` shifted
+            // every later vertex index. Only the statements of the OBJ format are taken.
+            Some(word) if !word.starts_with('#') && !OBJ_STATEMENTS.contains(&word) => {
+                return Err(MeshError::Parse {
+                    file: file.to_owned(),
+                    at,
+                    message: format!("`{word}` is not an OBJ statement (v, f, o, g, ...)"),
                 })
             }
             _ => {}
@@ -1086,6 +1152,25 @@ mod tests {
             1,
             "blank lines after it are fine"
         );
+    }
+
+    /// A vertex weight was divided by (w = 2 halved the target) and an unknown statement was
+    /// skipped (a misspelt `v0` shifted every later vertex index): both are refused by line.
+    #[test]
+    fn vertex_weights_and_unknown_statements_are_refused() {
+        let e = obj(&TETRA.replace("v 1 0 0", "v 1 0 0 2"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 2") && e.contains("vertex weight w = 2"), "{e}");
+        assert!(obj(&TETRA.replace("v 1 0 0", "v 1 0 0 1")).is_ok());
+        let e = obj(&TETRA.replace("v 1 0 0", "v0 1 0 0"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("line 2") && e.contains("`v0` is not an OBJ statement"),
+            "{e}"
+        );
+        assert!(obj(&format!("# c\nmtllib a.mtl\nusemtl x\ns off\n{TETRA}")).is_ok());
     }
 
     /// An inside-out cube written with one corner as `-0` was welded as an open shell (its

@@ -867,7 +867,7 @@ fn devices_and_pipes_are_refused_as_inputs() {
             vec!["select", input],
             vec!["pack", input, "-o", "/dev/null"],
             vec!["eval", "--fit", input, &angles],
-            vec!["eval", "--model", "lambert", "--params", "rho0=0.5", input],
+            vec!["eval", "--model", "lambert", "--params", "rho0=0.5", "/dev/zero"],
             vec!["scene", "lrcs", input],
             vec!["scene", "lrcs", &fit_scene],
             vec!["scene", "lrcs", &blob_scene],
@@ -886,4 +886,29 @@ fn devices_and_pipes_are_refused_as_inputs() {
             );
         }
     }
+    // `brdf eval` streams its directions, from a pipe too (`/dev/stdin`), but an endless line
+    // is an error, not unbounded memory.
+    let mut child = brdf()
+        .args(["eval", "--model", "lambert", "--params", "rho0=0.5", "/dev/stdin"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut input = child.stdin.take().unwrap();
+    let feeder = std::thread::spawn(move || {
+        let zeros = vec![b'0'; 1 << 16];
+        for _ in 0..64 {
+            if input.write_all(&zeros).is_err() {
+                break;
+            }
+        }
+    });
+    let out = finish_within(child, Duration::from_secs(20), "eval of an endless line");
+    feeder.join().unwrap();
+    let err = text(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("a line longer than"),
+        "{err}"
+    );
 }

@@ -137,6 +137,13 @@ fn batch_groups_shards_and_csv_output() {
     let table = std::fs::read_to_string(&out_csv).unwrap();
     assert_eq!(table.lines().count(), 4);
     assert!(table.lines().nth(2).unwrap().contains("[sample=B]"));
+    // The parameters round-trip: the CSV holds the JSON's values exactly (it held 11
+    // significant digits).
+    for (k, line) in table.lines().skip(1).enumerate() {
+        let fields: Vec<&str> = line.split(',').collect();
+        let p0: f64 = fields[4].parse().unwrap();
+        assert_eq!(p0, arr[k]["params"]["rho0"].as_f64().unwrap(), "{line}");
+    }
     // Shard 1/2 takes the second dataset only.
     let v: serde_json::Value = serde_json::from_str(&ok(&[
         "fit",

@@ -263,8 +263,9 @@ pub struct FitReport {
     /// ([`crate::FitSettings::fit`] sets it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_floor: Option<crate::noise::NoiseFloor>,
-    /// When the dataset is one band of a spectral measurement fitted with its other bands:
-    /// how (one shape for all bands, or each on its own), and how many ([`crate::spectral`]).
+    /// When the dataset is one band of a spectral measurement fitted with one shape shared
+    /// by its other bands: how many, and the summed cost ([`crate::spectral`]); absent for a
+    /// band fitted on its own.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bands: Option<crate::spectral::BandsInfo>,
 }

@@ -65,6 +65,9 @@ def _params_text(params: Union[str, Mapping[str, float]]) -> str:
 
 def _real(name: str, a: Any) -> np.ndarray:
     """``a`` as a float64 array (no copy when it already is one); clear errors otherwise."""
+    if isinstance(a, np.ma.MaskedArray):
+        # np.asarray drops the mask: the masked elements would be evaluated or fitted.
+        raise TypeError(f"{name}: a masked array's mask would be ignored; pass a.compressed() or a.filled(value)")
     arr = np.asarray(a)
     if arr.dtype == np.float64:
         return arr
@@ -451,7 +454,7 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
         for note in notes:
             # What `brdf fit` lists on standard error (rows skipped or rejected).
             warnings.warn(note, stacklevel=2)
-        results = [FitResult(t) for t in texts]
+        results = [_noted(FitResult(t)) for t in texts]
         return results[0] if len(results) == 1 else results
     shape, flat = _array_columns(data)
     try:
@@ -461,7 +464,16 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
         )
     except _brdf.ElementError as e:
         raise _located(["data"], shape, e) from None
-    return FitResult(text)
+    return _noted(FitResult(text))
+
+
+def _noted(r: "FitResult") -> "FitResult":
+    """``r``, after warning of what ``brdf fit`` warns of on standard error (a doubtful
+    estimated noise floor)."""
+    floor = r.report.get("noise_floor")
+    if floor is not None and floor.get("note"):
+        warnings.warn(f"{r.dataset}: {floor['note']}", stacklevel=3)
+    return r
 
 
 class Selection:
