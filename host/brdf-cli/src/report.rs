@@ -96,12 +96,7 @@ impl ReportCmd {
             let imp = import_reporting(&path, format, channel.into())?;
             // The report's pages compare representations in relative error and `ln f`, which
             // readings at or below zero have none of: they are left out, and said so.
-            let dark = imp
-                .datasets
-                .iter()
-                .flat_map(|d| &d.points)
-                .filter(|p| p.brdf <= 0.0)
-                .count();
+            let dark = imp.dark_readings();
             if dark > 0 {
                 eprintln!(
                     "{}: {dark} reading(s) at or below zero left out of the report (positive readings only)",

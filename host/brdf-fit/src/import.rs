@@ -164,6 +164,15 @@ impl Imported {
         self.datasets.iter().map(|d| d.points.len()).sum()
     }
 
+    /// Readings at or below zero in all datasets.
+    pub fn dark_readings(&self) -> usize {
+        self.datasets
+            .iter()
+            .flat_map(|d| &d.points)
+            .filter(|p| p.brdf <= 0.0)
+            .count()
+    }
+
     /// The import with every reading at or below zero moved to the rejects (reason given),
     /// for a study or representation that needs positive values (`ln f` tables, the
     /// nearest-neighbour baseline, the golden figures measured before dark readings were

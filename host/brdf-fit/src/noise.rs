@@ -25,9 +25,10 @@ use crate::data::Point;
 /// An estimated floor above more than this share of the readings is doubted in
 /// [`NoiseFloor::note`]: noise around zero darkens a few directions of a band, and a floor
 /// above most of them says the zeros are something else — Krylon Blue's bright bands
-/// (440–520 nm) have three readings at 0.000000 each among readings of 0.03 and up, and their
-/// estimated floors (0.2–0.67 1/sr) lie above 80–99% of the band, so the band is fitted
-/// almost by absolute error.
+/// (430–530 nm) have three readings at 0.000000 each, whose mirror images (the three smallest
+/// positive readings, RMS 0.0009 to 0.033 1/sr) are far above the darkest directions' noise:
+/// the estimated floors (0.018 to 0.67 1/sr) lie above 60–99% of each band, so the band is
+/// fitted almost by absolute error.
 pub const FLOOR_ABOVE_MOST: f64 = 0.5;
 
 /// The relative noise `sigma_r` assumed when the floor is estimated: 5%. The Cornell paints'

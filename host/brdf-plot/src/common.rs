@@ -64,12 +64,21 @@ pub(crate) fn render(
     }
 }
 
-/// Whether `path` names a chart format this crate writes (`.svg`, `.png`): the one rule,
-/// checked by the drawing and by commands before long work whose result a chart shows.
+/// Whether `path` names a chart format this crate writes (`.svg`, `.png`) in a folder that
+/// exists: the one rule, checked by the drawing and by commands before long work whose result
+/// a chart shows.
 pub fn check_path(path: &Path) -> Result<(), PlotError> {
     match path.extension().and_then(|e| e.to_str()) {
-        Some("svg" | "png") => Ok(()),
-        _ => Err(PlotError::Format(path.display().to_string())),
+        Some("svg" | "png") => {}
+        _ => return Err(PlotError::Format(path.display().to_string())),
+    }
+    // A folder that does not exist failed only when the drawing was written, after the work.
+    match path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        Some(dir) if !dir.is_dir() => Err(PlotError::Draw {
+            file: path.display().to_string(),
+            message: format!("the folder {} does not exist", dir.display()),
+        }),
+        _ => Ok(()),
     }
 }
 

@@ -210,8 +210,14 @@ mod tests {
         let svg = std::fs::read_to_string(dir.path().join("a.svg")).unwrap();
         assert!(svg.contains("theta_i = 30 deg") && svg.contains("BRDF (1/sr)"));
         assert!(matches!(
-            in_plane(&dir.path().join("x.gif"), "t", &data, &[fit]),
+            in_plane(&dir.path().join("x.gif"), "t", &data, std::slice::from_ref(&fit)),
             Err(PlotError::Format(_))
         ));
+        // A folder that does not exist is named before anything is drawn.
+        let e = crate::check_path(&dir.path().join("no/such/a.svg"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("does not exist"), "{e}");
+        assert!(crate::check_path(std::path::Path::new("a.svg")).is_ok());
     }
 }

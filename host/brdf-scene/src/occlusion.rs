@@ -7,7 +7,8 @@
 //! box face counts as entering it (the crate's own slab test treats that case as a miss),
 //! and a triangle is hit up to [`EDGE_SLACK`] beyond its edges, so a ray through the edge
 //! shared by two occluding facets cannot slip between them. Hits closer than [`T_MIN`] of
-//! the mesh size to the origin are ignored: they are the origin facet's own plane.
+//! the origin facet's own scale (its size plus its distance from the coordinate origin, what
+//! its rounding is relative to) are ignored: they are that facet's own plane.
 
 use bvh::aabb::{Aabb, Bounded};
 use bvh::bounding_hierarchy::{BHShape, BoundingHierarchy};
@@ -24,8 +25,10 @@ pub const PAD: f64 = 1e-9;
 /// triangle's size) outside an edge still hits, closing the cracks between neighbours.
 pub const EDGE_SLACK: f64 = 1e-12;
 
-/// Nearest hit distance counted, as a fraction of the mesh diagonal: a ray leaving a facet
-/// cannot be blocked closer than this by anything but rounding in its own plane.
+/// Nearest hit distance counted, as a fraction of the origin facet's scale (its longest edge
+/// plus its largest coordinate magnitude): a ray leaving a facet cannot be blocked closer
+/// than this by anything but rounding in its own plane. Not of the mesh diagonal: one facet
+/// 1e10 m away made it 10 m, and a plate 1 m behind another was seen through it.
 pub const T_MIN: f64 = 1e-9;
 
 struct Shape {
@@ -62,7 +65,8 @@ pub struct Occluder {
     nodes: Vec<BvhNode<f64, 3>>,
     shape_facet: Vec<usize>,
     tris: Vec<Tri>,
-    t_min: f64,
+    /// Per facet, the nearest hit counted on a ray leaving it ([`T_MIN`]).
+    t_min: Vec<f64>,
 }
 
 impl std::fmt::Debug for Occluder {
@@ -110,7 +114,18 @@ impl Occluder {
             nodes: bvh.nodes,
             shape_facet: shapes.iter().map(|s| s.index).collect(),
             tris,
-            t_min: T_MIN * mesh.diagonal(),
+            t_min: mesh
+                .facets
+                .iter()
+                .map(|f| {
+                    let p = f.vertices.map(|i| mesh.vertices[i as usize]);
+                    let edge = (0..3)
+                        .map(|k| v3::norm(v3::sub(p[(k + 1) % 3], p[k])))
+                        .fold(0.0, f64::max);
+                    let far = p.iter().flatten().fold(0.0_f64, |m, c| m.max(c.abs()));
+                    T_MIN * (edge + far)
+                })
+                .collect(),
         }
     }
 
@@ -127,7 +142,7 @@ impl Occluder {
             match &self.nodes[n] {
                 BvhNode::Leaf { shape_index, .. } => {
                     let f = self.shape_facet[*shape_index];
-                    if f != skip && hits(&self.tris[f], origin, dir, self.t_min) {
+                    if f != skip && hits(&self.tris[f], origin, dir, self.t_min[skip]) {
                         return true;
                     }
                 }

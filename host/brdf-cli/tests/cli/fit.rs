@@ -776,41 +776,34 @@ fn spectral_files_import_every_band_and_fit_dark_bands_with_a_noise_floor() {
 /// died of it; the count is bounded and checked before anything is made.
 #[test]
 fn synth_refuses_more_points_than_it_holds() {
-    let out = brdf(&[
-        "synth",
-        "--model",
-        "lambert",
-        "--params",
-        "rho0=0.5",
-        "--theta-i",
-        "10",
-        "--form",
-        "full",
-        "--step",
-        "0.01",
-        "--phi-step",
-        "0.01",
-    ]);
+    let synth = |step: &str| {
+        brdf(&[
+            "synth",
+            "--model",
+            "lambert",
+            "--params",
+            "rho0=0.5",
+            "--theta-i",
+            "10",
+            "--form",
+            "full",
+            "--step",
+            step,
+            "--phi-step",
+            step,
+        ])
+    };
+    let out = synth("0.01");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         !out.status.success() && err.contains("1.620e8 points") && err.contains("at most 1e7"),
         "{err}"
     );
     assert!(out.stdout.is_empty());
-    let full = ok(&[
-        "synth",
-        "--model",
-        "lambert",
-        "--params",
-        "rho0=0.5",
-        "--theta-i",
-        "10",
-        "--form",
-        "full",
-        "--step",
-        "1",
-        "--phi-step",
-        "1",
-    ]);
-    assert_eq!(full.lines().count(), 1 + 90 * 181);
+    let full = synth("1");
+    assert!(full.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&full.stdout).lines().count(),
+        1 + 90 * 181
+    );
 }

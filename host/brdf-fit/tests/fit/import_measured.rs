@@ -113,13 +113,11 @@ fn cornell_spectral_every_reading_of_every_band() {
             assert!(d.name.ends_with(&format!("[wavelength={um}]")), "{}", d.name);
             assert_eq!(d.points.len(), 1439);
         }
-        let dark = imp
-            .datasets
-            .iter()
-            .flat_map(|d| &d.points)
-            .filter(|p| p.brdf <= 0.0)
-            .count();
-        assert_eq!(dark, zeros, "{file}: the readings printed as 0.000000");
+        assert_eq!(
+            imp.dark_readings(),
+            zeros,
+            "{file}: the readings printed as 0.000000"
+        );
         // A line's 31 values, as the file prints them, are the bands' values at that line.
         let text = std::fs::read_to_string(&path).unwrap();
         let line = imp.datasets[0].points[700].line;

@@ -285,19 +285,33 @@ fn a_plate_hidden_behind_another_counts_only_where_it_shows() {
         "back",
     );
     // Head-on the back plate is hidden; from 50 deg its shadow (shifted by tan 50 > 1 m) misses it.
-    let s = scene(
-        b.build("plates").unwrap(),
-        lambert(rho),
-        sensor(Mode::Monostatic, &[0.0, 50.0], &[0.0]),
+    let check = |b: MeshBuilder| {
+        let s = scene(
+            b.build("plates").unwrap(),
+            lambert(rho),
+            sensor(Mode::Monostatic, &[0.0, 50.0], &[0.0]),
+        );
+        let got = sigmas(&s);
+        assert!(rel(got[0], 4.0 * rho) <= F64_REFORMULATION_REL, "{}", got[0]);
+        let c = 50f64.to_radians().cos();
+        assert!(
+            rel(got[1], 4.0 * rho * 2.0 * c * c) <= F64_REFORMULATION_REL,
+            "{}",
+            got[1]
+        );
+    };
+    check(b.clone());
+    // A facet 1e10 m away, facing away from the sensor (it adds nothing), made the nearest
+    // hit counted 10 m (a fraction of the mesh diagonal): the back plate was seen through
+    // the front one (head-on 8 rho instead of 4 rho).
+    b.plate(
+        [-1e10, -0.5, -0.5],
+        [0.0, 0.0, 1.0],
+        [0.0, 1.0, 0.0],
+        (1, 1),
+        "far",
     );
-    let got = sigmas(&s);
-    assert!(rel(got[0], 4.0 * rho) <= F64_REFORMULATION_REL, "{}", got[0]);
-    let c = 50f64.to_radians().cos();
-    assert!(
-        rel(got[1], 4.0 * rho * 2.0 * c * c) <= F64_REFORMULATION_REL,
-        "{}",
-        got[1]
-    );
+    check(b);
 }
 
 /// A ray-triangle test written apart from the library's: the ray meets the triangle's plane
@@ -321,14 +335,23 @@ fn brute_hit(p: [[f64; 3]; 3], o: [f64; 3], d: [f64; 3], t_min: f64) -> bool {
 /// σ by testing every ray against every facet; also returns the facets seen per aspect.
 fn brute_force(s: &Scene, model: &AnyModel<f64>, occlude: bool) -> Vec<(f64, usize)> {
     let m = &s.mesh;
-    let t_min = T_MIN * m.diagonal();
     let tris: Vec<[[f64; 3]; 3]> = m
         .facets
         .iter()
         .map(|f| f.vertices.map(|i| m.vertices[i as usize]))
         .collect();
+    // The origin facet's scale: its longest edge plus its largest coordinate magnitude.
+    let t_min: Vec<f64> = tris
+        .iter()
+        .map(|p| {
+            let edge = (0..3)
+                .map(|e| norm(sub(p[(e + 1) % 3], p[e])))
+                .fold(0.0, f64::max);
+            T_MIN * (edge + p.iter().flatten().fold(0.0_f64, |a, c| a.max(c.abs())))
+        })
+        .collect();
     let clear = |k: usize, d: [f64; 3]| {
-        !occlude || !(0..tris.len()).any(|j| j != k && brute_hit(tris[j], m.facets[k].centroid, d, t_min))
+        !occlude || !(0..tris.len()).any(|j| j != k && brute_hit(tris[j], m.facets[k].centroid, d, t_min[k]))
     };
     s.aspects()
         .iter()
