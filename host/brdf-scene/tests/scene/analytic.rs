@@ -285,33 +285,68 @@ fn a_plate_hidden_behind_another_counts_only_where_it_shows() {
         "back",
     );
     // Head-on the back plate is hidden; from 50 deg its shadow (shifted by tan 50 > 1 m) misses it.
-    let check = |b: MeshBuilder| {
+    let s = scene(
+        b.build("plates").unwrap(),
+        lambert(rho),
+        sensor(Mode::Monostatic, &[0.0, 50.0], &[0.0]),
+    );
+    let got = sigmas(&s);
+    assert!(rel(got[0], 4.0 * rho) <= F64_REFORMULATION_REL, "{}", got[0]);
+    let c = 50f64.to_radians().cos();
+    assert!(
+        rel(got[1], 4.0 * rho * 2.0 * c * c) <= F64_REFORMULATION_REL,
+        "{}",
+        got[1]
+    );
+}
+
+/// A facet 1e10 m away (facing away from the sensor: it adds nothing) made the nearest hit
+/// counted 10 m, a fraction of the mesh diagonal, and a small plate 1 m behind a larger one
+/// was seen through it head-on. The nearest hit is now relative to the ray's own facet.
+#[test]
+fn a_far_facet_does_not_let_rays_through_near_ones() {
+    let rho = 0.5;
+    let build = |far: bool| {
+        let mut b = MeshBuilder::new();
+        b.plate(
+            [1.0, -0.5, -0.5],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            (1, 1),
+            "front",
+        );
+        // Half a metre square, turned 30 degrees about z (so not coplanar with the front).
+        let (s30, c30) = (0.5, 0.75f64.sqrt());
+        b.plate(
+            [0.0, -0.25, -0.25],
+            [-0.5 * s30, 0.5 * c30, 0.0],
+            [0.0, 0.0, 0.5],
+            (1, 1),
+            "back",
+        );
+        if far {
+            b.plate(
+                [-1e10, -0.5, -0.5],
+                [0.0, 0.0, 1.0],
+                [0.0, 1.0, 0.0],
+                (1, 1),
+                "far",
+            );
+        }
         let s = scene(
             b.build("plates").unwrap(),
             lambert(rho),
-            sensor(Mode::Monostatic, &[0.0, 50.0], &[0.0]),
+            sensor(Mode::Monostatic, &[0.0], &[0.0]),
         );
-        let got = sigmas(&s);
-        assert!(rel(got[0], 4.0 * rho) <= F64_REFORMULATION_REL, "{}", got[0]);
-        let c = 50f64.to_radians().cos();
-        assert!(
-            rel(got[1], 4.0 * rho * 2.0 * c * c) <= F64_REFORMULATION_REL,
-            "{}",
-            got[1]
-        );
+        sigmas(&s)[0]
     };
-    check(b.clone());
-    // A facet 1e10 m away, facing away from the sensor (it adds nothing), made the nearest
-    // hit counted 10 m (a fraction of the mesh diagonal): the back plate was seen through
-    // the front one (head-on 8 rho instead of 4 rho).
-    b.plate(
-        [-1e10, -0.5, -0.5],
-        [0.0, 0.0, 1.0],
-        [0.0, 1.0, 0.0],
-        (1, 1),
-        "far",
-    );
-    check(b);
+    for far in [false, true] {
+        let got = build(far);
+        assert!(
+            rel(got, 4.0 * rho) <= F64_REFORMULATION_REL,
+            "far facet {far}: {got}"
+        );
+    }
 }
 
 /// A ray-triangle test written apart from the library's: the ray meets the triangle's plane
