@@ -22,14 +22,19 @@ use serde::{Deserialize, Serialize};
 
 use crate::data::Point;
 
-/// An estimated floor above more than this share of the readings is doubted in
-/// [`NoiseFloor::note`]: noise around zero darkens a few directions of a band, and a floor
-/// above most of them says the zeros are something else — Krylon Blue's bright bands
+/// An estimated floor above more than this share of the readings, from dark readings fewer
+/// than [`FEW_DARK`] of them, is doubted in [`NoiseFloor::note`]: a band whose readings lie
+/// mostly at the noise has many at or below zero (Krylon Blue at 400 nm: 194 of 1,439, the
+/// floor above 66% of the band, rightly), while a floor above most readings from a handful
+/// of zeros says the zeros are something else — Krylon Blue's bright bands
 /// (430–530 nm) have three readings at 0.000000 each, whose mirror images (the three smallest
 /// positive readings, RMS 0.0009 to 0.033 1/sr) are far above the darkest directions' noise:
 /// the estimated floors (0.018 to 0.67 1/sr) lie above 60–99% of each band, so the band is
 /// fitted almost by absolute error.
 pub const FLOOR_ABOVE_MOST: f64 = 0.5;
+
+/// See [`FLOOR_ABOVE_MOST`]: dark readings fewer than 1% of a dataset's.
+pub const FEW_DARK: f64 = 0.01;
 
 /// The relative noise `sigma_r` assumed when the floor is estimated: 5%. The Cornell paints'
 /// held-out points are predicted to 5–9% by a four-nearest-neighbour interpolant of their
@@ -66,7 +71,7 @@ pub struct NoiseFloor {
     pub at_or_below_zero: usize,
     /// Readings at or below the floor (they count by absolute error more than relative).
     pub at_or_below_floor: usize,
-    /// A doubt about an estimated floor: it lies above most readings
+    /// A doubt about an estimated floor: it lies above most readings though few are dark
     /// ([`FLOOR_ABOVE_MOST`]), as when the readings at zero are dropouts in a bright band.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
@@ -143,8 +148,9 @@ pub fn floor_for(choice: FloorChoice, points: &[Point]) -> Result<Option<NoiseFl
                 relative_noise: Some(ASSUMED_RELATIVE_NOISE),
                 at_or_below_zero: zero,
                 at_or_below_floor: below,
-                note: (share > FLOOR_ABOVE_MOST).then(|| {
-                    format!(
+                note: (share > FLOOR_ABOVE_MOST && (zero as f64) < FEW_DARK * points.len() as f64).then(
+                    || {
+                        format!(
                         "the estimated noise floor {} 1/sr lies above {:.0}% of the readings: the {zero} \
                          reading(s) at or below zero may be dropouts rather than noise around zero, \
                          and the fit weighs this dataset almost by absolute error; give a floor \
@@ -152,7 +158,8 @@ pub fn floor_for(choice: FloorChoice, points: &[Point]) -> Result<Option<NoiseFl
                         brdf_core::Compact(s),
                         100.0 * share
                     )
-                }),
+                    },
+                ),
             }
         }),
     })

@@ -208,12 +208,33 @@ fn a_dark_band_of_a_real_paint_fits_with_every_reading() {
         nf.value, nf.at_or_below_floor, r.metrics.rms_rel, r.converged
     );
     assert!(r.params_array().unwrap().iter().all(|v| v.is_finite()));
+    assert!(
+        nf.note.is_none(),
+        "a dark band's floor is not doubted: {:?}",
+        nf.note
+    );
+    // A bright band with three zeros (dropouts) gets a floor above most of its readings,
+    // and the report says so.
+    let pick = Pick {
+        channel: None,
+        band_um: Some(0.46),
+    };
+    let d = import(&path, Format::Cornell, pick).unwrap().datasets.remove(0);
+    let r = FitSettings::new(ModelKind::Lambert).fit(&d).unwrap();
+    let nf = r.noise_floor.unwrap();
+    assert_eq!(nf.at_or_below_zero, 3);
+    assert!(
+        nf.at_or_below_floor * 2 > d.points.len(),
+        "{}",
+        nf.at_or_below_floor
+    );
+    assert!(nf.note.unwrap().contains("dropouts"));
 }
 
 /// The 31 bands of a real paint fitted with one shape: every band's nonlinear parameters are
 /// the same, its weights its own; the summed cost is no worse than any band's own shape gives
 /// (the candidates the shared search starts from), and above the sum of the independent
-/// optima (each band free). Independent bands say so.
+/// optima (each band free). Independent fits carry no bands record.
 #[test]
 fn the_bands_of_a_spectral_file_share_one_shape() {
     use brdf_fit::spectral::BandShape;
