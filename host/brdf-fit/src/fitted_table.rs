@@ -930,10 +930,17 @@ pub struct TableRecord {
     /// The table as a device holds it ([`brdf_core::fitted`]), in hex. The model of the fit
     /// result is its base.
     pub bytes: String,
+    /// CRC-32 (8 hex digits) of the base model's name, its parameters (paper order, f64
+    /// little-endian) and the table's bytes ([`TableRecord::seal`]): a table is a correction
+    /// to one base, and an edited byte (one hex digit changed a BRDF by 95%) or another base
+    /// under the same table (ggx turned lambert) read back without a word. Empty until
+    /// sealed; a fit result's record must carry it ([`TableRecord::verify`]).
+    #[serde(default)]
+    pub check: String,
 }
 
 impl TableRecord {
-    /// The record of `table`.
+    /// The record of `table`, not yet sealed to a base ([`TableRecord::seal`]).
     pub fn new(table: &FittedTable) -> Result<TableRecord, brdf_core::fitted::FittedError> {
         let bytes = table.to_bytes()?;
         let t = brdf_core::fitted::FittedTable::new(&bytes)?;
@@ -943,7 +950,50 @@ impl TableRecord {
             smoothness: table.smoothness,
             coverage: t.coverage(),
             bytes: hex::encode(&bytes),
+            // Sealed when the record joins its base in a fit result (`seal`).
+            check: String::new(),
         })
+    }
+
+    /// The [`TableRecord::check`] of a table's `bytes` over the base `kind` with `params`
+    /// (paper order, unused entries ignored).
+    pub fn check_of(kind: brdf_core::ModelKind, params: &[f64], bytes: &[u8]) -> String {
+        let mut data: Vec<u8> = brdf_core::names::Named::name(kind).as_bytes().to_vec();
+        for p in &params[..kind.param_count()] {
+            data.extend(p.to_le_bytes());
+        }
+        data.extend(bytes);
+        format!("{:08x}", brdf_wire::crc32(&data))
+    }
+
+    /// Seals the record to the base it was fitted over ([`TableRecord::check`]).
+    pub fn seal(&mut self, kind: brdf_core::ModelKind, params: &[f64]) -> Result<(), String> {
+        let bytes = self.decode()?;
+        self.check = Self::check_of(kind, params, &bytes);
+        Ok(())
+    }
+
+    /// The device bytes of a fit result's record over the base `kind` with `params`:
+    /// [`TableRecord::decode`], then the seal ([`TableRecord::check`]) must match.
+    pub fn verify(&self, kind: brdf_core::ModelKind, params: &[f64]) -> Result<Vec<u8>, String> {
+        let bytes = self.decode()?;
+        if self.check.is_empty() {
+            return Err(
+                "fitted_table: no `check`: a record without its seal cannot be told \
+                        from an edited one (select again with --chosen)"
+                    .to_owned(),
+            );
+        }
+        let want = Self::check_of(kind, params, &bytes);
+        if self.check != want {
+            return Err(format!(
+                "fitted_table: check {} does not match the table and its base {} ({want}): the \
+                 table, the model or a parameter was changed after the table was fitted",
+                self.check,
+                brdf_core::names::Named::name(kind)
+            ));
+        }
+        Ok(bytes)
     }
 
     /// The device bytes, checked: hex, a valid table ([`brdf_core::fitted::FittedTable::new`])

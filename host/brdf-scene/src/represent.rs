@@ -418,10 +418,12 @@ impl DataSelection {
     pub fn chosen_report(&self) -> Option<FitReport> {
         let mut fit = self.candidates.get(self.chosen_fit?)?.clone();
         fit.fitted_table = self.chosen_table.clone();
+        let (kind, params) = (fit.model, fit.params_array().ok()?);
+        if let Some(record) = &mut fit.fitted_table {
+            record.seal(kind, &params).ok()?;
+        }
         if let Some(record) = &fit.fitted_table {
             let bytes = record.decode().ok()?;
-            let kind = fit.model;
-            let params = fit.params_array().ok()?;
             let base = brdf_core::AnyModel::<f64>::new(kind, &params[..kind.param_count()]).ok()?;
             let table = brdf_core::fitted::FittedTable::new(&bytes).ok()?;
             let corrected = brdf_core::fitted::Corrected { base, table };

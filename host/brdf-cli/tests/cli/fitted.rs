@@ -237,6 +237,38 @@ fn a_measured_metal_gets_a_fitted_table_that_every_reader_serves() {
         text.replacen("\"smoothness\"", "\"smoothnes\"", 1),
         "unknown field `smoothnes`",
     );
+    // A valid table with one cell edited, or under another base, was read back without a
+    // word (one hex digit changed the BRDF by up to 95%): the seal no longer matches.
+    let edited = |change: &dyn Fn(&mut serde_json::Value)| {
+        let mut v = json.clone();
+        change(&mut v);
+        serde_json::to_string_pretty(&v).unwrap()
+    };
+    // The low digit of the first cell (after the header; the coverage bits come last).
+    let cells = 2 * brdf_core::fitted::FITTED_HEADER_LEN + 1;
+    let flipped = if &hex[cells..cells + 1] == "0" { "1" } else { "0" };
+    let cell = format!("{}{flipped}{}", &hex[..cells], &hex[cells + 1..]);
+    damaged(
+        "edited-cell",
+        edited(&|v| v["fitted_table"]["bytes"] = cell.clone().into()),
+        "does not match the table and its base",
+    );
+    damaged(
+        "no-check",
+        edited(&|v| {
+            v["fitted_table"].as_object_mut().unwrap().remove("check");
+        }),
+        "no `check`",
+    );
+    damaged(
+        "other-base",
+        edited(&|v| {
+            let params = v["params"].as_object_mut().unwrap();
+            let (_, first) = params.iter_mut().next().unwrap();
+            *first = (first.as_f64().unwrap() * 1.5).into();
+        }),
+        "does not match the table and its base",
+    );
     // A scene evaluates it (base times table, f64) and says how much of the material's sigma
     // comes from directions the in-plane measurements did not cover.
     let scene = p("scene.toml");
@@ -471,11 +503,15 @@ fn a_table_the_device_cannot_take_is_left_out_or_refused_by_name() {
         &mut bytes,
     )
     .unwrap();
+    let seal = |kind: brdf_core::ModelKind, params: &[f64], bytes: &[u8]| {
+        brdf_fit::fitted_table::TableRecord::check_of(kind, params, bytes)
+    };
     let fit = |coverage: f64| {
         serde_json::json!({
             "model": "lambert",
             "params": {"rho0": 1e-20},
-            "fitted_table": {"nodes": [4, 3, 2], "smoothness": 1.0, "coverage": coverage, "bytes": hex::encode(&bytes)}
+            "fitted_table": {"nodes": [4, 3, 2], "smoothness": 1.0, "coverage": coverage, "bytes": hex::encode(&bytes),
+                             "check": seal(brdf_core::ModelKind::Lambert, &[1e-20], &bytes)}
         })
         .to_string()
     };
@@ -497,7 +533,8 @@ fn a_table_the_device_cannot_take_is_left_out_or_refused_by_name() {
     let minnaert = serde_json::json!({
         "model": "minnaert",
         "params": {"rho0": 100.0, "k": 0.01},
-        "fitted_table": {"nodes": [4, 3, 2], "smoothness": 1.0, "coverage": 1.0, "bytes": hex::encode(&over)}
+        "fitted_table": {"nodes": [4, 3, 2], "smoothness": 1.0, "coverage": 1.0, "bytes": hex::encode(&over),
+                         "check": seal(brdf_core::ModelKind::Minnaert, &[100.0, 0.01], &over)}
     });
     std::fs::write(p("over.json"), minnaert.to_string()).unwrap();
     let out = brdf(&["pack", &p("over.json"), "-o", &p("over.bin")]);

@@ -530,10 +530,14 @@ impl FittedModel {
         })
     }
 
-    /// The fitted table's device bytes, checked ([`crate::fitted_table::TableRecord::decode`]),
-    /// if the fit carries one.
+    /// The fitted table's device bytes, checked and verified against this base
+    /// ([`crate::fitted_table::TableRecord::verify`]), if the fit carries one.
     pub fn table_bytes(&self) -> Result<Option<Vec<u8>>, String> {
-        self.fitted_table.as_ref().map(|t| t.decode()).transpose()
+        let Some(t) = &self.fitted_table else {
+            return Ok(None);
+        };
+        let p = params_in_order(self.model, &self.params).map_err(|p| format!("parameter `{p}` missing"))?;
+        t.verify(self.model, &p).map(Some)
     }
 
     /// The model in f64, refused naming the parameter when one is missing or outside its
