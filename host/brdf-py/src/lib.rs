@@ -18,9 +18,7 @@ use brdf_core::batch::{Batch, BatchError};
 use brdf_core::names::UnknownName;
 use brdf_core::{AnyModel, Brdf, Float, ModelKind};
 use brdf_fit::import::{import, Channel, Format, Pick};
-use brdf_fit::{
-    load_csv, Dataset, FitOptions, FitRequest, FitSettings, LoadOptions, Point, Residual, RowDegrees,
-};
+use brdf_fit::{load_csv, Dataset, FitOptions, FitRequest, FitSettings, LoadOptions, Point, RowDegrees};
 use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;

@@ -844,13 +844,13 @@ fn devices_and_pipes_are_refused_as_inputs() {
     let dir = tempfile::tempdir().unwrap();
     let fifo = dir.path().join("pipe.csv");
     assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let mesh = format!("{}/../../data/scenes/target.obj", env!("CARGO_MANIFEST_DIR"));
     let scene = |key: &str, value: &str| {
         let p = dir.path().join(format!("{key}.toml"));
         std::fs::write(
             &p,
             format!(
                 "mesh = \"{mesh}\"\n\n[[material]]\npart = \"*\"\n{key} = \"{value}\"\n\n[sensor]\nmode = \"monostatic\"\nazimuth_deg = [0, 10, 5]\nelevation_deg = [0, 1, 1]\n",
-                mesh = format!("{}/../../data/scenes/target.obj", env!("CARGO_MANIFEST_DIR"))
             ),
         )
         .unwrap();
