@@ -59,6 +59,10 @@ impl FitCmd {
             }
         }
         let mut datasets = self.engine.load(&self.data)?;
+        if let (Some(_), Some(brdf_fit::spectral::BandShape::Shared)) = (self.shard, self.engine.bands) {
+            // A shard would fit its own shape to part of a measurement's bands.
+            bail!("--shard splits the bands of a measurement; --bands shared fits them together: give one");
+        }
         if let Some((k, n)) = self.shard {
             datasets = datasets
                 .into_iter()

@@ -1,6 +1,6 @@
 //! Held-out error of spectral fits of the Cornell paints (`data/measured/cornell-spectral`,
-//! 31 bands each, every reading kept): one shape shared by all bands (`brdf fit`'s default,
-//! `brdf_fit::spectral`), each band free (`--bands independent`), and the nearest-neighbour
+//! 31 bands each, every reading kept): one shape shared by all bands (`--bands shared`,
+//! `brdf_fit::spectral`), each band free (`brdf fit`'s default), and the nearest-neighbour
 //! yardstick. Five outer folds (`brdf_fit::holdout`, the same directions held out in every
 //! band), the fits to the other 80% with the noise floor `brdf fit` estimates from them,
 //! error = trimmed RMS of `|f - y| / sqrt(y^2 + S^2)` (`fitted_table::trimmed_rms_rel` of the

@@ -60,6 +60,12 @@ pub enum FitError {
         /// Why the settings cannot use it, and what can.
         why: &'static str,
     },
+    /// Shared bands asked for, and no two datasets are bands of one measurement.
+    #[error(
+        "bands shared: no two datasets are bands of one measurement (datasets that differ only in \
+         `wavelength`); it would be ignored"
+    )]
+    NoBands,
     /// No noise floor can be estimated.
     #[error("{dataset}: {source}")]
     Noise {
@@ -165,10 +171,12 @@ impl FitSettings {
                     "log residuals take the logarithm of every reading (relative residuals \
                      weigh dark readings with a noise floor)",
                 ),
-                (_, Residual::Relative) if self.noise_floor == FloorChoice::Given(0.0) => Some(
-                    "noise floor 0 leaves relative residuals no scale for it (give a floor, \
+                (_, Residual::Relative) if matches!(self.noise_floor, FloorChoice::Given(s) if s <= 0.0 || s.is_nan()) => {
+                    Some(
+                        "noise floor 0 leaves relative residuals no scale for it (give a floor, \
                      or leave it to be estimated)",
-                ),
+                    )
+                }
                 _ => None,
             };
             if let Some(why) = why {
@@ -199,7 +207,10 @@ impl FitSettings {
 
     /// Whether these settings fit the bands of one measurement with one shape.
     pub fn shares_bands(&self) -> bool {
-        self.bands == BandShape::Shared && self.engine == Engine::Full && self.loss.is_linear()
+        self.bands == BandShape::Shared
+            && self.engine == Engine::Full
+            && self.loss.is_linear()
+            && self.residual != Residual::Log
     }
 
     /// The search of [`FitSettings::fit_until`], without the report.
@@ -255,6 +266,12 @@ pub fn fittable(
             skipped: skipped.len(),
         });
     }
+    if settings.bands == BandShape::Shared {
+        let names: Vec<&str> = kept.iter().map(|d| d.name.as_str()).collect();
+        if families(&names).is_empty() {
+            return Err(FitError::NoBands);
+        }
+    }
     Ok((kept, skipped))
 }
 
@@ -270,8 +287,8 @@ pub fn fit_streamed(
 
 /// [`fit_streamed`], every fit abandoned when `stop` is requested ([`FitSettings::fit_until`]).
 /// The bands of one spectral measurement ([`crate::spectral::families`]) are fitted with one
-/// shape when the settings share bands ([`FitSettings::shares_bands`]); their results come
-/// when the whole family is done.
+/// shape when the settings share bands ([`FitSettings::shares_bands`]); then every result
+/// comes when all are done (no streaming).
 pub fn fit_streamed_until(
     settings: &FitSettings,
     datasets: &[Dataset],
@@ -304,11 +321,19 @@ pub fn fit_streamed_until(
         let problems: Vec<&Problem> = ok.iter().map(|(p, _)| *p).collect();
         let own: Vec<FitOutcome> = ok.iter().map(|(_, o)| (*o).clone()).collect();
         let (shared, total) = share(&problems, &own);
+        // Each band's report with the shape held where the bands share it: its influence
+        // refits and profiles would otherwise slide to the band's own optimum and report what
+        // sharing cost the band as the effect of one point or one parameter.
         let reports: Result<Vec<FitReport>, FitError> = family
             .par_iter()
             .zip(&shared)
             .zip(&problems)
-            .map(|((&i, o), p)| settings.report_of(&datasets[i], p, o, stop))
+            .map(|((&i, o), p)| {
+                let held = (*p)
+                    .clone()
+                    .with_fixed(crate::problem::nonlinear_indices(o.kind), &o.q);
+                settings.report_of(&datasets[i], &held, o, stop)
+            })
             .collect();
         match reports {
             Ok(mut reports) => {

@@ -213,6 +213,9 @@ pub struct Problem {
     irls: Vec<f64>,
     /// Asked to stop (see [`Stop`]).
     stop: Stop,
+    /// Parameters held at a value (internal units): their search box is that value
+    /// ([`Problem::with_fixed`]).
+    fixed: [Option<f64>; MAX_PARAMS],
 }
 
 /// A request to abandon a fit part way (the Python package's Ctrl-C): shared by the caller
@@ -296,6 +299,7 @@ impl Problem {
             brightening: false,
             irls: vec![1.0; points.len()],
             stop: Stop::default(),
+            fixed: [None; MAX_PARAMS],
         }
     }
 
@@ -324,13 +328,34 @@ impl Problem {
     }
 
     /// The search box of this problem: [`bounds`], with `c` down to [`BRIGHTENING_C_MIN`]
-    /// under [`Problem::with_brightening`].
+    /// under [`Problem::with_brightening`], and the parameters held by
+    /// [`Problem::with_fixed`] at their values.
     pub fn bounds(&self) -> ([f64; MAX_PARAMS], [f64; MAX_PARAMS]) {
-        let (mut lo, hi) = bounds(self.kind);
+        let (mut lo, mut hi) = bounds(self.kind);
         if self.brightening() {
             lo[5] = BRIGHTENING_C_MIN;
         }
+        for (j, v) in self.fixed.iter().enumerate() {
+            if let Some(v) = *v {
+                (lo[j], hi[j]) = (v, v);
+            }
+        }
         (lo, hi)
+    }
+
+    /// The same problem with the parameters at `indices` held at their values in `q`
+    /// (internal units): every search, polish and profile on it leaves them there (the shape
+    /// a band shares with the other bands of its measurement, `crate::spectral`).
+    pub fn with_fixed(mut self, indices: &[usize], q: &[f64; MAX_PARAMS]) -> Self {
+        for &j in indices {
+            self.fixed[j] = Some(q[j]);
+        }
+        self
+    }
+
+    /// Whether parameter `j` is held ([`Problem::with_fixed`]).
+    pub fn is_fixed(&self, j: usize) -> bool {
+        self.fixed[j].is_some()
     }
 
     /// The same problem with a robust loss.

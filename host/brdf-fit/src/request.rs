@@ -240,10 +240,11 @@ impl FitSettings {
                 return Err(OptionError::NoiseFloor(s));
             }
         }
-        if r.bands == Some(BandShape::Shared) && r.loss != LossKind::Linear {
+        if r.bands == Some(BandShape::Shared) && (r.loss != LossKind::Linear || r.residual == Residual::Log) {
             return Err(OptionError::Ignored {
                 name: "bands shared",
-                applies: "fits the bands of a spectral file with least squares (the linear loss) only",
+                applies: "fits the bands of a spectral file with least squares (the linear loss) on \
+                          relative or absolute residuals only",
             });
         }
         let ignored = |given: bool, name: &'static str, applies: &'static str| {

@@ -219,6 +219,17 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
         .collect();
     candidates.sort_by(|a, b| a.1.total_cmp(&b.1));
     candidates.dedup_by(|a, b| a.0 == b.0);
+    if candidates.len() < 2 && d > 0 {
+        // Every band's own shape the same: a second start a tenth of the box away, so that
+        // two searches can agree.
+        let u: Vec<f64> = candidates[0]
+            .0
+            .iter()
+            .map(|v| if *v > 0.5 { v - 0.1 } else { v + 0.1 })
+            .collect();
+        let fu = f(&u);
+        candidates.push((u, fu));
+    }
     let polished: Vec<(Vec<f64>, f64, bool)> = if d == 0 {
         vec![(Vec::new(), candidates[0].1, true)]
     } else {
@@ -241,7 +252,7 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
         .filter(|p| (p.1 - best.1).abs() <= AGREEMENT * best.1.abs().max(f64::MIN_POSITIVE))
         .count();
     let nl = to_nl(&best.0);
-    let (total, lins) = shared_cost(problems, &nl);
+    let (_, lins) = shared_cost(problems, &nl);
     let why_not = if stop() {
         Some("the fit was stopped before its search ended".to_owned())
     } else if let Some(k) = own.iter().position(|o| !o.converged) {
@@ -250,9 +261,11 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
             k + 1,
             own.len()
         ))
-    } else if d > 0 && polished.len() > 1 && agreeing < 2 {
+    } else if d > 0 && agreeing < 2 {
+        // One candidate (every band's own shape the same) is one search: not an agreement.
         Some(format!(
-            "{agreeing} of {} shape polishes reached the best summed cost",
+            "{agreeing} of {} shape polishes from different bands' shapes reached the best \
+             summed cost (two must)",
             polished.len()
         ))
     } else if !best.2 {
@@ -261,7 +274,7 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
         None
     };
     let seconds = started.elapsed().as_secs_f64();
-    let outcomes = problems
+    let outcomes: Vec<FitOutcome> = problems
         .iter()
         .zip(&lins)
         .zip(own)
@@ -289,6 +302,9 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
             }
         })
         .collect();
+    // The summed cost as the bands' reports state theirs (after the weights are held in
+    // their boxes: the five-parameter `kd` is a ratio clamped to [0, 10]).
+    let total = outcomes.iter().map(|o| o.cost).sum();
     (outcomes, total)
 }
 

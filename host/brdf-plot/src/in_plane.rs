@@ -33,7 +33,13 @@ pub fn in_plane(path: &Path, title: &str, data: &Dataset, fits: &[Fitted]) -> Re
         .iter()
         .map(|&ti| {
             let pts = in_plane_points(data, ti);
-            let lo = pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+            // The log axis spans the positive readings; dark ones (at or below zero, kept by
+            // the fit's noise floor) cannot be placed on it.
+            let lo = pts
+                .iter()
+                .map(|p| p.1)
+                .filter(|&v| v > 0.0)
+                .fold(f64::INFINITY, f64::min);
             let hi = pts.iter().map(|p| p.1).fold(0.0, f64::max);
             let (lo, hi) = log_range(lo, hi);
             let curves = fits

@@ -845,9 +845,6 @@ fn fan(
     Ok(())
 }
 
-/// Lines of the face statements the OBJ reader will turn into faces, in order; refuses face
-/// statements that cannot be a facet (fewer than three vertices, a polyline of three or more
-/// vertices, which the reader would take for a face) with their line.
 /// The statements of the OBJ format (geometry, grouping, display and free-form ones), which
 /// the reader takes or skips knowingly; any other word beginning a line is an error.
 const OBJ_STATEMENTS: [&str; 36] = [
@@ -889,6 +886,10 @@ const OBJ_STATEMENTS: [&str; 36] = [
     "call",
 ];
 
+/// Lines of the face statements the OBJ reader will turn into faces, in order; refuses face
+/// statements that cannot be a facet (fewer than three vertices, a polyline of three or more
+/// vertices, which the reader would take for a face), vertex weights other than 1 and words
+/// that are not OBJ statements, with their line.
 fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
     let text = String::from_utf8_lossy(bytes);
     let mut out = Vec::new();

@@ -765,6 +765,16 @@ fn spectral_files_import_every_band_and_fit_dark_bands_with_a_noise_floor() {
             ],
             "ignored",
         ),
+        (
+            vec![
+                "fit", "--format", "cornell", "--bands", "shared", "--shard", "0/2", &astm,
+            ],
+            "--shard splits the bands",
+        ),
+        (
+            vec!["fit", "--bands", "shared", path.to_str().unwrap()],
+            "no two datasets are bands",
+        ),
     ] {
         let out = brdf(&args);
         let err = String::from_utf8_lossy(&out.stderr);

@@ -214,7 +214,10 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome, distinct: usize) -> 
     let lobe_off = lobe_model && outcome.q[0] == 0.0;
     let mut note: Vec<Option<String>> = vec![None; p];
     for j in 0..p {
-        if let Some(bound) = on_bound(outcome.q[j], lo[j], hi[j]) {
+        if problem.is_fixed(j) {
+            note[j] =
+                Some("held: shared with the other bands of its measurement, not estimated here".to_owned());
+        } else if let Some(bound) = on_bound(outcome.q[j], lo[j], hi[j]) {
             let shown = crate::kernel::to_natural(kind, &{
                 let mut q = outcome.q;
                 q[j] = bound;

@@ -141,6 +141,10 @@ fn settings_that_cannot_weigh_dark_readings_refuse_naming_the_line() {
             with(Residual::Relative, Engine::Full, FloorChoice::Given(0.0)),
             "noise floor 0",
         ),
+        (
+            with(Residual::Relative, Engine::Full, FloorChoice::Given(-1.0)),
+            "noise floor 0",
+        ),
     ] {
         let e = s.fit(&d).unwrap_err();
         assert!(matches!(e, FitError::Dark { line, .. } if line == first), "{e}");
@@ -290,4 +294,19 @@ fn the_bands_of_a_spectral_file_share_one_shape() {
     );
     // The default fits bands independently.
     assert_eq!(FitSettings::new(ModelKind::Six).bands, BandShape::Independent);
+    // A band's report holds the shared shape: its profiles and influence refits do not slide
+    // to the band's own optimum.
+    let u = serde_json::to_string(&shared[3].uncertainty).unwrap();
+    assert_eq!(u.matches("shared with the other bands").count(), 4, "{u}");
+    // Shared bands with nothing to share, or with log residuals, are refused.
+    let one = vec![d[0].clone()];
+    let e = brdf_fit::fittable(&settings, one, false).unwrap_err().to_string();
+    assert!(e.contains("no two datasets are bands"), "{e}");
+    let log = FitRequest {
+        residual: Residual::Log,
+        bands: Some(BandShape::Shared),
+        ..FitRequest::new(ModelKind::Six)
+    };
+    let e = FitSettings::from_options(&log).unwrap_err().to_string();
+    assert!(e.contains("bands shared") && e.contains("ignored"), "{e}");
 }
