@@ -649,9 +649,14 @@ impl<R: std::io::Read> std::io::Read for LineBounded<R> {
     }
 }
 
-/// [`open_input`] read whole as text.
+/// [`open_input`] read whole as text, without a leading UTF-8 byte-order mark (editors on
+/// Windows write one; JSON readers refused it while the CSV, TOML and mesh readers skip it).
 pub fn read_input(path: &Path) -> std::io::Result<String> {
-    std::io::read_to_string(open_input(path)?)
+    let text = std::io::read_to_string(open_input(path)?)?;
+    Ok(match text.strip_prefix('\u{feff}') {
+        Some(rest) => rest.to_owned(),
+        None => text,
+    })
 }
 
 /// [`open_input`] read whole as bytes.

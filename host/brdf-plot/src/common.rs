@@ -46,22 +46,32 @@ pub(crate) fn render(
         file: file.clone(),
         message,
     };
-    check_path(path)?;
-    match path.extension().and_then(|e| e.to_str()) {
-        Some("svg") => {
+    match format_of(path)? {
+        "svg" => {
             let root = SVGBackend::new(path, size).into_drawing_area();
             root.fill(&WHITE).map_err(err).map_err(wrap)?;
             svg(&root).map_err(wrap)?;
             root.present().map_err(err).map_err(wrap)
         }
-        Some("png") => {
+        _ => {
             let root = BitMapBackend::new(path, size).into_drawing_area();
             root.fill(&WHITE).map_err(err).map_err(wrap)?;
             png(&root).map_err(wrap)?;
             root.present().map_err(err).map_err(wrap)
         }
-        _ => Err(PlotError::Format(file)),
     }
+}
+
+/// The chart format `path` names, `"svg"` or `"png"` (the extension in either case), after
+/// [`check_path`].
+fn format_of(path: &Path) -> Result<&'static str, PlotError> {
+    check_path(path)?;
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    Ok(if ext.eq_ignore_ascii_case("svg") {
+        "svg"
+    } else {
+        "png"
+    })
 }
 
 /// Whether `path` names a chart format this crate writes (`.svg`, `.png`) in a folder that
@@ -69,7 +79,8 @@ pub(crate) fn render(
 /// a chart shows.
 pub fn check_path(path: &Path) -> Result<(), PlotError> {
     match path.extension().and_then(|e| e.to_str()) {
-        Some("svg" | "png") => {}
+        // Either case, as the mesh readers take `.OBJ` and `.STL`.
+        Some(e) if e.eq_ignore_ascii_case("svg") || e.eq_ignore_ascii_case("png") => {}
         _ => return Err(PlotError::Format(path.display().to_string())),
     }
     // A folder that does not exist failed only when the drawing was written, after the work.

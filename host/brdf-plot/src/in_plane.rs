@@ -225,5 +225,9 @@ mod tests {
             .to_string();
         assert!(e.contains("does not exist"), "{e}");
         assert!(crate::check_path(std::path::Path::new("a.svg")).is_ok());
+        // Upper case names the same formats.
+        let upper = dir.path().join("A.SVG");
+        in_plane(&upper, "t", &data, std::slice::from_ref(&fit)).unwrap();
+        assert!(std::fs::read_to_string(&upper).unwrap().starts_with("<svg"));
     }
 }

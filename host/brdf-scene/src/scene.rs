@@ -416,8 +416,14 @@ impl Scene {
                 )),
                 ("bistatic", Some(sep)) => {
                     let v = *sep.get_ref();
-                    if !v.is_finite() {
-                        return Err(field(sep.span(), "separation_deg", format!("{v} is not finite")));
+                    // Within two turns, as every azimuth: 1e300 lost its phase in the conversion.
+                    let limit = brdf_fit::data::PHI_LIMIT_DEG;
+                    if !(v.is_finite() && v.abs() <= limit) {
+                        return Err(field(
+                            sep.span(),
+                            "separation_deg",
+                            format!("{v} is not in [-{limit}, {limit}] degrees"),
+                        ));
                     }
                     Mode::Bistatic { separation_deg: v }
                 }
@@ -436,7 +442,8 @@ impl Scene {
                     ))
                 }
             };
-        let azimuth_deg = sweep(&s.azimuth_deg, -f64::INFINITY, f64::INFINITY)
+        let turns = brdf_fit::data::PHI_LIMIT_DEG;
+        let azimuth_deg = sweep(&s.azimuth_deg, -turns, turns)
             .map_err(|m| field(s.azimuth_deg.span(), "azimuth_deg", m))?;
         let elevation_deg = sweep(&s.elevation_deg, -90.0, 90.0)
             .map_err(|m| field(s.elevation_deg.span(), "elevation_deg", m))?;
@@ -526,6 +533,12 @@ fn sweep(v: &Spanned<Vec<f64>>, lo: f64, hi: f64) -> Result<Vec<f64>, String> {
         .collect();
     if let Some(bad) = out.iter().find(|x| **x < lo || **x > hi) {
         return Err(format!("{bad} is outside [{lo}, {hi}]"));
+    }
+    // A step below the values' resolution repeated one value (aspects that were one).
+    if out.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(format!(
+            "step {step} is below the resolution of values near {start}: they repeat"
+        ));
     }
     Ok(out)
 }

@@ -714,6 +714,11 @@ fn spectral_files_import_every_band_and_fit_dark_bands_with_a_noise_floor() {
     let blob = dir.path().join("krylon-400.bin");
     ok(&["pack", fits.to_str().unwrap(), "-o", blob.to_str().unwrap()]);
     assert!(std::fs::metadata(&blob).unwrap().len() > 0);
+    // With a byte-order mark (an editor on Windows) it reads the same: it was refused.
+    std::fs::write(&fits, format!("\u{feff}{json}")).unwrap();
+    let again = dir.path().join("krylon-400-bom.bin");
+    ok(&["pack", fits.to_str().unwrap(), "-o", again.to_str().unwrap()]);
+    assert_eq!(std::fs::read(&again).unwrap(), std::fs::read(&blob).unwrap());
     let given = ok(&[
         "fit",
         "--model",

@@ -43,6 +43,32 @@ fn a_sweep_narrower_than_its_step_has_its_start() {
     assert_eq!(s.aspects().len(), 1);
 }
 
+/// A start of 1e17 with a step of 1 repeated one azimuth a hundred times, and a separation of
+/// 1e300 lost its phase: azimuths and separations stay within two turns, and values repeat no
+/// more.
+#[test]
+fn sweeps_and_separations_stay_within_two_turns() {
+    let head =
+        "mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nmodel = \"lambert\"\nparams = \"rho0=0.3\"\n";
+    for (sensor, says) in [
+        (
+            "mode = \"monostatic\"\nazimuth_deg = [1e17, 1.00000000000001e17, 1]",
+            "outside [-720, 720]",
+        ),
+        (
+            "mode = \"monostatic\"\nazimuth_deg = [700, 700.000000001, 1e-14]",
+            "repeat",
+        ),
+        (
+            "mode = \"bistatic\"\nseparation_deg = 1e300\nazimuth_deg = [0, 10, 5]",
+            "not in [-720, 720]",
+        ),
+    ] {
+        let e = err(&format!("{head}[sensor]\n{sensor}\nelevation_deg = [0, 1, 1]\n"));
+        assert!(e.contains(says), "{sensor}: {e}");
+    }
+}
+
 /// `scene domain` streams groups of aspects; what it writes is exactly the CSV of all queries
 /// collected at once, across group boundaries.
 #[test]
