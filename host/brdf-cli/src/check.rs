@@ -204,7 +204,11 @@ impl CheckCmd {
                     let mut xs: Vec<[f32; 3]> = rows
                         .iter()
                         .filter(|r| r.material.is_none_or(|k| k == m))
-                        .map(|r| [r.theta_i, r.theta_r, r.phi].map(|d| d.to_radians() as f32))
+                        // phi 180, -180 and 540 are one direction: asked once.
+                        .map(|r| {
+                            [r.theta_i, r.theta_r, brdf_fit::import::wrap_degrees(r.phi)]
+                                .map(|d| d.to_radians() as f32)
+                        })
                         .collect();
                     // Facets that share angles (a ring of a hull) ask the same question: each
                     // distinct direction is asked once.

@@ -212,9 +212,10 @@ fn parse_error(file: &str, line: u64, column: &'static str, text: &str) -> DataE
     }
 }
 
-/// Wraps degrees into [0, 360).
-fn wrap_degrees(phi: f64) -> f64 {
-    let w = phi.rem_euclid(360.0);
+/// Wraps degrees into [0, 360) (`-0` to `0`, and a tiny negative that rounds to 360 to 0),
+/// so that one azimuth has one value.
+pub fn wrap_degrees(phi: f64) -> f64 {
+    let w = phi.rem_euclid(360.0) + 0.0;
     if w >= 360.0 {
         0.0
     } else {

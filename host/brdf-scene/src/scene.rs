@@ -344,6 +344,20 @@ impl Scene {
                 }
             }
         }
+        // An entry that colours nothing is a mistake the sweep would not show.
+        if let Some(m) = star {
+            if part_material.iter().all(Option::is_some) {
+                return Err(SceneError::Field {
+                    file: scene,
+                    line: materials[m].line,
+                    field: "part",
+                    message: format!(
+                        "\"*\" covers no part: every part of {} has its own entry",
+                        mesh.file.display()
+                    ),
+                });
+            }
+        }
         let occluder = Occluder::new(&mesh);
         Ok(Scene {
             file,

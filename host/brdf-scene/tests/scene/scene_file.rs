@@ -69,6 +69,19 @@ fn sweeps_and_separations_stay_within_two_turns() {
     }
 }
 
+/// A `part = "*"` entry when every part has its own entry colours nothing: refused by line.
+#[test]
+fn a_star_entry_that_covers_nothing_is_refused() {
+    let entry =
+        |part: &str| format!("[[material]]\npart = \"{part}\"\nmodel = \"lambert\"\nparams = \"rho0=0.3\"\n");
+    let all: String = ["hull", "caps", "fin"].iter().map(|p| entry(p)).collect();
+    let e = err(&format!("mesh = \"target.obj\"\n{all}{}{SENSOR}", entry("*")));
+    assert!(e.contains("line 15") && e.contains("\"*\" covers no part"), "{e}");
+    let two: String = ["hull", "caps"].iter().map(|p| entry(p)).collect();
+    let (_d, p) = scene_with(&format!("mesh = \"target.obj\"\n{two}{}{SENSOR}", entry("*")));
+    assert!(Scene::load(&p).is_ok(), "\"*\" covering the fin");
+}
+
 /// `scene domain` streams groups of aspects; what it writes is exactly the CSV of all queries
 /// collected at once, across group boundaries.
 #[test]
