@@ -780,6 +780,37 @@ fn spectral_files_import_every_band_and_fit_dark_bands_with_a_noise_floor() {
             vec!["fit", "--bands", "shared", path.to_str().unwrap()],
             "no two datasets are bands",
         ),
+        (vec!["fit", "--bands", "both", path.to_str().unwrap()], "bands"),
+        (vec!["fit", "--bands", "", path.to_str().unwrap()], "bands"),
+        (
+            vec!["import", "cornell", &astm, "--band", "nan"],
+            "greater than 0",
+        ),
+        (vec!["import", "cornell", &astm, "--band=-0.4"], "greater than 0"),
+        (vec!["import", "cornell", &astm, "--band", ""], "greater than 0"),
+        (
+            vec!["import", "cornell", &astm, "--band", "0.4", "--channel", "r"],
+            "not both",
+        ),
+        (
+            vec!["fit", "--format", "cornell", "--band", "inf", &astm],
+            "greater than 0",
+        ),
+        (
+            vec!["fit", "--noise-floor", "", path.to_str().unwrap()],
+            "at or above 0",
+        ),
+        (
+            vec![
+                "fit",
+                "--engine",
+                "embedded",
+                "--noise-floor",
+                "0.1",
+                path.to_str().unwrap(),
+            ],
+            "noise_floor",
+        ),
     ] {
         let out = brdf(&args);
         let err = String::from_utf8_lossy(&out.stderr);
