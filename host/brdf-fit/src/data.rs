@@ -672,8 +672,30 @@ pub fn wavelength_text(um: f64) -> String {
     brdf_core::Compact((um * 1e9).round() / 1e9).to_string()
 }
 
+/// A dataset name's measurement and band: `FILE[sample=x,wavelength=0.55]` is
+/// (`FILE[sample=x]`, 0.55), `FILE[wavelength=0.55]` is (`FILE`, 0.55); `None` for a name
+/// without a wavelength group. The inverse of the names [`Loaded`] gives (sample names cannot
+/// hold the delimiters, so a name has one reading).
+pub fn split_wavelength(name: &str) -> Option<(String, f64)> {
+    let (file, group) = name.rsplit_once('[')?;
+    let group = group.strip_suffix(']')?;
+    let mut um = None;
+    let mut rest = Vec::new();
+    for g in group.split(',') {
+        match g.strip_prefix("wavelength=") {
+            Some(v) => um = Some(v.parse::<f64>().ok().filter(|v| v.is_finite() && *v > 0.0)?),
+            None => rest.push(g),
+        }
+    }
+    let um = um?;
+    Some(match rest.is_empty() {
+        true => (file.to_owned(), um),
+        false => (format!("{file}[{}]", rest.join(",")), um),
+    })
+}
+
 /// The dataset a row belongs to: `sample=..,wavelength=..` from its columns. A sample is any
-/// text but empty; a wavelength a number above 0, grouped by value (0.5, 0.50 and 5e-1 are one
+/// text but empty and without `[`, `]`, `,` or `=` (they delimit the name); a wavelength a number above 0, grouped by value (0.5, 0.50 and 5e-1 are one
 /// band; they were three datasets, each fitted on a third of the data), written in its
 /// shortest form to the femtometre.
 fn group_key(record: &csv::StringRecord, cols: &Columns) -> Result<String, String> {
@@ -682,6 +704,11 @@ fn group_key(record: &csv::StringRecord, cols: &Columns) -> Result<String, Strin
         let text = record.get(i).unwrap_or("").trim();
         if text.is_empty() {
             return Err("column sample: empty (name the sample of every row)".to_owned());
+        }
+        if let Some(c) = text.chars().find(|c| "[],=".contains(*c)) {
+            return Err(format!(
+                "column sample: `{text}` holds `{c}`, which delimits dataset names (FILE[sample=..,wavelength=..])"
+            ));
         }
         key.push(format!("sample={text}"));
     }
@@ -915,6 +942,17 @@ mod tests {
         );
         let e = r.unwrap_err().to_string();
         assert!(e.contains("line 3") && e.contains("sample: empty"), "{e}");
+        // A sample named like a group (`x,wavelength=0.5`) read back as a band of `x`.
+        let (_f, r) = load(
+            "sample,theta_i,theta_r,phi,brdf\nA,0,0,0,1\n\"x,wavelength=0.5\",0,10,0,1\n",
+            LoadOptions::default(),
+        );
+        let e = r.unwrap_err().to_string();
+        assert!(e.contains("line 3") && e.contains("delimits dataset names"), "{e}");
+        assert_eq!(split_wavelength("f.csv[sample=A,wavelength=0.55]"), Some(("f.csv[sample=A]".into(), 0.55)));
+        assert_eq!(split_wavelength("f.csv[wavelength=0.55]"), Some(("f.csv".into(), 0.55)));
+        assert_eq!(split_wavelength("f.csv[sample=A]"), None);
+        assert_eq!(split_wavelength("f.csv"), None);
         // sigma and weight within the magnitudes a BRDF may have.
         for col in ["sigma", "weight"] {
             let (_f, r) = load(

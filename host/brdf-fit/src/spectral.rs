@@ -34,7 +34,8 @@ use serde::{Deserialize, Serialize};
 use crate::fit::{FitOutcome, SearchSummary, AGREEMENT};
 use crate::kernel::{assemble, to_internal, to_natural};
 use crate::problem::{nonlinear_indices, Problem};
-use crate::report::FitReport;
+use crate::import::SAME_BAND_UM;
+use crate::report::{FitReport, FittedModel, OneFit};
 
 /// How the bands of one measurement are fitted.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -80,18 +81,9 @@ pub struct BandsInfo {
 /// The datasets that are bands of one measurement: groups of indices (in input order) whose
 /// names differ only in their `wavelength=` group, two or more bands each.
 pub fn families(names: &[&str]) -> Vec<Vec<usize>> {
-    let key = |name: &str| -> Option<String> {
-        let (file, group) = name.rsplit_once('[')?;
-        let group = group.strip_suffix(']')?;
-        let rest: Vec<&str> = group
-            .split(',')
-            .filter(|g| !g.starts_with("wavelength="))
-            .collect();
-        (rest.len() < group.split(',').count()).then(|| format!("{file}[{}]", rest.join(",")))
-    };
     let mut out: Vec<(String, Vec<usize>)> = Vec::new();
     for (i, n) in names.iter().enumerate() {
-        if let Some(k) = key(n) {
+        if let Some((k, _)) = crate::data::split_wavelength(n) {
             match out.iter_mut().find(|(f, _)| *f == k) {
                 Some((_, members)) => members.push(i),
                 None => out.push((k, vec![i])),
@@ -99,6 +91,137 @@ pub fn families(names: &[&str]) -> Vec<Vec<usize>> {
         }
     }
     out.into_iter().map(|(_, m)| m).filter(|m| m.len() > 1).collect()
+}
+
+/// The bands of one spectral measurement in a fit-result file, for a consumer that works at
+/// a wavelength (`brdf eval --fit` with a `wavelength` column or `--wavelength`, a scene's
+/// `[sensor] wavelength_um`, `brdf.eval_fit(..., wavelength=)`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BandFits {
+    /// The measurement: the dataset name without its wavelength group.
+    pub measurement: String,
+    /// `(wavelength in µm, the band's fit)`, ascending in wavelength.
+    pub bands: Vec<(f64, OneFit)>,
+}
+
+/// What a material is at one wavelength.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AtWavelength<'a> {
+    /// A band's own fit (the wavelength is the band's, within [`SAME_BAND_UM`]).
+    Band(&'a OneFit),
+    /// Between two neighbouring bands: `f = (1 - weight) f_lower + weight f_upper`, linear in
+    /// wavelength (a convex combination, so reciprocity and energy conservation carry over).
+    Between {
+        /// The band below.
+        lower: &'a OneFit,
+        /// The band above.
+        upper: &'a OneFit,
+        /// The upper band's weight, in (0, 1).
+        weight: f64,
+    },
+}
+
+impl BandFits {
+    /// The bands of the measurement that fit `index` of `text` belongs to (or of the only
+    /// measurement when `index` is `None`); `Ok(None)` when the fits carry no wavelength (a
+    /// grey material, the same at every wavelength: then `index` picks a fit as
+    /// [`FittedModel::one_of`] does). Refused: a wavelength given twice for one measurement,
+    /// several measurements without `index`, a hand-written fit (no dataset) among bands.
+    pub fn read(text: &str, origin: &str, index: Option<usize>) -> Result<Option<BandFits>, String> {
+        let fits = FittedModel::from_json(text, origin).map_err(|e| e.to_string())?;
+        let split: Vec<Option<(String, f64)>> = fits
+            .iter()
+            .map(|f| f.dataset.as_deref().and_then(crate::data::split_wavelength))
+            .collect();
+        let mut measurements: Vec<&str> = Vec::new();
+        for (m, _) in split.iter().flatten() {
+            if !measurements.contains(&m.as_str()) {
+                measurements.push(m);
+            }
+        }
+        if measurements.is_empty() {
+            return Ok(None);
+        }
+        let measurement = match index {
+            Some(k) if k >= fits.len() => {
+                return Err(format!("{origin}: holds {} fits; there is no index {k}", fits.len()))
+            }
+            Some(k) => match &split[k] {
+                Some((m, _)) => m.clone(),
+                None => {
+                    return Err(format!(
+                        "{origin}: fit {k} is of no band (its dataset has no wavelength), so it has no \
+                         value at a wavelength"
+                    ))
+                }
+            },
+            None if measurements.len() == 1 => measurements[0].to_owned(),
+            None => {
+                let firsts: Vec<String> = measurements
+                    .iter()
+                    .map(|m| {
+                        let k = split.iter().position(|s| s.as_ref().is_some_and(|(n, _)| n == m));
+                        format!("{m} (index {})", k.unwrap_or(0))
+                    })
+                    .collect();
+                return Err(format!(
+                    "{origin}: holds the bands of {} measurements: say which with the index of any \
+                     of its fits: {}",
+                    measurements.len(),
+                    firsts.join(", ")
+                ));
+            }
+        };
+        let mut bands: Vec<(f64, OneFit)> = Vec::new();
+        for (k, s) in split.iter().enumerate() {
+            let Some((m, um)) = s else { continue };
+            if *m != measurement {
+                continue;
+            }
+            if let Some((_, other)) = bands.iter().find(|(w, _)| (w - um).abs() < SAME_BAND_UM) {
+                return Err(format!(
+                    "{origin}: fits {} and {k} are both of {measurement} at {} µm: one fit per band",
+                    other.index,
+                    crate::data::wavelength_text(*um)
+                ));
+            }
+            let fit = FittedModel::one_of(text, origin, Some(k))?;
+            bands.push((*um, fit));
+        }
+        bands.sort_by(|a, b| a.0.total_cmp(&b.0));
+        Ok(Some(BandFits { measurement, bands }))
+    }
+
+    /// The material at `um` µm: a band's fit, or the two bands around it with the upper one's
+    /// weight. Refused outside the measured bands (no extrapolation), naming them.
+    pub fn at(&self, um: f64) -> Result<AtWavelength<'_>, String> {
+        let text = crate::data::wavelength_text;
+        let (lo, hi) = (self.bands[0].0, self.bands[self.bands.len() - 1].0);
+        if !um.is_finite() || um <= 0.0 {
+            return Err(format!("wavelength {um} µm is not a wavelength above 0"));
+        }
+        if let Some((_, fit)) = self.bands.iter().find(|(w, _)| (w - um).abs() < SAME_BAND_UM) {
+            return Ok(AtWavelength::Band(fit));
+        }
+        if um < lo || um > hi {
+            let range = match self.bands.len() {
+                1 => format!("its only band is {} µm", text(lo)),
+                n => format!("its {n} bands span {}–{} µm", text(lo), text(hi)),
+            };
+            return Err(format!(
+                "{} µm is outside the bands of {}: {range} (a BRDF is not extrapolated in wavelength)",
+                text(um),
+                self.measurement
+            ));
+        }
+        let k = self.bands.partition_point(|(w, _)| *w < um);
+        let ((w0, lower), (w1, upper)) = (&self.bands[k - 1], &self.bands[k]);
+        Ok(AtWavelength::Between {
+            lower,
+            upper,
+            weight: (um - w0) / (w1 - w0),
+        })
+    }
 }
 
 /// The summed projected cost of `problems` at nonlinear parameters `nl`, and each band's
@@ -323,6 +446,54 @@ pub fn mark(reports: &mut [FitReport], shape: BandShape, shared_cost: Option<f64
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A fit-result array of Lambertian fits, one per `(dataset, rho0)`.
+    fn fits(items: &[(&str, f64)]) -> String {
+        let one = |(d, r): &(&str, f64)| format!(r#"{{"dataset": "{d}", "model": "lambert", "params": {{"rho0": {r}}}}}"#);
+        format!("[{}]", items.iter().map(one).collect::<Vec<_>>().join(","))
+    }
+
+    #[test]
+    fn bands_are_picked_or_interpolated_by_wavelength_and_never_extrapolated() {
+        let text = fits(&[
+            ("a.csv[wavelength=0.5]", 0.5),
+            ("a.csv[wavelength=0.6]", 0.6),
+            ("b.csv[wavelength=0.5]", 0.9),
+            ("a.csv[wavelength=0.4]", 0.4),
+        ]);
+        let e = BandFits::read(&text, "f.json", None).unwrap_err();
+        assert!(e.contains("2 measurements") && e.contains("b.csv (index 2)"), "{e}");
+        let bands = BandFits::read(&text, "f.json", Some(3)).unwrap().unwrap();
+        assert_eq!(bands.measurement, "a.csv");
+        let w: Vec<f64> = bands.bands.iter().map(|b| b.0).collect();
+        assert_eq!(w, [0.4, 0.5, 0.6]);
+        let rho = |f: &OneFit| f.params[0];
+        match bands.at(0.4 + 1e-7).unwrap() {
+            AtWavelength::Band(f) => assert_eq!((rho(f), f.index), (0.4, 3)),
+            other => panic!("{other:?}"),
+        }
+        match bands.at(0.575).unwrap() {
+            AtWavelength::Between { lower, upper, weight } => {
+                assert_eq!((rho(lower), rho(upper)), (0.5, 0.6));
+                assert!((weight - 0.75).abs() < 1e-12, "{weight}");
+            }
+            other => panic!("{other:?}"),
+        }
+        for bad in [0.3999, 0.61, 0.0, -0.5, f64::NAN] {
+            assert!(bands.at(bad).is_err(), "{bad}");
+        }
+        assert!(bands.at(0.7).unwrap_err().contains("3 bands span 0.4–0.6 µm"));
+        // One band: only its own wavelength.
+        let one = BandFits::read(&text, "f.json", Some(2)).unwrap().unwrap();
+        assert!(one.at(0.55).unwrap_err().contains("only band is 0.5 µm"));
+        // Grey fits: none. A band given twice, or an index of a fit without a band: refused.
+        assert_eq!(BandFits::read(&fits(&[("a.csv", 0.5)]), "f.json", None).unwrap(), None);
+        let twice = fits(&[("a.csv[wavelength=0.5]", 0.5), ("a.csv[wavelength=0.50]", 0.6)]);
+        assert!(BandFits::read(&twice, "f.json", None).unwrap_err().contains("one fit per band"));
+        let mixed = fits(&[("a.csv[wavelength=0.5]", 0.5), ("c.csv", 0.6)]);
+        assert!(BandFits::read(&mixed, "f.json", Some(1)).unwrap_err().contains("no band"));
+        assert!(BandFits::read(&mixed, "f.json", Some(2)).unwrap_err().contains("no index 2"));
+    }
 
     #[test]
     fn families_are_the_bands_of_one_file_and_sample() {

@@ -40,6 +40,16 @@ pub enum Evaluator {
         /// The table's bytes, as they travel in a blob.
         bytes: Vec<u8>,
     },
+    /// Two bands of a spectral material around a wavelength:
+    /// `(1 - weight) f_lower + weight f_upper` (`brdf_fit::spectral::AtWavelength`).
+    Blend {
+        /// The band below.
+        lower: Box<Evaluator>,
+        /// The band above.
+        upper: Box<Evaluator>,
+        /// The upper band's weight.
+        weight: f64,
+    },
 }
 
 impl Evaluator {
@@ -49,6 +59,8 @@ impl Evaluator {
             Evaluator::ExactCorrected { bytes, .. } | Evaluator::Corrected { bytes, .. } => {
                 FittedTable::new(bytes).ok()
             }
+            // The bands of one measurement share its directions, so their tables' coverage.
+            Evaluator::Blend { lower, .. } => lower.fitted_table(),
             _ => None,
         }
     }
@@ -91,6 +103,14 @@ pub fn eval_batch(e: &Evaluator, cos_theta_i: &[f64], cos_theta_r: &[f64], cos_p
             }),
             Err(_) => fill(q, |_, _, _| f64::NAN),
         },
+        Evaluator::Blend { lower, upper, weight } => {
+            let mut above = vec![0.0; out.len()];
+            eval_batch(lower, cos_theta_i, cos_theta_r, cos_phi, out);
+            eval_batch(upper, cos_theta_i, cos_theta_r, cos_phi, &mut above);
+            for (o, u) in out.iter_mut().zip(above) {
+                *o = (1.0 - weight) * *o + weight * u;
+            }
+        }
     }
 }
 

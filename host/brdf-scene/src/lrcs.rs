@@ -36,6 +36,10 @@ pub struct LrcsReport<'a> {
     pub mode: &'static str,
     /// Source-receiver separation of a bistatic sweep, degrees.
     pub separation_deg: Option<f64>,
+    /// The sensor's wavelength, µm (`[sensor] wavelength_um`), at which spectral materials
+    /// are taken.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wavelength_um: Option<f64>,
     /// The materials in scene order.
     pub materials: Vec<LrcsMaterial>,
     /// Wall time of the sweep, s.
@@ -55,6 +59,10 @@ pub struct LrcsMaterial {
     pub params: Vec<f64>,
     /// Whether it carries a fitted table (the model is then its base).
     pub fitted_table: bool,
+    /// Between two bands of a spectral fit at the sensor's wavelength: what is blended
+    /// (`six (fit 15) x 0.25 + six (fit 16) x 0.75`; `model` and `params` are the band below).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub blend: Option<String>,
     /// With a fitted table: the share of the material's σ, summed over the sweep, that comes
     /// from lookups outside the table's coverage (where it holds the smoothness term's
     /// extrapolation, not a measurement).
@@ -75,6 +83,7 @@ impl<'a> LrcsReport<'a> {
             facets: scene.mesh.facets.len(),
             mode,
             separation_deg,
+            wavelength_um: scene.wavelength_um,
             materials: scene
                 .materials
                 .iter()
@@ -84,6 +93,7 @@ impl<'a> LrcsReport<'a> {
                     model: m.model.kind().name(),
                     params: m.model.to_params()[..m.model.kind().param_count()].to_vec(),
                     fitted_table: m.table.is_some(),
+                    blend: m.upper.as_ref().map(|_| scene.material_description(k)),
                     outside_coverage: m.table.as_ref().map(|_| result.outside_coverage(k)),
                 })
                 .collect(),

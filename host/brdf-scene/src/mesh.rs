@@ -498,7 +498,7 @@ impl Mesh {
         // The full test of a pair; the first pair in facet order is named, whatever order the
         // pairs are met in.
         let mut found: Option<(usize, usize, f64)> = None;
-        let mut test = |a: usize, b: usize, found: &mut Option<(usize, usize, f64)>| {
+        let test = |a: usize, b: usize, found: &mut Option<(usize, usize, f64)>| {
             let (a, b) = (a.min(b), a.max(b));
             let (fa, fb) = (&self.facets[a], &self.facets[b]);
             if v3::dot(fa.normal, fb.normal) <= 0.0 || found.is_some_and(|f| (a, b) >= (f.0, f.1)) {

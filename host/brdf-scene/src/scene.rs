@@ -7,11 +7,14 @@
 //! model = "six"                  # model and params as in `brdf eval` ...
 //! params = "kb=0.2545,kr=21.8031,b=-27.5721,a=0.6705,kd=0.3676,c=1.2"
 //! # ... or fit = "hull.json" (a `brdf fit --json` or `brdf select --chosen` result, a fitted
-//! #     table included; index = k for the k-th of a batch)
+//! #     table included; index = k for the k-th of a batch; the bands of a spectral fit at
+//! #     [sensor] wavelength_um, index = any fit of the measurement when it holds several)
 //! # ... or blob = "params.bin" with index = 0 (a parameter blob's material: its fitted table is
 //! #     used, its six-parameter lookup tables are not: sigma is computed in f64)
 //! [sensor]
 //! mode = "monostatic"            # or "bistatic" with separation_deg
+//! wavelength_um = 0.55           # optional: each spectral fit's band there, or the two bands
+//!                                # around it interpolated linearly (never extrapolated)
 //! azimuth_deg = [0, 360, 5]      # start, stop (exclusive), step
 //! elevation_deg = [0, 31, 15]
 //! ```
@@ -25,7 +28,9 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
+use brdf_fit::data::wavelength_text;
 use brdf_fit::report::FittedModel;
+use brdf_fit::spectral::{AtWavelength, BandFits};
 use serde::Deserialize;
 use thiserror::Error;
 use toml::Spanned;
@@ -126,6 +131,7 @@ struct MaterialEntry {
 #[serde(deny_unknown_fields)]
 struct SensorEntry {
     mode: Spanned<String>,
+    wavelength_um: Option<Spanned<f64>>,
     separation_deg: Option<Spanned<f64>>,
     azimuth_deg: Spanned<Vec<f64>>,
     elevation_deg: Spanned<Vec<f64>>,
@@ -157,6 +163,23 @@ pub struct SceneMaterial {
     pub source: Source,
     /// Line of the entry's `part` in the scene file (0 for scenes built in memory).
     pub line: u64,
+    /// At a wavelength between two bands of a spectral fit, the band above: the material is
+    /// then `(1 - weight) f(model, table) + weight f(upper)` (`model` and `table` are the band
+    /// below; [`brdf_fit::spectral::AtWavelength`]).
+    pub upper: Option<Upper>,
+}
+
+/// The band above a scene's wavelength, for a material interpolated between two bands.
+#[derive(Clone, Debug)]
+pub struct Upper {
+    /// The band's model, f64.
+    pub model: AnyModel<f64>,
+    /// Its fitted table's device bytes, if any.
+    pub table: Option<Vec<u8>>,
+    /// Its index in the fit file.
+    pub index: usize,
+    /// Its weight, in (0, 1).
+    pub weight: f64,
 }
 
 impl SceneMaterial {
@@ -168,18 +191,29 @@ impl SceneMaterial {
             table: None,
             source: Source::Params,
             line: 0,
+            upper: None,
         }
     }
 
     /// How σ evaluates this material: the exact f64 model, or its base times its fitted
-    /// table in f64.
+    /// table in f64; between two bands, the two blended.
     pub fn evaluator(&self) -> crate::eval::Evaluator {
-        match &self.table {
-            Some(bytes) => crate::eval::Evaluator::ExactCorrected {
-                base: self.model,
+        use crate::eval::Evaluator;
+        let exact = |model: AnyModel<f64>, table: &Option<Vec<u8>>| match table {
+            Some(bytes) => Evaluator::ExactCorrected {
+                base: model,
                 bytes: bytes.clone(),
             },
-            None => crate::eval::Evaluator::Exact(self.model),
+            None => Evaluator::Exact(model),
+        };
+        let own = exact(self.model, &self.table);
+        match &self.upper {
+            Some(u) => Evaluator::Blend {
+                lower: Box::new(own),
+                upper: Box::new(exact(u.model, &u.table)),
+                weight: u.weight,
+            },
+            None => own,
         }
     }
 }
@@ -269,6 +303,9 @@ pub struct Scene {
     pub sensor: Sensor,
     /// The BVH for occlusion rays.
     pub occluder: Occluder,
+    /// The sensor's wavelength, µm (`[sensor] wavelength_um`): the band of each spectral
+    /// material used.
+    pub wavelength_um: Option<f64>,
 }
 
 impl std::fmt::Debug for Scene {
@@ -366,6 +403,7 @@ impl Scene {
             facet_material,
             sensor,
             occluder,
+            wavelength_um: None,
         })
     }
 
@@ -397,17 +435,29 @@ impl Scene {
             field,
             message,
         };
+        let wavelength = match &parsed.sensor.get_ref().wavelength_um {
+            None => None,
+            Some(w) if w.get_ref().is_finite() && *w.get_ref() > 0.0 => Some((*w.get_ref(), w.span())),
+            Some(w) => {
+                return Err(field(
+                    w.span(),
+                    "wavelength_um",
+                    format!("{} is not a wavelength above 0 (µm)", w.get_ref()),
+                ))
+            }
+        };
         let mut materials = Vec::new();
         for entry in &parsed.materials {
             let e = entry.get_ref();
             let line = line_of(&text, e.part.span().start);
-            let (model, source, table) = resolve_material(e, dir, &field)?;
+            let (model, source, table, upper) = resolve_material(e, dir, wavelength.clone(), &field)?;
             materials.push(SceneMaterial {
                 part: e.part.get_ref().clone(),
                 model,
                 table,
                 source,
                 line,
+                upper,
             });
         }
         if materials.is_empty() {
@@ -474,7 +524,7 @@ impl Scene {
         }
         let mesh_path = dir.join(parsed.mesh.get_ref());
         let mesh = Mesh::load(&mesh_path)?;
-        Scene::new(
+        let mut scene = Scene::new(
             path.to_path_buf(),
             mesh,
             materials,
@@ -483,7 +533,9 @@ impl Scene {
                 azimuth_deg,
                 elevation_deg,
             },
-        )
+        )?;
+        scene.wavelength_um = wavelength.map(|w| w.0);
+        Ok(scene)
     }
 
     /// The files the scene was read from: the scene file, its mesh and every fit or blob
@@ -501,6 +553,29 @@ impl Scene {
     /// Every aspect of the sweep.
     pub fn aspects(&self) -> Vec<Aspect> {
         self.sensor.aspects()
+    }
+
+    /// What material `m` is: its model (`six`, `six + table`), or between two bands at the
+    /// scene's wavelength each with its weight (`six (fit 15) x 0.25 + six (fit 16) x 0.75`).
+    pub fn material_description(&self, m: usize) -> String {
+        let mat = &self.materials[m];
+        let one = |model: &AnyModel<f64>, table: bool| match table {
+            true => format!("{} + table", model.kind().name()),
+            false => model.kind().name().to_owned(),
+        };
+        let own = one(&mat.model, mat.table.is_some());
+        // Weights to nine decimals (0.75, not 0.7500000000000003).
+        let w = |x: f64| brdf_core::Compact((x * 1e9).round() / 1e9);
+        match (&mat.upper, &mat.source) {
+            (Some(u), Source::Fit(_, k)) => format!(
+                "{own} (fit {k}) x {} + {} (fit {}) x {}",
+                w(1.0 - u.weight),
+                one(&u.model, u.table.is_some()),
+                u.index,
+                w(u.weight)
+            ),
+            _ => own,
+        }
     }
 
     /// A short name for material `m`: its part (`*` reads "other parts").
@@ -557,13 +632,16 @@ fn sweep(v: &Spanned<Vec<f64>>, lo: f64, hi: f64) -> Result<Vec<f64>, String> {
     Ok(out)
 }
 
-/// A material entry resolved: its model, where it came from, and a fitted table's bytes.
-type Resolved = (AnyModel<f64>, Source, Option<Vec<u8>>);
+/// A material entry resolved: its model, where it came from, a fitted table's bytes, and the
+/// band above when it lies between two bands at the scene's wavelength.
+type Resolved = (AnyModel<f64>, Source, Option<Vec<u8>>, Option<Upper>);
 
-/// The model of one `[[material]]` entry: exactly one of `model`+`params`, `fit`, `blob`.
+/// The model of one `[[material]]` entry: exactly one of `model`+`params`, `fit`, `blob`; a
+/// spectral fit at `wavelength` (µm, and the span of `wavelength_um`), when given.
 fn resolve_material(
     e: &MaterialEntry,
     dir: &Path,
+    wavelength: Option<(f64, Range<usize>)>,
     field: &dyn Fn(Range<usize>, &'static str, String) -> SceneError,
 ) -> Result<Resolved, SceneError> {
     let given = [
@@ -606,18 +684,59 @@ fn resolve_material(
             .map_err(|err| field(model.span(), "model", err.to_string()))?;
         let p = brdf_fit::params::parse_params(kind, params.get_ref())
             .map_err(|err| field(params.span(), "params", err.to_string()))?;
-        return Ok((build(kind, &p, params.span(), "params")?, Source::Params, None));
+        return Ok((build(kind, &p, params.span(), "params")?, Source::Params, None, None));
     }
     if let Some(fit) = &e.fit {
         let path = dir.join(fit.get_ref());
         let shown = path.display().to_string();
         let text = brdf_fit::data::read_input(&path)
             .map_err(|err| field(fit.span(), "fit", format!("{shown}: {err}")))?;
-        let one = FittedModel::one_of(&text, &shown, index).map_err(|m| field(fit.span(), "fit", m))?;
+        let bands = BandFits::read(&text, &shown, index).map_err(|m| field(fit.span(), "fit", m))?;
+        let (one, upper) = match (&bands, wavelength) {
+            (Some(bands), Some((um, span))) => match bands.at(um) {
+                Ok(AtWavelength::Band(one)) => (one.clone(), None),
+                Ok(AtWavelength::Between { lower, upper, weight }) => (
+                    lower.clone(),
+                    Some(Upper {
+                        model: build(upper.model, &upper.params, fit.span(), "fit")?,
+                        table: upper.table.clone(),
+                        index: upper.index,
+                        weight,
+                    }),
+                ),
+                Err(m) => {
+                    return Err(field(
+                        span,
+                        "wavelength_um",
+                        format!("part `{}`: {shown}: {m}", e.part.get_ref()),
+                    ))
+                }
+            },
+            (Some(bands), None) if bands.bands.len() > 1 && index.is_none() => {
+                let (lo, hi) = (bands.bands[0].0, bands.bands[bands.bands.len() - 1].0);
+                return Err(field(
+                    fit.span(),
+                    "fit",
+                    format!(
+                        "{shown} holds {} bands of {} ({}–{} µm): give [sensor] wavelength_um, or \
+                         index = k for one fit",
+                        bands.bands.len(),
+                        bands.measurement,
+                        wavelength_text(lo),
+                        wavelength_text(hi)
+                    ),
+                ));
+            }
+            _ => (
+                FittedModel::one_of(&text, &shown, index).map_err(|m| field(fit.span(), "fit", m))?,
+                None,
+            ),
+        };
         return Ok((
             build(one.model, &one.params, fit.span(), "fit")?,
             Source::Fit(path, one.index),
             one.table,
+            upper,
         ));
     }
     let blob = e.blob.as_ref().expect("exactly one source is given");
@@ -656,5 +775,6 @@ fn resolve_material(
         build(m.kind, &p, blob.span(), "blob")?,
         Source::Blob(path, k),
         table,
+        None,
     ))
 }

@@ -279,10 +279,11 @@ fn drafts(
 ) -> Vec<Rung> {
     let material = &scene.materials[m];
     let own = &material.model;
-    // A fitted table's base is not the material: every model of the ladder is fitted to it.
-    let own_kind = material.table.is_none().then(|| own.kind());
+    // A fitted table's base, or the band below a wavelength between two bands, is not the
+    // material: every model of the ladder is fitted to it.
+    let own_kind = (material.table.is_none() && material.upper.is_none()).then(|| own.kind());
     let mut out = Vec::new();
-    if let Some(bytes) = &material.table {
+    if let Some(bytes) = material.table.as_ref().filter(|_| material.upper.is_none()) {
         let built = brdf_wire::blob::Material::from_params(own.kind(), &own.to_params())
             .map_err(|e| e.to_string())
             .and_then(|base| base.with_fitted(bytes).map_err(|e| e.to_string()))
@@ -389,10 +390,7 @@ pub fn select(scene: &Scene, domain: &SceneQueries, opts: &SelectOptions) -> Sce
         materials.push(MaterialChoice {
             index: m,
             part: scene.material_label(m),
-            model: match &scene.materials[m].table {
-                Some(_) => format!("{} + table", scene.materials[m].model.kind().name()),
-                None => scene.materials[m].model.kind().name().to_owned(),
-            },
+            model: scene.material_description(m),
             queries,
             aspects_seen: seen.len(),
             candidates,

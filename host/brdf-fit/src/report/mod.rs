@@ -388,6 +388,10 @@ impl ReadError {
 /// `{"model": "six", "params": {"kb": 0.25, ...}}`.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 pub struct FittedModel {
+    /// The dataset the fit is of (`FILE[wavelength=0.55]` for a band of a spectral
+    /// measurement); absent in a hand-written result.
+    #[serde(default)]
+    pub dataset: Option<String>,
     /// The model (written as its name).
     #[serde(with = "model_name")]
     pub model: ModelKind,
@@ -558,6 +562,7 @@ impl FitReport {
     /// The model and parameters alone.
     pub fn fitted(&self) -> FittedModel {
         FittedModel {
+            dataset: Some(self.dataset.clone()),
             model: self.model,
             params: self.params.clone(),
             fitted_table: self.fitted_table.clone(),

@@ -279,3 +279,64 @@ fn a_scene_error_is_a_scene_error() {
     let e = Scene::load(Path::new("/nonexistent/scene.toml")).unwrap_err();
     assert!(matches!(e, SceneError::Io { .. }));
 }
+
+/// A spectral fit's bands at `[sensor] wavelength_um`: the band there, or the two around it
+/// blended linearly; never extrapolated, never silently one band.
+#[test]
+fn spectral_materials_are_taken_at_the_sensors_wavelength() {
+    // Lambertian bands 0.2 at 0.5 µm, 0.6 at 0.7 µm (and a second measurement), out of order.
+    let fits = r#"[
+        {"dataset": "p.csv[wavelength=0.7]", "model": "lambert", "params": {"rho0": 0.6}},
+        {"dataset": "p.csv[wavelength=0.5]", "model": "lambert", "params": {"rho0": 0.2}},
+        {"dataset": "q.csv[wavelength=0.5]", "model": "lambert", "params": {"rho0": 0.9}}
+    ]"#;
+    let scene = |wavelength: &str, index: &str| {
+        let (dir, p) = scene_with(&format!(
+            "mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nfit = \"fits.json\"\n{index}\
+             [sensor]\nmode = \"monostatic\"\n{wavelength}azimuth_deg = [0, 360, 90]\nelevation_deg = [0, 31, 30]\n"
+        ));
+        std::fs::write(dir.path().join("fits.json"), fits).unwrap();
+        (dir, Scene::load(&p))
+    };
+    let sigma = |s: &Scene| -> Vec<f64> {
+        brdf_scene::lrcs::lrcs(s, &|| {}).aspects.iter().map(|a| a.lrcs).collect()
+    };
+    let (_d, at_05) = scene("wavelength_um = 0.5\n", "index = 0\n");
+    let at_05 = at_05.unwrap();
+    assert_eq!(at_05.materials[0].model.to_params()[0], 0.2);
+    assert!(at_05.materials[0].upper.is_none());
+    // 0.65 µm: three quarters of the way to 0.7, so rho = 0.5, and sigma is linear in rho.
+    let (_d, at_065) = scene("wavelength_um = 0.65\n", "index = 1\n");
+    let at_065 = at_065.unwrap();
+    let m = &at_065.materials[0];
+    let upper = m.upper.as_ref().unwrap();
+    assert_eq!((m.model.to_params()[0], upper.model.to_params()[0], upper.index), (0.2, 0.6, 0));
+    assert!((upper.weight - 0.75).abs() < 1e-12, "{}", upper.weight);
+    assert!(at_065.material_description(0).contains("x 0.25") && at_065.material_description(0).contains("x 0.75"));
+    for (a, b) in sigma(&at_065).iter().zip(sigma(&at_05)) {
+        assert!((a / b - 2.5).abs() < 1e-12, "{a} {b}");
+    }
+    // Refused: outside the bands (naming the line of wavelength_um), no wavelength for a
+    // banded fit, two measurements without index, a wavelength that is none.
+    let (_d, e) = scene("wavelength_um = 0.45\n", "index = 0\n");
+    let e = e.unwrap_err().to_string();
+    assert!(e.contains("line 8: wavelength_um") && e.contains("span 0.5–0.7 µm"), "{e}");
+    let (_d, e) = scene("", "index = 1\n");
+    assert_eq!(e.unwrap().materials[0].model.to_params()[0], 0.2, "index alone picks one fit");
+    let (_d, e) = scene("wavelength_um = 0.6\n", "");
+    let e = e.unwrap_err().to_string();
+    assert!(e.contains("line 4: fit") && e.contains("2 measurements"), "{e}");
+    for bad in ["0", "-0.5", "nan", "inf"] {
+        let (_d, e) = scene(&format!("wavelength_um = {bad}\n"), "index = 0\n");
+        let e = e.unwrap_err().to_string();
+        assert!(e.contains("wavelength_um") && e.contains("not a wavelength"), "{bad}: {e}");
+    }
+    // The second measurement has one band: only its own wavelength.
+    let (_d, e) = scene("wavelength_um = 0.6\n", "index = 2\n");
+    assert!(e.unwrap_err().to_string().contains("only band is 0.5 µm"));
+    // Without an index or a wavelength, a single measurement's bands are refused by name.
+    let (dir, p) = scene_with(&format!("mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nfit = \"fits.json\"\n{SENSOR}"));
+    std::fs::write(dir.path().join("fits.json"), fits.replace("q.csv", "p.csv").replace("0.5]\", \"model\": \"lambert\", \"params\": {\"rho0\": 0.9", "0.6]\", \"model\": \"lambert\", \"params\": {\"rho0\": 0.9")).unwrap();
+    let e = Scene::load(&p).unwrap_err().to_string();
+    assert!(e.contains("holds 3 bands of p.csv (0.5–0.7 µm): give [sensor] wavelength_um"), "{e}");
+}
