@@ -70,6 +70,11 @@ impl Chunk {
     pub fn line(&self, i: usize) -> u64 {
         self.lines[i]
     }
+
+    /// The text of column `col` in row `i` (empty when the row is short).
+    pub fn field(&self, i: usize, col: usize) -> &str {
+        self.records[i].get(col).unwrap_or("")
+    }
 }
 
 /// Reads an angle CSV: a header naming `theta_i`, `theta_r` and `phi` once each and not
@@ -128,6 +133,15 @@ impl AngleReader {
     /// The header row as read.
     pub fn headers(&self) -> &csv::StringRecord {
         &self.headers
+    }
+
+    /// The index of column `name` in the header, if it is there once; an error when twice.
+    pub fn column(&self, name: &str) -> Result<Option<usize>> {
+        let mut found = self.headers.iter().enumerate().filter(|(_, h)| h.trim() == name);
+        match (found.next(), found.next()) {
+            (Some(_), Some(_)) => bail!("{}: line 1: column `{name}` appears twice in header", self.file),
+            (first, _) => Ok(first.map(|(i, _)| i)),
+        }
     }
 
     /// Replaces `chunk` with the next rows (at most [`CHUNK_ROWS`]); returns how many (0 at

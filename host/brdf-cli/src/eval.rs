@@ -11,6 +11,8 @@ use clap::{Args, ValueEnum};
 
 use crate::angles::{f32_text, f64_text, radians, AngleReader, AngleWriter, Chunk, CHUNK_ROWS};
 use crate::params::{build, parse_kind, parse_params};
+use brdf_fit::data::wavelength_text;
+use brdf_fit::spectral::{AtWavelength, BandFits};
 
 /// Evaluate a model at every row of a CSV with columns `theta_i,theta_r,phi` (degrees,
 /// canonical convention: phi = 180 is the mirror direction). Writes the input columns plus
@@ -30,9 +32,16 @@ pub struct EvalCmd {
     /// f32, the same table in f64).
     #[arg(long, value_name = "FIT.json", conflicts_with_all = ["model", "params"])]
     fit: Option<PathBuf>,
-    /// Which fit of a batch result (`brdf fit --json` on several datasets), from 0.
+    /// Which fit of a batch result (`brdf fit --json` on several datasets), from 0. For a
+    /// spectral fit (the bands of several measurements), any fit of the measurement meant.
     #[arg(long, requires = "fit")]
     index: Option<usize>,
+    /// Wavelength in µm at which to evaluate a spectral fit (the bands of one measurement,
+    /// `brdf fit` of a spectral file): the band there, or the two bands around it blended
+    /// linearly in wavelength; never extrapolated. Without it, each row's `wavelength` column
+    /// (µm) is used when the file has one.
+    #[arg(long, requires = "fit", value_name = "UM")]
+    wavelength: Option<f64>,
     /// f64 (reference) or f32 (the firmware's arithmetic: angles converted to radians in
     /// f64, then rounded once to f32; parameters rounded once to f32).
     #[arg(long, value_enum, default_value_t = Precision::F64)]
@@ -43,6 +52,32 @@ pub struct EvalCmd {
     /// CSV file with a header row containing theta_i, theta_r and phi; other columns are
     /// passed through unchanged.
     angles: PathBuf,
+}
+
+/// A spectral material at one wavelength: each band's weight, model and fitted table.
+type Parts<'a, T> = Vec<(T, AnyModel<T>, Option<FittedTable<'a>>)>;
+
+/// One band of a spectral fit as a weighted part.
+fn band_part<T: Float>(fit: &brdf_fit::report::OneFit, w: f64) -> Result<(T, AnyModel<T>, Option<FittedTable<'_>>), String> {
+    let at = |e: String| format!("fit {}: {e}", fit.index);
+    // The ranges hold for the parameters as given (before any rounding to f32).
+    build::<f64>(fit.model, &fit.params).map_err(|e| at(e.to_string()))?;
+    let model: AnyModel<T> = build(fit.model, &fit.params).map_err(|e| at(e.to_string()))?;
+    let table = match &fit.table {
+        Some(bytes) => Some(FittedTable::new(bytes).map_err(|e| at(format!("fitted table: {e}")))?),
+        None => None,
+    };
+    Ok((T::from_f64(w), model, table))
+}
+
+/// A spectral fit at `um` µm: one band, or the two around it with their weights.
+fn material_at<T: Float>(bands: &BandFits, um: f64) -> Result<Parts<'_, T>, String> {
+    Ok(match bands.at(um)? {
+        AtWavelength::Band(f) => vec![band_part(f, 1.0)?],
+        AtWavelength::Between { lower, upper, weight } => {
+            vec![band_part(lower, 1.0 - weight)?, band_part(upper, weight)?]
+        }
+    })
 }
 
 /// Arithmetic precision of the evaluation.
@@ -90,6 +125,12 @@ impl EvalCmd {
                 let shown = path.display().to_string();
                 let text =
                     brdf_fit::data::read_input(path).with_context(|| format!("cannot read {shown}"))?;
+                if let Some(bands) = BandFits::read(&text, &shown, self.index).map_err(|e| anyhow!(e))? {
+                    return self.eval_bands(&shown, &bands);
+                }
+                if self.wavelength.is_some() {
+                    bail!("--wavelength: {shown} holds no bands (no fit's dataset has a wavelength)");
+                }
                 let one = brdf_fit::report::FittedModel::one_of(&text, &shown, self.index)
                     .map_err(|e| anyhow!(e))?;
                 table = one.table;
@@ -97,6 +138,7 @@ impl EvalCmd {
             }
             // (clap does not apply `requires = "fit"` once --model, which --fit excludes, is given.)
             (None, _, _) if self.index.is_some() => bail!("--index picks a fit of --fit; give --fit"),
+            (None, _, _) if self.wavelength.is_some() => bail!("--wavelength picks the bands of --fit; give --fit"),
             (None, Some(kind), Some(text)) => (kind, parse_params(kind, text)?),
             _ => bail!("give --model with --params, or --fit"),
         };
@@ -115,6 +157,103 @@ impl EvalCmd {
                 self.eval::<f32>(kind, &params, table, out, f32_text, false)
             }
         }
+    }
+
+    /// A spectral fit: at `--wavelength`, or at each row's `wavelength`.
+    fn eval_bands(&self, shown: &str, bands: &BandFits) -> Result<()> {
+        let stdout = std::io::stdout();
+        match self.precision {
+            Precision::F64 => self.eval_bands_in::<f64>(shown, bands, stdout.lock(), f64_text),
+            Precision::F32 => self.eval_bands_in::<f32>(shown, bands, stdout.lock(), f32_text),
+        }
+    }
+
+    fn eval_bands_in<T: Float>(
+        &self,
+        shown: &str,
+        bands: &BandFits,
+        out: impl Write,
+        text: fn(T) -> String,
+    ) -> Result<()> {
+        let mut reader = AngleReader::open(&self.angles, &self.output_column)?;
+        let column = reader.column("wavelength")?;
+        enum Where<'a, T: Float> {
+            /// One wavelength for every row.
+            Fixed(Parts<'a, T>),
+            /// Each row's, from this column.
+            Column(usize),
+        }
+        let at_fixed = |um: f64| -> Result<Where<'_, T>> {
+            Ok(Where::Fixed(material_at(bands, um).map_err(|e| anyhow!("--wavelength: {shown}: {e}"))?))
+        };
+        let source = match (self.wavelength, column) {
+            (Some(_), Some(_)) => bail!(
+                "--wavelength and the `wavelength` column of {} both give the wavelength: drop one",
+                reader.file()
+            ),
+            (None, None) if bands.bands.len() > 1 => {
+                let (lo, hi) = (bands.bands[0].0, bands.bands[bands.bands.len() - 1].0);
+                bail!(
+                    "{shown} holds {} bands of {} ({}–{} µm): give --wavelength, or a `wavelength` \
+                     column (µm) in {}",
+                    bands.bands.len(),
+                    bands.measurement,
+                    wavelength_text(lo),
+                    wavelength_text(hi),
+                    reader.file()
+                )
+            }
+            (None, None) => at_fixed(bands.bands[0].0)?,
+            (Some(um), None) => at_fixed(um)?,
+            (None, Some(col)) => Where::Column(col),
+        };
+        let mut by_band: std::collections::HashMap<u64, Parts<'_, T>> = std::collections::HashMap::new();
+        let mut writer = AngleWriter::new(out, &reader, &self.output_column)?;
+        let mut chunk = Chunk::default();
+        let mut values: Vec<T> = Vec::with_capacity(CHUNK_ROWS);
+        while reader.next_chunk(&mut chunk)? > 0 {
+            values.clear();
+            for (i, &d) in chunk.degrees().iter().enumerate() {
+                let parts = match &source {
+                    Where::Fixed(parts) => parts,
+                    Where::Column(col) => {
+                        let at = || format!("{}: line {}: column wavelength", reader.file(), chunk.line(i));
+                        let t = chunk.field(i, *col).trim();
+                        let um = match t.parse::<f64>() {
+                            Ok(v) if v.is_finite() && v > 0.0 => v,
+                            _ => bail!("{}: `{t}` is not a wavelength above 0 (µm)", at()),
+                        };
+                        match by_band.entry(um.to_bits()) {
+                            std::collections::hash_map::Entry::Occupied(e) => &*e.into_mut(),
+                            std::collections::hash_map::Entry::Vacant(e) => {
+                                &*e.insert(material_at(bands, um).map_err(|m| anyhow!("{}: {shown}: {m}", at()))?)
+                            }
+                        }
+                    }
+                };
+                let [ti, tr, phi] = radians::<T>(d);
+                let g = Geometry::from_angles(ti, tr, phi);
+                let mut f = T::ZERO;
+                for (w, model, table) in parts {
+                    let v = match table {
+                        Some(table) => Corrected { base: *model, table: *table }.eval(&g),
+                        None => model.eval(&g),
+                    };
+                    f = f + *w * v;
+                }
+                if !f.is_finite() {
+                    bail!(
+                        "{}: line {}: {}",
+                        reader.file(),
+                        chunk.line(i),
+                        brdf_fit::params::not_finite(f, parts[0].1.kind())
+                    );
+                }
+                values.push(f);
+            }
+            writer.write_chunk(&chunk, values.iter().map(|&v| text(v)))?;
+        }
+        writer.finish()
     }
 
     fn eval<T: Float>(
