@@ -11,7 +11,6 @@ use clap::{Args, ValueEnum};
 
 use crate::angles::{f32_text, f64_text, radians, AngleReader, AngleWriter, Chunk, CHUNK_ROWS};
 use crate::params::{build, parse_kind, parse_params};
-use brdf_fit::data::wavelength_text;
 use brdf_fit::spectral::{AtWavelength, BandFits};
 
 /// Evaluate a model at every row of a CSV with columns `theta_i,theta_r,phi` (degrees,
@@ -191,18 +190,11 @@ impl EvalCmd {
                 "--wavelength and the `wavelength` column of {} both give the wavelength: drop one",
                 reader.file()
             ),
-            (None, None) if bands.bands.len() > 1 => {
-                let (lo, hi) = (bands.bands[0].0, bands.bands[bands.bands.len() - 1].0);
-                bail!(
-                    "{shown} holds {} bands of {} ({}–{} µm): give --wavelength, or a `wavelength` \
-                     column (µm) in {}",
-                    bands.bands.len(),
-                    bands.measurement,
-                    wavelength_text(lo),
-                    wavelength_text(hi),
-                    reader.file()
-                )
-            }
+            (None, None) if bands.bands.len() > 1 => bail!(
+                "{shown} holds {}: give --wavelength, or a `wavelength` column (µm) in {}",
+                bands.describe(),
+                reader.file()
+            ),
             (None, None) => at_fixed(bands.bands[0].0)?,
             (Some(um), None) => at_fixed(um)?,
             (None, Some(col)) => Where::Column(col),

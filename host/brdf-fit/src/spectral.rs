@@ -192,6 +192,13 @@ impl BandFits {
         Ok(Some(BandFits { measurement, bands }))
     }
 
+    /// `31 bands of FILE (0.4–0.7 µm)`, for messages that ask for a wavelength.
+    pub fn describe(&self) -> String {
+        let text = crate::data::wavelength_text;
+        let (lo, hi) = (self.bands[0].0, self.bands[self.bands.len() - 1].0);
+        format!("{} bands of {} ({}–{} µm)", self.bands.len(), self.measurement, text(lo), text(hi))
+    }
+
     /// The material at `um` µm: a band's fit, or the two bands around it with the upper one's
     /// weight. Refused outside the measured bands (no extrapolation), naming them.
     pub fn at(&self, um: f64) -> Result<AtWavelength<'_>, String> {

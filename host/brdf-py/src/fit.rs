@@ -191,6 +191,33 @@ pub(crate) fn fit_paths(
     Ok((fit_datasets(py, settings, datasets)?, notes))
 }
 
+/// The band of a dataset name (`FILE[wavelength=0.55]`): its wavelength in µm, or `None`
+/// (`brdf_fit::data::split_wavelength`).
+#[pyfunction]
+pub(crate) fn band_of(name: &str) -> Option<f64> {
+    brdf_fit::data::split_wavelength(name).map(|(_, um)| um)
+}
+
+/// The name of an array dataset of wavelength `um` µm: `name[wavelength=um]`, or `name` when
+/// it names that band already (a dataset of `brdf.read`); refused when it names another, or
+/// `um` is not a wavelength.
+#[pyfunction]
+pub(crate) fn named_band(name: &str, um: f64) -> PyResult<String> {
+    use brdf_fit::data::{split_wavelength, wavelength_text};
+    if !(um.is_finite() && um > 0.0) {
+        return Err(PyValueError::new_err(format!("data: wavelength {um} is not a wavelength above 0 (µm)")));
+    }
+    match split_wavelength(name) {
+        Some((_, w)) if (w - um).abs() < brdf_fit::import::SAME_BAND_UM => Ok(name.to_owned()),
+        Some((_, w)) => Err(PyValueError::new_err(format!(
+            "data: wavelength {} µm, but the name `{name}` is of the band {} µm",
+            wavelength_text(um),
+            wavelength_text(w)
+        ))),
+        None => Ok(format!("{name}[wavelength={}]", wavelength_text(um))),
+    }
+}
+
 /// Datasets of files, as `(name, theta_i, theta_r, phi, brdf, sigma, weight)` in degrees.
 #[pyfunction]
 #[allow(clippy::type_complexity)]
@@ -308,27 +335,63 @@ pub(crate) type Selected<'py> = (
 /// --allow-nonphysical --sequence`.
 pub(crate) type SelectArgs = (f64, f64, f64, bool, u32);
 
-/// The model and parameters of one fit in `text` (`brdf_fit::report::FittedModel::one_of`,
-/// as `brdf eval --fit` reads it): the model's name, the parameters as `kb=...,kr=...`
-/// (each value printed to round-trip exactly) and, for a fitted table, its device bytes
-/// (checked), which `eval_angles` takes as `table`.
+/// The fit (or fits) of `text` that `brdf.eval_fit` evaluates, as weighted parts
+/// `(weight, model, params, table)` (the parameters as `name=value,...`, each printed to
+/// round-trip exactly; a fitted table's device bytes, checked, which `eval_angles` takes as
+/// `table`). With `wavelength` (µm), the file's bands there
+/// ([`brdf_fit::spectral::BandFits`]): the band's fit, or the two around it with their
+/// weights. Without it, one fit (`FittedModel::one_of`, as `brdf eval --fit`); a file holding
+/// several bands of one measurement and no `index` is refused by name.
 #[pyfunction]
-#[pyo3(signature = (text, origin, index=None))]
-pub(crate) fn fitted<'py>(
+#[pyo3(signature = (text, origin, index=None, wavelength=None))]
+pub(crate) fn fitted_at<'py>(
     py: Python<'py>,
     text: &str,
     origin: &str,
     index: Option<usize>,
-) -> PyResult<(String, String, Option<Bound<'py, pyo3::types::PyBytes>>)> {
-    let one = brdf_fit::report::FittedModel::one_of(text, origin, index).map_err(PyValueError::new_err)?;
-    let (kind, p) = (one.model, one.params);
-    let params = kind
+    wavelength: Option<f64>,
+) -> PyResult<Vec<FittedPart<'py>>> {
+    use brdf_fit::spectral::{AtWavelength, BandFits};
+    let part = |one: &brdf_fit::report::OneFit, w: f64| -> FittedPart<'py> {
+        let (model, params) = model_and_params(one);
+        (w, model, params, one.table.as_ref().map(|b| pyo3::types::PyBytes::new(py, b)))
+    };
+    let bands = BandFits::read(text, origin, index).map_err(PyValueError::new_err)?;
+    match (bands, wavelength) {
+        (Some(bands), Some(um)) => match bands.at(um) {
+            Ok(AtWavelength::Band(one)) => Ok(vec![part(one, 1.0)]),
+            Ok(AtWavelength::Between { lower, upper, weight }) => {
+                Ok(vec![part(lower, 1.0 - weight), part(upper, weight)])
+            }
+            Err(e) => Err(PyValueError::new_err(format!("wavelength: {origin}: {e}"))),
+        },
+        (None, Some(_)) => Err(PyValueError::new_err(format!(
+            "wavelength: {origin} holds no bands (no fit's dataset has a wavelength)"
+        ))),
+        (Some(bands), None) if bands.bands.len() > 1 && index.is_none() => Err(PyValueError::new_err(format!(
+            "{origin} holds {}: give wavelength= (µm), or index= for one fit",
+            bands.describe()
+        ))),
+        _ => {
+            let one = brdf_fit::report::FittedModel::one_of(text, origin, index).map_err(PyValueError::new_err)?;
+            Ok(vec![part(&one, 1.0)])
+        }
+    }
+}
+
+/// One weighted part of a fit at a wavelength: `(weight, model, params, table)`.
+type FittedPart<'py> = (f64, String, String, Option<Bound<'py, pyo3::types::PyBytes>>);
+
+/// A fit's model name and its parameters as `name=value,...` (every digit kept).
+fn model_and_params(one: &brdf_fit::report::OneFit) -> (String, String) {
+    let params = one
+        .model
         .param_names()
         .iter()
-        .zip(p)
+        .zip(one.params)
         .map(|(n, v)| format!("{n}={v:?}"))
         .collect::<Vec<_>>()
         .join(",");
-    let table = one.table.map(|b| pyo3::types::PyBytes::new(py, &b));
-    Ok((kind.name().to_owned(), params, table))
+    (one.model.name().to_owned(), params)
 }
+

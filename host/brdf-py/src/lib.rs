@@ -115,7 +115,9 @@ fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit_paths, m)?)?;
     m.add_function(wrap_pyfunction!(fit_arrays, m)?)?;
     m.add_function(wrap_pyfunction!(read_paths, m)?)?;
-    m.add_function(wrap_pyfunction!(fitted, m)?)?;
+    m.add_function(wrap_pyfunction!(fitted_at, m)?)?;
+    m.add_function(wrap_pyfunction!(band_of, m)?)?;
+    m.add_function(wrap_pyfunction!(named_band, m)?)?;
     m.add_function(wrap_pyfunction!(pack, m)?)?;
     m.add_function(wrap_pyfunction!(select_path, m)?)?;
     m.add_function(wrap_pyfunction!(select_arrays, m)?)?;

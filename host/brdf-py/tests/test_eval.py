@@ -240,3 +240,79 @@ def test_masked_arrays_are_refused_not_unmasked():
     data = {"theta_i": [10.0, 20.0], "theta_r": m, "phi": [0.0, 0.0], "brdf": [0.1, 0.1]}
     with pytest.raises(TypeError, match="masked array"):
         brdf.fit(data, model="lambert")
+
+
+SPECTRAL = (
+    '[{"dataset": "p.csv[wavelength=0.6]", "model": "lambert", "params": {"rho0": 0.5}},'
+    ' {"dataset": "p.csv[wavelength=0.5]", "model": "six", "params": '
+    '{"kb": 0.2545, "kr": 21.8031, "b": -27.5721, "a": 0.6705, "kd": 0.3676, "c": 1.2}}]'
+)
+
+
+@pytest.mark.parametrize("precision", ["f64", "f32"])
+def test_eval_fit_of_a_spectral_fit_is_the_cli_at_each_wavelength(cli, tmp_path, precision):
+    """Bands picked or blended per element, as `brdf eval --fit` does per row, bit for bit."""
+    fits = tmp_path / "fits.json"
+    fits.write_text(SPECTRAL)
+    ti, tr, ph = [30.0, 30.0, 10.0, 60.0], [40.0, 40.0, 20.0, 85.0], [180.0, 180.0, 90.0, 0.0]
+    um = [0.5, 0.575, 0.6, 0.55]
+    angles = tmp_path / "a.csv"
+    angles.write_text(
+        "theta_i,theta_r,phi,wavelength\n" + "".join(f"{a},{b},{c},{w}\n" for a, b, c, w in zip(ti, tr, ph, um))
+    )
+    out = cli("eval", "--fit", fits, "--precision", precision, angles).stdout.splitlines()[1:]
+    dtype = np.float64 if precision == "f64" else np.float32
+    want = np.array([float(line.split(",")[-1]) for line in out], dtype=dtype)
+    got = brdf.eval_fit(fits, ti, tr, ph, wavelength=um, precision=precision)
+    assert got.dtype == dtype
+    np.testing.assert_allclose(got, want, rtol=1e-15 if precision == "f64" else 1e-6)
+    # A scalar wavelength broadcasts; one band is `eval` of that band bit for bit.
+    np.testing.assert_array_equal(
+        brdf.eval_fit(fits, ti, tr, ph, wavelength=0.6, precision=precision),
+        brdf.eval("lambert", "rho0=0.5", ti, tr, ph, precision=precision),
+    )
+
+
+def test_eval_fit_of_a_spectral_fit_refuses_what_the_cli_refuses(cli, tmp_path):
+    fits = tmp_path / "fits.json"
+    fits.write_text(SPECTRAL)
+    angles = tmp_path / "a.csv"
+    angles.write_text("theta_i,theta_r,phi\n10,20,30\n")
+    # No wavelength for two bands: the CLI's words.
+    p = cli("eval", "--fit", fits, angles, check=False)
+    assert p.returncode != 0 and "holds 2 bands of p.csv (0.5–0.6 µm)" in p.stderr
+    with pytest.raises(ValueError, match=r"holds 2 bands of p.csv \(0.5–0.6 µm\): give wavelength="):
+        brdf.eval_fit(fits, 10, 20, 30)
+    # Outside the bands (no extrapolation), not a wavelength, or a grey fit: refused.
+    with pytest.raises(ValueError, match="outside the bands of p.csv: its 2 bands span 0.5–0.6 µm"):
+        brdf.eval_fit(fits, [10, 10], 20, 30, wavelength=[0.55, 0.7])
+    for bad in (0.0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match=r"wavelength at index \[1\]: .* is not a wavelength above 0"):
+            brdf.eval_fit(fits, [10, 10], 20, 30, wavelength=[0.55, bad])
+    grey = tmp_path / "grey.json"
+    grey.write_text('{"model": "lambert", "params": {"rho0": 0.5}}')
+    with pytest.raises(ValueError, match="holds no bands"):
+        brdf.eval_fit(grey, 10, 20, 30, wavelength=0.5)
+    # index picks one fit, as the CLI's --index.
+    np.testing.assert_array_equal(brdf.eval_fit(fits, 10, 20, 30, index=0), brdf.eval("lambert", "rho0=0.5", 10, 20, 30))
+
+
+def test_read_and_fit_carry_each_bands_wavelength(root):
+    sets = brdf.read(root / "data/measured/cornell-spectral/garnet_red.astm", "cornell")
+    assert len(sets) == 31
+    assert [d["wavelength"] for d in sets[:3]] == [0.4, 0.41, 0.42]
+    assert brdf.read(root / "data/khaki-synthetic-inplane.csv")[0]["wavelength"] is None
+    r = brdf.fit(root / "data/measured/cornell-spectral/garnet_red.astm", format="cornell", band=0.55)
+    assert r.wavelength == 0.55
+    # A dataset of `read` fits as its band; arrays with a wavelength are named after it.
+    assert brdf.fit(sets[15]).wavelength == 0.55
+    arrays = {k: sets[15][k] for k in ("theta_i", "theta_r", "phi", "brdf")}
+    assert brdf.fit({**arrays, "wavelength": 1.064}).dataset == "arrays[wavelength=1.064]"
+    with pytest.raises(ValueError, match=r"wavelength 0.6 µm, but the name .* is of the band 0.55 µm"):
+        brdf.fit({**sets[15], "wavelength": 0.6})
+    with pytest.raises(ValueError, match="not a wavelength above 0"):
+        brdf.fit({**arrays, "wavelength": -1.0})
+    # A list of results evaluates at a wavelength between its bands.
+    both = brdf.fit(root / "data/measured/cornell-spectral/garnet_red.astm", format="cornell", band=0.56)
+    mid = brdf.eval_fit([r, both], 30, 30, 180, wavelength=0.555)
+    np.testing.assert_allclose(mid, 0.5 * (r.eval(30, 30, 180) + both.eval(30, 30, 180)), rtol=1e-14)

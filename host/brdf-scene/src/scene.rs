@@ -28,7 +28,6 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
-use brdf_fit::data::wavelength_text;
 use brdf_fit::report::FittedModel;
 use brdf_fit::spectral::{AtWavelength, BandFits};
 use serde::Deserialize;
@@ -713,17 +712,12 @@ fn resolve_material(
                 }
             },
             (Some(bands), None) if bands.bands.len() > 1 && index.is_none() => {
-                let (lo, hi) = (bands.bands[0].0, bands.bands[bands.bands.len() - 1].0);
                 return Err(field(
                     fit.span(),
                     "fit",
                     format!(
-                        "{shown} holds {} bands of {} ({}–{} µm): give [sensor] wavelength_um, or \
-                         index = k for one fit",
-                        bands.bands.len(),
-                        bands.measurement,
-                        wavelength_text(lo),
-                        wavelength_text(hi)
+                        "{shown} holds {}: give [sensor] wavelength_um, or index = k for one fit",
+                        bands.describe()
                     ),
                 ));
             }

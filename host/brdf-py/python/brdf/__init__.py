@@ -133,17 +133,35 @@ def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, 
     return _shaped(out, shape)
 
 
-def eval_fit(fit, theta_i, theta_r, phi, *, index: Optional[int] = None, precision: str = "f64", parallel: bool = True):
+def eval_fit(
+    fit,
+    theta_i,
+    theta_r,
+    phi,
+    *,
+    index: Optional[int] = None,
+    wavelength=None,
+    precision: str = "f64",
+    parallel: bool = True,
+):
     """The BRDF (1/sr) of a fit result at angles in degrees, as ``brdf eval --fit``:
-    ``fit`` is a :class:`FitResult`, or a path to what ``brdf fit --json`` or ``brdf select
-    --chosen`` writes (or a hand-written ``{"model": ..., "params": {...}}``), a fitted
-    table included (its base model times the tabulated correction, as ``brdf eval --fit``);
-    ``index`` picks one fit of a batch. Otherwise as :func:`eval`.
+    ``fit`` is a :class:`FitResult`, a list of them (what :func:`fit` returns for several
+    datasets), or a path to what ``brdf fit --json`` or ``brdf select --chosen`` writes (or
+    a hand-written ``{"model": ..., "params": {...}}``), a fitted table included (its base
+    model times the tabulated correction, as ``brdf eval --fit``); ``index`` picks one fit of
+    a batch.
+
+    A spectral fit (the bands of one measurement, datasets ``FILE[wavelength=…]``) is
+    evaluated at ``wavelength`` in µm, a number or an array broadcast with the angles: the
+    band there, or the two bands around it blended linearly in wavelength; a wavelength
+    outside the bands raises ValueError (no extrapolation). Otherwise as :func:`eval`.
     """
     if isinstance(fit, FitResult):
         if index is not None:
-            raise TypeError("index picks a fit of a file; a FitResult is one fit")
+            raise TypeError("index picks a fit of a file or a list; a FitResult is one fit")
         text, origin = fit.to_json(), f"fit of {fit.dataset}"
+    elif isinstance(fit, (list, tuple)) and fit and all(isinstance(r, FitResult) for r in fit):
+        text, origin = to_json(list(fit)), "the fits"
     else:
         path = os.fspath(fit)
         try:
@@ -154,29 +172,64 @@ def eval_fit(fit, theta_i, theta_r, phi, *, index: Optional[int] = None, precisi
         except UnicodeDecodeError as e:
             raise ValueError(f"{path}: not UTF-8 text (byte {e.start})") from None
         origin = path
-    model, params, table = _brdf.fitted(text, origin, _whole("index", index))
-    if table is None:
-        return eval(model, params, theta_i, theta_r, phi, precision=precision, parallel=parallel)
-    # A fitted table (`brdf select --chosen`): its base model times the tabulated correction.
+    index = _whole("index", index)
     _precision(precision)
-    names = ("theta_i", "theta_r", "phi")
-    shape, cols = _columns(names, (theta_i, theta_r, phi))
-    try:
-        out = _brdf.eval_angles(model, params, *cols, precision, _flag("parallel", parallel), table)
-        covered = _brdf.table_covers(table, *cols)
-    except _brdf.ElementError as e:
-        raise _located(names, shape, e) from None
-    outside = int(covered.size - covered.sum())
-    if outside:
-        first = int((~covered).argmax())
-        index = np.unravel_index(first, shape) if shape else ()
-        where = "index [" + ", ".join(str(int(i)) for i in index) + "]"
-        warnings.warn(
-            f"{outside} of {covered.size} directions (the first at {where}) lie outside the fitted "
-            "table's coverage: its measurements did not inform them, and the table extrapolates there",
-            stacklevel=2,
-        )
+    parallel = _flag("parallel", parallel)
+    if wavelength is None:
+        names = ("theta_i", "theta_r", "phi")
+        shape, cols = _columns(names, (theta_i, theta_r, phi))
+        parts = _brdf.fitted_at(text, origin, index)
+        return _shaped(_eval_parts(parts, names, shape, cols, np.ones(cols[0].size, dtype=bool), precision, parallel), shape)
+    names = ("theta_i", "theta_r", "phi", "wavelength")
+    shape, cols = _columns(names, (theta_i, theta_r, phi, wavelength))
+    um = cols[3]
+    bad = ~(np.isfinite(um) & (um > 0))
+    if bad.any():
+        first = int(bad.argmax())
+        where = "[" + ", ".join(str(int(i)) for i in (np.unravel_index(first, shape) if shape else ())) + "]"
+        raise ValueError(f"wavelength at index {where}: {um[first]!r} is not a wavelength above 0 (µm)")
+    out = np.empty(um.size, dtype=_precision(precision))
+    for w in np.unique(um):
+        rows = um == w
+        parts = _brdf.fitted_at(text, origin, index, float(w))
+        out[rows] = _eval_parts(parts, names, shape, cols, rows, precision, parallel)
     return _shaped(out, shape)
+
+
+def _eval_parts(parts, names, shape, cols, rows, precision, parallel):
+    """The weighted sum of a fit's parts (one band, or two around a wavelength) at the
+    selected ``rows`` of the flat columns; warns about directions outside a fitted table's
+    coverage, as ``brdf eval --fit`` does."""
+    picked = [np.ascontiguousarray(c[rows]) for c in cols[:3]]
+    where_rows = np.flatnonzero(rows)
+    total = None
+    for weight, model, params, table in parts:
+        try:
+            if table is None:
+                values = _brdf.eval_angles(model, params, *picked, precision, parallel)
+            else:
+                values = _brdf.eval_angles(model, params, *picked, precision, parallel, table)
+        except _brdf.ElementError as e:
+            flat, message = e.args[0], e.args[1]
+            raise _located(names[:3], shape, _brdf.ElementError(int(where_rows[flat]), message)) from None
+        if table is not None:
+            covered = _brdf.table_covers(table, *picked)
+            outside = int(covered.size - covered.sum())
+            if outside:
+                first = int(where_rows[int((~covered).argmax())])
+                index = np.unravel_index(first, shape) if shape else ()
+                where = "index [" + ", ".join(str(int(i)) for i in index) + "]"
+                warnings.warn(
+                    f"{outside} of {covered.size} directions (the first at {where}) lie outside the fitted "
+                    "table's coverage: its measurements did not inform them, and the table extrapolates there",
+                    stacklevel=3,
+                )
+        # One band: its values as they are (bit for bit `eval`); two: the weighted sum.
+        if len(parts) == 1:
+            return values
+        term = values.dtype.type(weight) * values
+        total = term if total is None else total + term
+    return total
 
 
 def eval_cosines(model: str, params: Union[str, Mapping[str, float]], cos_theta_i, cos_theta_r, cos_phi, *, precision: str = "f64", parallel: bool = True):
@@ -232,7 +285,8 @@ def albedo(model: str, params: Union[str, Mapping[str, float]], theta_i, *, pane
 class FitResult:
     """One fit, as ``brdf fit --json`` reports it.
 
-    Attributes: ``dataset``, ``model``, ``params`` (name -> value, the paper's order),
+    Attributes: ``dataset``, ``wavelength`` (µm, for a band of a spectral measurement; else
+    None), ``model``, ``params`` (name -> value, the paper's order),
     ``std_errors`` (name -> standard error or None), ``correlation`` (the report's
     correlation matrix), ``undetermined`` (name -> reason, for parameters the data do not
     determine), ``metrics``, ``energy``, ``converged`` and ``report`` (the whole report as
@@ -251,6 +305,7 @@ class FitResult:
             "_text": text,
             "report": _frozen(r),
             "dataset": r["dataset"],
+            "wavelength": _brdf.band_of(r["dataset"]),
             "model": r["model"],
             "params": _frozen(dict(_pairs(r["params"]))),
             "std_errors": _frozen({name: u.get("se") for name, u in _pairs(unc.get("params", {}))}),
@@ -372,17 +427,21 @@ def _text(name: str, v) -> str:
     return v
 
 
-_DATA_KEYS = ("theta_i", "theta_r", "phi", "brdf", "sigma", "weight", "name")
+_DATA_KEYS = ("theta_i", "theta_r", "phi", "brdf", "sigma", "weight", "name", "wavelength")
 
 
 def _data_name(data, given):
     """The name of an array dataset: ``name=`` if given, else a dict's ``name`` (as
-    :func:`read` returns it), else ``arrays``."""
-    if given is not None:
-        return given
-    if isinstance(data, Mapping) and isinstance(data.get("name"), str):
-        return data["name"]
-    return "arrays"
+    :func:`read` returns it), else ``arrays``; with the dataset's ``wavelength`` (µm, a dict
+    key or an attribute; None for none) as its band, ``NAME[wavelength=…]``, as a spectral
+    file's datasets are named (so that the fit carries it)."""
+    name = given
+    if name is None:
+        name = data["name"] if isinstance(data, Mapping) and isinstance(data.get("name"), str) else "arrays"
+    um = data.get("wavelength") if isinstance(data, Mapping) else getattr(data, "wavelength", None)
+    if um is None:
+        return name
+    return _brdf.named_band(name, _number("data: wavelength", um))
 
 
 def _array_columns(data):
@@ -436,7 +495,8 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
     ``data`` is a path (or a list of paths) to any file ``brdf fit`` reads (``format=`` as
     ``--format``: ``cornell``, ``nist``, ``merl-inplane``), or a dict / object with arrays
     ``theta_i``, ``theta_r``, ``phi`` (degrees), ``brdf`` (1/sr) and optionally ``sigma``
-    or ``weight``. Options as the CLI's flags: ``chains``, ``agree``, ``hops``,
+    or ``weight`` and ``wavelength`` (µm: the fit is of that band). Options as the CLI's
+    flags: ``chains``, ``agree``, ``hops``,
     ``anneal_evals``, ``loss``, ``loss_scale``, ``brightening``, ``budget_evals``,
     ``noise_floor`` (1/sr; estimated where readings are at or below zero when not given, 0
     for none), ``skip_invalid``, ``channel``, ``band`` (a wavelength in µm of a spectral
@@ -589,7 +649,8 @@ def read(
     ``band`` one wavelength in µm of a spectral Cornell or NIST file, every band otherwise,
     each its own dataset named ``FILE[wavelength=…]``). Readings at or below zero are kept.
 
-    Returns a list of dicts, one per dataset: ``name`` and float64 arrays ``theta_i``,
+    Returns a list of dicts, one per dataset: ``name``, ``wavelength`` (µm, the band of a
+    spectral or multi-wavelength file; None otherwise) and float64 arrays ``theta_i``,
     ``theta_r``, ``phi`` (degrees, canonical convention) and ``brdf`` (1/sr), plus ``sigma``
     or ``weight`` where the file gives them. Rows the CLI would skip or reject are reported
     as warnings.
@@ -601,7 +662,14 @@ def read(
         warnings.warn(note, stacklevel=2)
     out = []
     for name, ti, tr, phi, f, sigma, weight in sets:
-        d = {"name": name, "theta_i": np.array(ti), "theta_r": np.array(tr), "phi": np.array(phi), "brdf": np.array(f)}
+        d = {
+            "name": name,
+            "wavelength": _brdf.band_of(name),
+            "theta_i": np.array(ti),
+            "theta_r": np.array(tr),
+            "phi": np.array(phi),
+            "brdf": np.array(f),
+        }
         for key, col in (("sigma", sigma), ("weight", weight)):
             if col and all(v is not None for v in col):
                 d[key] = np.array(col, dtype=np.float64)

@@ -20,12 +20,13 @@ def eval(
     parallel: bool = True,
 ) -> Union[np.ndarray, np.floating]: ...
 def eval_fit(
-    fit: Union["FitResult", str, os.PathLike],
+    fit: Union["FitResult", Sequence["FitResult"], str, os.PathLike],
     theta_i: ArrayLike,
     theta_r: ArrayLike,
     phi: ArrayLike,
     *,
     index: Optional[int] = None,
+    wavelength: Optional[ArrayLike] = None,
     precision: str = "f64",
     parallel: bool = True,
 ) -> Union[np.ndarray, np.floating]: ...
@@ -54,6 +55,7 @@ def albedo(model: str, params: Params, theta_i: ArrayLike, *, panels: Optional[i
 class FitResult:
     report: Mapping[str, Any]
     dataset: str
+    wavelength: Optional[float]
     model: str
     params: Mapping[str, float]
     std_errors: Mapping[str, Optional[float]]
@@ -94,6 +96,7 @@ def read(
 class Selection:
     report: Dict[str, Any]
     dataset: str
+    wavelength: Optional[float]
     budget: float
     n: int
     chosen: Optional[str]
