@@ -95,6 +95,13 @@ impl SelectCmd {
             return self.run_scene();
         };
         let datasets = self.engine.load(std::slice::from_ref(&data))?;
+        if datasets.len() > 1 {
+            let names: Vec<&str> = datasets.iter().map(|d| d.name.as_str()).collect();
+            let families = brdf_fit::spectral::families(&names);
+            if families.len() == 1 && families[0].len() == datasets.len() {
+                return self.run_bands(&datasets);
+            }
+        }
         let d = &one_dataset(&data.display().to_string(), datasets).map_err(|e| anyhow!(e))?;
         let (max_i, max_r) = (
             self.max_theta_i.unwrap_or(self.max_theta),
@@ -206,6 +213,16 @@ impl SelectCmd {
                 if r.rung.fits_blob { "" } else { " (over a slot)" }
             )?;
         }
+        writeln!(
+            out,
+            "yardstick: 4-nearest-neighbour interpolation of the same points, held out alike: {:.3}%{}",
+            100.0 * s.knn_cv_rms_rel,
+            s.noise_floor.as_ref().map_or(String::new(), |f| format!(
+                " (errors relative over the noise floor {} 1/sr: {} readings at or below zero)",
+                brdf_core::Compact(f.value),
+                f.at_or_below_zero
+            ))
+        )?;
         match &s.chosen {
             Some(name) => writeln!(
                 out,
@@ -221,6 +238,158 @@ impl SelectCmd {
 }
 
 impl SelectCmd {
+    /// The bands of one spectral measurement (datasets that differ only in `wavelength`): each
+    /// band selected on its own, one line per band; `--chosen` writes every band's chosen fit
+    /// (an array in band order, which `brdf eval --fit`, scenes and `brdf.eval_fit` take at a
+    /// wavelength). A blob holds one set per material, so `-o` is refused.
+    fn run_bands(&self, bands: &[brdf_fit::Dataset]) -> Result<()> {
+        if let Some(o) = &self.output {
+            bail!(
+                "-o {}: a parameter blob holds one representation per material, not {} bands; \
+                 write the bands with --chosen, or select one band with --band",
+                o.display(),
+                bands.len()
+            );
+        }
+        let (max_i, max_r) = (
+            self.max_theta_i.unwrap_or(self.max_theta),
+            self.max_theta_r.unwrap_or(self.max_theta),
+        );
+        let base = self.engine.settings(ModelKind::Six)?;
+        let mut order: Vec<(f64, &brdf_fit::Dataset)> = bands
+            .iter()
+            .map(|d| (brdf_fit::data::split_wavelength(&d.name).map_or(0.0, |(_, w)| w), d))
+            .collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let bar = crate::progress::bar(order.len(), "bands");
+        let mut selections = Vec::with_capacity(order.len());
+        for (_, d) in &order {
+            let kept = DataDomain::new(d, max_i, max_r);
+            if let Some(note) = kept.left_out_note() {
+                bar.suspend(|| eprintln!("{note}"));
+            }
+            let s = select_data(
+                &kept,
+                &|kind| FitSettings { kind, ..base },
+                self.budget,
+                self.allow_nonphysical,
+            )
+            .map_err(|e| anyhow!(e))?;
+            bar.inc(1);
+            selections.push(s);
+        }
+        bar.finish_and_clear();
+        if let Some(path) = &self.chosen {
+            let mut fits = Vec::with_capacity(selections.len());
+            for s in &selections {
+                fits.push(s.chosen_report().ok_or_else(|| {
+                    anyhow!(
+                        "{}: no representation could be chosen; {} not written: {}",
+                        s.dataset,
+                        path.display(),
+                        s.reason
+                    )
+                })?);
+            }
+            let text = serde_json::to_string_pretty(&fits)?;
+            std::fs::write(path, text + "\n").with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        for s in &selections {
+            for n in &s.notes {
+                eprintln!("{}: {n}", s.dataset);
+            }
+        }
+        let short: Vec<&brdf_fit::Dataset> = order.iter().map(|(_, d)| *d).collect();
+        let missed = selections.iter().filter(|s| !s.within_budget).count();
+        if missed > 0 {
+            eprintln!(
+                "warning: {missed} of {} bands: nothing meets the {}% budget; the most accurate chosen",
+                selections.len(),
+                brdf_core::Compact(100.0 * self.budget)
+            );
+        }
+        let mut out = std::io::stdout().lock();
+        if self.json {
+            writeln!(out, "{}", serde_json::to_string_pretty(&selections)?)?;
+            return Ok(());
+        }
+        let measurement = brdf_fit::data::split_wavelength(&short[0].name).map_or(String::new(), |(m, _)| m);
+        writeln!(
+            out,
+            "{measurement}: {} bands, theta_i <= {max_i} deg, theta_r <= {max_r} deg; budget: held-out RMS relative error <= {}% (over each band's noise floor where it has readings at or below zero)",
+            selections.len(),
+            brdf_core::Compact(100.0 * self.budget)
+        )?;
+        writeln!(
+            out,
+            "{:>9} {:>6} {:>7} {:>10}  {:<18} {:>9}  {:<16} {:>9} {:>7} {:>9}",
+            "band um", "points", "<= 0", "floor", "best analytic", "cv rms %", "chosen", "cv rms %", "bytes", "4-NN cv %"
+        )?;
+        for ((um, _), s) in order.iter().zip(&selections) {
+            let cv = |r: &brdf_scene::represent::Representation| r.cv_rms_rel.unwrap_or(f64::INFINITY);
+            let analytic = s
+                .representations
+                .iter()
+                .filter(|r| r.rung.table.is_none() && !r.rung.name.contains("table"))
+                .min_by(|a, b| cv(a).total_cmp(&cv(b)));
+            let chosen = s
+                .chosen
+                .as_ref()
+                .and_then(|c| s.representations.iter().find(|r| &r.rung.name == c));
+            let pct = |r: Option<&brdf_scene::represent::Representation>| {
+                r.and_then(|r| r.cv_rms_rel).map_or("-".into(), |e| format!("{:.2}", 100.0 * e))
+            };
+            writeln!(
+                out,
+                "{:>9} {:>6} {:>7} {:>10}  {:<18} {:>9}  {:<16} {:>9} {:>7} {:>9.2}",
+                brdf_fit::data::wavelength_text(*um),
+                s.n,
+                s.noise_floor.as_ref().map_or(0, |f| f.at_or_below_zero),
+                s.noise_floor
+                    .as_ref()
+                    .map_or("-".into(), |f| format!("{:.2e}", f.value)),
+                analytic.map_or("-", |r| r.rung.name.as_str()),
+                pct(analytic),
+                s.chosen.as_deref().unwrap_or("none"),
+                pct(chosen),
+                chosen.map_or("-".into(), |r| r.rung.blob_bytes.to_string()),
+                100.0 * s.knn_cv_rms_rel
+            )?;
+        }
+        let median = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            let n = v.len();
+            if n % 2 == 1 {
+                v[n / 2]
+            } else {
+                0.5 * (v[n / 2 - 1] + v[n / 2])
+            }
+        };
+        let chosen_cv: Vec<f64> = selections
+            .iter()
+            .map(|s| {
+                s.chosen
+                    .as_ref()
+                    .and_then(|c| s.representations.iter().find(|r| &r.rung.name == c))
+                    .and_then(|r| r.cv_rms_rel)
+                    .unwrap_or(f64::INFINITY)
+            })
+            .collect();
+        let knn: Vec<f64> = selections.iter().map(|s| s.knn_cv_rms_rel).collect();
+        writeln!(
+            out,
+            "median over bands: chosen {:.2}%, 4-NN {:.2}%; chosen at least as good as 4-NN in {} of {} bands",
+            100.0 * median(chosen_cv.clone()),
+            100.0 * median(knn.clone()),
+            chosen_cv.iter().zip(&knn).filter(|(c, k)| c <= k).count(),
+            selections.len()
+        )?;
+        if let Some(p) = &self.chosen {
+            writeln!(out, "chosen fits of every band written to {}", p.display())?;
+        }
+        Ok(())
+    }
+
     /// `--scene`: the selection is `brdf_scene::select`; this prints it and writes the blob.
     fn run_scene(&self) -> Result<()> {
         use brdf_scene::select::{select, SelectOptions};

@@ -524,17 +524,18 @@ impl System {
     }
 
     /// [`System::trimmed_ln_fit`], then [`System::refine_relative`] over the same readings.
-    fn trimmed_fit(&self, stencils: &[Stencil], ln_y: &[f64], lambda: f64) -> Vec<f64> {
-        let (x, weights) = self.trimmed_ln_fit(stencils, ln_y, lambda);
-        self.refine_relative(stencils, ln_y, &weights, lambda, x)
+    fn trimmed_fit(&self, stencils: &[Stencil], tg: &Targets, lambda: f64) -> Vec<f64> {
+        let (x, weights) = self.trimmed_ln_fit(stencils, tg, lambda);
+        self.refine_relative(stencils, tg, &weights, lambda, x)
     }
 
-    /// Fit `ln f` with unit weights, then zero the weights of the `floor(0.02 n)` points with
-    /// the largest `|A x - ln y|` (dropout readings) and refit. Returns the cells and the
-    /// weights (0 for the dropped points).
-    fn trimmed_ln_fit(&self, stencils: &[Stencil], ln_y: &[f64], lambda: f64) -> (Vec<f64>, Vec<f64>) {
+    /// Fit `ln f` with weights `c^2` ([`Targets`]: 1 without a noise floor), then zero the
+    /// weights of the `floor(0.02 n)` points with the largest `c |A x - t|` (dropout readings)
+    /// and refit. Returns the cells and the weights (0 for the dropped points).
+    fn trimmed_ln_fit(&self, stencils: &[Stencil], tg: &Targets, lambda: f64) -> (Vec<f64>, Vec<f64>) {
         let n = stencils.len();
-        let mut weights = vec![1.0; n];
+        let ln_y = &tg.t;
+        let mut weights: Vec<f64> = tg.co.iter().map(|[c, _]| c * c).collect();
         let x = self.solve(stencils, ln_y, &weights, lambda);
         let drop = n / TRIM_ONE_IN;
         if drop == 0 {
@@ -543,7 +544,8 @@ impl System {
         let resid: Vec<f64> = stencils
             .iter()
             .zip(ln_y)
-            .map(|(s, y)| (predict(&x, s) - y).abs())
+            .zip(&tg.co)
+            .map(|((s, y), [c, _])| c * (predict(&x, s) - y).abs())
             .collect();
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|&a, &b| resid[b].total_cmp(&resid[a]));
@@ -553,24 +555,24 @@ impl System {
         (self.solve(stencils, ln_y, &weights, lambda), weights)
     }
 
-    /// The objective the table is judged by: `sum w rho(exp(A x - ln y) - 1)`, the squared
-    /// relative errors of the kept readings (capped at [`REL_CAP`]: `rho` is
-    /// [`relative_loss`]), plus the smoothness term `lambda |R x|^2`.
-    /// Infinite when a prediction overflows.
+    /// The objective the table is judged by: `sum w rho(c exp(A x - t) - o)`, the squared
+    /// relative errors of the kept readings ([`Targets`]; `exp(A x - ln y) - 1` without a
+    /// noise floor; capped at [`REL_CAP`]: `rho` is [`relative_loss`]), plus the smoothness
+    /// term `lambda |R x|^2`. Infinite when a prediction overflows.
     fn relative_objective(
         &self,
         stencils: &[Stencil],
-        ln_y: &[f64],
+        tg: &Targets,
         weights: &[f64],
         lambda: f64,
         x: &[f64],
     ) -> f64 {
         let data: f64 = stencils
             .iter()
-            .zip(ln_y)
+            .zip(tg.t.iter().zip(&tg.co))
             .zip(weights)
             .filter(|(_, &w)| w > 0.0)
-            .map(|((s, y), w)| w * relative_loss((predict(x, s) - y).exp() - 1.0))
+            .map(|((s, (y, [c, o])), w)| w * relative_loss(c * (predict(x, s) - y).exp() - o))
             .sum();
         let far = far_from_data(self.shape, stencils);
         let decay: f64 = x.iter().zip(&far).filter(|(_, &f)| f).map(|(v, _)| v * v).sum();
@@ -586,30 +588,34 @@ impl System {
     /// ([`System::relative_objective`]), every step accepted only where it lowers the
     /// objective (halved up to [`REL_HALVINGS`] times), until a step gains less than
     /// [`REL_TOL`] of it or after [`REL_STEPS`] steps. Linearised at `p0 = A x0`, a reading's
-    /// relative error is `a (p - p0) + a - 1` with `a = exp(p0 - ln y)`: a weighted fit of
-    /// `p0 + 1/a - 1` with weights `a^2` (0 beyond the cap), the same banded system as the
-    /// `ln f` fit.
+    /// relative error is `g (p - p0) + g - o` with `g = c exp(p0 - t)` ([`Targets`]): a
+    /// weighted fit of `p0 - 1 + o / g` with weights `g^2` (0 beyond the cap), the same banded
+    /// system as the `ln f` fit (without a floor `c = o = 1`: `p0 + 1/a - 1`, weights `a^2`).
     fn refine_relative(
         &self,
         stencils: &[Stencil],
-        ln_y: &[f64],
+        tg: &Targets,
         weights: &[f64],
         lambda: f64,
         mut x: Vec<f64>,
     ) -> Vec<f64> {
-        let mut cost = self.relative_objective(stencils, ln_y, weights, lambda, &x);
+        let mut cost = self.relative_objective(stencils, tg, weights, lambda, &x);
         let mut steps = 0;
         while steps < REL_STEPS && cost.is_finite() {
             steps += 1;
             let mut w = weights.to_vec();
             let mut z = vec![0.0; stencils.len()];
-            for ((s, y), (wi, zi)) in stencils.iter().zip(ln_y).zip(w.iter_mut().zip(z.iter_mut())) {
+            for ((s, (y, [c, o])), (wi, zi)) in stencils
+                .iter()
+                .zip(tg.t.iter().zip(&tg.co))
+                .zip(w.iter_mut().zip(z.iter_mut()))
+            {
                 if *wi > 0.0 {
                     let p0 = predict(&x, s);
-                    let a = (p0 - y).exp();
+                    let g = c * (p0 - y).exp();
                     // Beyond the cap a reading has no pull (see REL_CAP).
-                    *wi *= if a - 1.0 > REL_CAP { 0.0 } else { a * a };
-                    *zi = p0 + 1.0 / a - 1.0;
+                    *wi *= if g - o > REL_CAP { 0.0 } else { g * g };
+                    *zi = p0 - 1.0 + o / g;
                 }
             }
             if w.iter().chain(&z).any(|v| !v.is_finite()) {
@@ -620,7 +626,7 @@ impl System {
             let mut t = 1.0;
             for _ in 0..=REL_HALVINGS {
                 let trial: Vec<f64> = x.iter().zip(&full).map(|(a, b)| a + t * (b - a)).collect();
-                let c = self.relative_objective(stencils, ln_y, weights, lambda, &trial);
+                let c = self.relative_objective(stencils, tg, weights, lambda, &trial);
                 if c < cost {
                     accepted = Some((trial, c));
                     break;
@@ -685,12 +691,33 @@ pub struct FittedTable {
     pub smoothness: f64,
 }
 
-/// Checks the points and returns their stencils and targets `ln brdf - base_ln`.
+/// What the table is fitted to at each point: the target `t` of the `ln f` fit and the two
+/// factors of the relative error, `c exp(A x - t) - o`. With a reading `y`, its base value
+/// `b = base_ln`, a noise floor `S` and `d = sqrt(y^2 + S^2)`: `t = ln(max(y, S)) - b`,
+/// `c = max(y, S) / d`, `o = y / d`, so that the error is `(f_base exp(A x) - y) / d`, the
+/// fit's own floored relative error ([`crate::noise::floored_relative`]). Without a floor
+/// (`S = 0`, every `y > 0`), `t = ln y - b` and `c = o = 1`: `exp(A x - t) - 1`.
+struct Targets {
+    t: Vec<f64>,
+    co: Vec<[f64; 2]>,
+}
+
+impl Targets {
+    /// The floored relative error of a prediction `p = A x` at point `j`.
+    fn rel(&self, j: usize, p: f64) -> f64 {
+        let [c, o] = self.co[j];
+        c * (p - self.t[j]).exp() - o
+    }
+}
+
+/// Checks the points and returns their stencils and targets (see [`Targets`]) over the
+/// noise floor `floor` (1/sr; 0 for none).
 fn prepare(
     points: &[Point],
     base_ln: &[f64],
     shape: FittedShape,
-) -> Result<(Vec<Stencil>, Vec<f64>), TableError> {
+    floor: f64,
+) -> Result<(Vec<Stencil>, Targets), TableError> {
     assert_eq!(points.len(), base_ln.len(), "one base value per point");
     if points.len() < MIN_POINTS {
         return Err(TableError::TooFewPoints {
@@ -698,7 +725,11 @@ fn prepare(
             needed: MIN_POINTS,
         });
     }
-    if let Some(p) = points.iter().find(|p| !(p.brdf > 0.0 && p.brdf.is_finite())) {
+    assert!(floor.is_finite() && floor >= 0.0, "noise floor must be >= 0: {floor}");
+    if let Some(p) = points
+        .iter()
+        .find(|p| !(p.brdf.is_finite() && (p.brdf > 0.0 || floor > 0.0)))
+    {
         return Err(TableError::NotPositive {
             line: p.line,
             value: p.brdf,
@@ -714,8 +745,16 @@ fn prepare(
         .iter()
         .map(|p| stencil(shape, p.theta_i, p.theta_r, p.phi))
         .collect();
-    let ln_y = points.iter().zip(base_ln).map(|(p, b)| p.brdf.ln() - b).collect();
-    Ok((stencils, ln_y))
+    let (t, co) = points
+        .iter()
+        .zip(base_ln)
+        .map(|(p, b)| {
+            let (y, anchor) = (p.brdf, p.brdf.max(floor));
+            let d = y.hypot(floor);
+            (anchor.ln() - b, [anchor / d, y / d])
+        })
+        .unzip();
+    Ok((stencils, Targets { t, co }))
 }
 
 /// The mean of the folds' errors over the folds that hold a point: with fewer directions than
@@ -735,25 +774,30 @@ fn fold_mean(errors: &[f64]) -> f64 {
 fn fold_error(
     system: &System,
     stencils: &[Stencil],
-    ln_y: &[f64],
+    tg: &Targets,
     fold: &[usize],
     f: usize,
     lambda: f64,
 ) -> f64 {
-    let (mut ts, mut ty) = (Vec::new(), Vec::new());
-    for ((s, &y), &g) in stencils.iter().zip(ln_y).zip(fold) {
+    let mut ts = Vec::new();
+    let mut train = Targets {
+        t: Vec::new(),
+        co: Vec::new(),
+    };
+    for (j, (s, &g)) in stencils.iter().zip(fold).enumerate() {
         if g != f {
             ts.push(*s);
-            ty.push(y);
+            train.t.push(tg.t[j]);
+            train.co.push(tg.co[j]);
         }
     }
-    let x = system.trimmed_ln_fit(&ts, &ty, lambda).0;
+    let x = system.trimmed_ln_fit(&ts, &train, lambda).0;
     let rel: Vec<f64> = stencils
         .iter()
-        .zip(ln_y)
+        .enumerate()
         .zip(fold)
         .filter(|(_, &g)| g == f)
-        .map(|((s, y), _)| ((predict(&x, s) - y).exp() - 1.0).abs())
+        .map(|((j, s), _)| tg.rel(j, predict(&x, s)).abs())
         .collect();
     trimmed_rms_rel(&rel)
 }
@@ -789,13 +833,30 @@ impl FittedTable {
         shape: FittedShape,
         smoothness: f64,
     ) -> Result<Self, TableError> {
+        Self::fit_floored(points, base_ln, shape, smoothness, 0.0)
+    }
+
+    /// [`FittedTable::fit`] over a noise floor `floor` (1/sr, `> 0`; 0 for none): readings
+    /// count by `(f - y) / sqrt(y^2 + floor^2)`, the fit's floored relative error
+    /// ([`crate::noise`]), so readings at or below zero (a dark band's noise) are fitted
+    /// instead of refused. See [`Targets`].
+    ///
+    /// # Panics
+    /// As [`FittedTable::fit`], or if `floor` is negative or not finite.
+    pub fn fit_floored(
+        points: &[Point],
+        base_ln: &[f64],
+        shape: FittedShape,
+        smoothness: f64,
+        floor: f64,
+    ) -> Result<Self, TableError> {
         assert!(
             smoothness.is_finite() && smoothness >= 0.0,
             "smoothness must be >= 0: {smoothness}"
         );
-        let (stencils, ln_y) = prepare(points, base_ln, shape)?;
+        let (stencils, tg) = prepare(points, base_ln, shape, floor)?;
         let system = System::new(shape);
-        let x = system.trimmed_fit(&stencils, &ln_y, smoothness);
+        let x = system.trimmed_fit(&stencils, &tg, smoothness);
         Ok(Self::from_solution(shape, x, &stencils, smoothness))
     }
 
@@ -813,12 +874,29 @@ impl FittedTable {
     /// # Panics
     /// As [`FittedTable::fit`], or if `shapes` is empty.
     pub fn fit_cv(points: &[Point], base_ln: &[f64], shapes: &[FittedShape]) -> Result<Self, TableError> {
+        Self::fit_cv_floored(points, base_ln, shapes, 0.0)
+    }
+
+    /// [`FittedTable::fit_cv`] over a noise floor `floor` (1/sr; 0 for none), the errors of
+    /// the cross-validation floored alike ([`FittedTable::fit_floored`]).
+    ///
+    /// # Errors
+    /// As [`FittedTable::fit`].
+    ///
+    /// # Panics
+    /// As [`FittedTable::fit_floored`], or if `shapes` is empty.
+    pub fn fit_cv_floored(
+        points: &[Point],
+        base_ln: &[f64],
+        shapes: &[FittedShape],
+        floor: f64,
+    ) -> Result<Self, TableError> {
         assert!(!shapes.is_empty(), "fit_cv needs at least one shape");
         let systems = shapes
             .iter()
             .map(|&shape| {
-                let (stencils, ln_y) = prepare(points, base_ln, shape)?;
-                Ok((System::new(shape), stencils, ln_y))
+                let (stencils, tg) = prepare(points, base_ln, shape, floor)?;
+                Ok((System::new(shape), stencils, tg))
             })
             .collect::<Result<Vec<_>, TableError>>()?;
         let fold = cv_folds(points);
@@ -1163,7 +1241,7 @@ mod tests {
         };
         let (train, test) = (noisy(1500, 11), noisy(400, 12));
         let shape = SHAPES[0];
-        let (stencils, ln_y) = prepare(&train, &vec![0.0; train.len()], shape).unwrap();
+        let (stencils, ln_y) = prepare(&train, &vec![0.0; train.len()], shape, 0.0).unwrap();
         let system = System::new(shape);
         let lambda = 1.0;
         let (ln_fit, weights) = system.trimmed_ln_fit(&stencils, &ln_y, lambda);
@@ -1234,7 +1312,7 @@ mod tests {
             })
             .collect();
         let shape = SHAPES[0];
-        let (stencils, ln_y) = prepare(&train, &vec![0.0; train.len()], shape).unwrap();
+        let (stencils, ln_y) = prepare(&train, &vec![0.0; train.len()], shape, 0.0).unwrap();
         let system = System::new(shape);
         let lambda = 0.1;
         let (ln_fit, _) = system.trimmed_ln_fit(&stencils, &ln_y, lambda);

@@ -42,6 +42,14 @@ pub const FEW_DARK: f64 = 0.01;
 /// 5% is the lower end, so the floor errs high (dark points count a little less).
 pub const ASSUMED_RELATIVE_NOISE: f64 = 0.05;
 
+/// The relative error of a prediction `f` of a reading `y` over the noise floor `floor`
+/// (1/sr): `(f - y) / sqrt(y^2 + floor^2)`, relative above the floor and absolute (in units of
+/// the floor) below it; the plain relative error `(f - y) / y` with no floor. Every relative
+/// error of a fit, its report and `brdf select` is this one.
+pub fn floored_relative(f: f64, y: f64, floor: f64) -> f64 {
+    (f - y) / y.hypot(floor)
+}
+
 /// How a fit chooses its noise floor.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum FloorChoice {

@@ -405,7 +405,7 @@ impl Problem {
     /// Relative error of model value `f` at point `i`, unweighted: `(f - y) / y`, or
     /// `(f - y) / sqrt(y^2 + floor^2)` under a noise floor (whatever the residual form).
     pub fn relative_error(&self, i: usize, f: f64) -> f64 {
-        (f - self.y[i]) / self.y[i].hypot(self.floor)
+        crate::noise::floored_relative(f, self.y[i], self.floor)
     }
 
     /// The noise floor of the relative residual, 1/sr (0: none).

@@ -16,6 +16,7 @@ use crate::eval::{eval_batch, Evaluator};
 use crate::ladder::{choose, fitted_rung, rungs, Choice, Rung};
 use brdf_core::{Brdf, MAX_PARAMS};
 use brdf_fit::fitted_table::{trimmed_rms_rel, FittedTable, TableRecord, SHAPES};
+use brdf_fit::noise::floored_relative;
 
 /// One way the device could answer lookups for this data: a rung of the ladder with its
 /// error against the data.
@@ -45,8 +46,9 @@ pub struct Representation {
 }
 
 /// A rung measured against the data over the domain (training error, host time), not yet
-/// cross-validated.
-fn measured(rung: Rung, domain: &Dataset, coverage: Option<f64>) -> Representation {
+/// cross-validated; relative errors over the noise floor `floor` (1/sr, 0 for none:
+/// `brdf_fit::noise::floored_relative`).
+fn measured(rung: Rung, domain: &Dataset, coverage: Option<f64>, floor: f64) -> Representation {
     let n = domain.points.len();
     let col = |f: fn(&brdf_fit::Point) -> f64| -> Vec<f64> { domain.points.iter().map(f).collect() };
     let (ci, cr, cp) = (
@@ -64,7 +66,7 @@ fn measured(rung: Rung, domain: &Dataset, coverage: Option<f64>) -> Representati
     let rel: Vec<f64> = values
         .iter()
         .zip(&domain.points)
-        .map(|(f, p)| ((f - p.brdf) / p.brdf).abs())
+        .map(|(f, p)| floored_relative(*f, p.brdf, floor).abs())
         .collect();
     Representation {
         rung,
@@ -78,12 +80,13 @@ fn measured(rung: Rung, domain: &Dataset, coverage: Option<f64>) -> Representati
 }
 
 /// Every representation of every fitted model, with its error against the data over the
-/// domain and its cost.
+/// domain (relative over the noise floor `floor`, 1/sr; 0 for none) and its cost.
 /// A fit whose parameters no device accepts (an uncalibrated weight far beyond its range)
 /// gives no representation; it is named in `notes`, and the others are still compared.
 pub fn representations(
     reports: &[FitReport],
     domain: &Dataset,
+    floor: f64,
     notes: &mut Vec<String>,
 ) -> Result<Vec<Representation>, String> {
     let cos32: Vec<[f32; 3]> = domain
@@ -116,7 +119,7 @@ pub fn representations(
             };
             reprs.push(Representation {
                 table_vs_exact,
-                ..measured(rung, domain, None)
+                ..measured(rung, domain, None, floor)
             });
         }
     }
@@ -143,9 +146,14 @@ pub const TABLE_BASE: ModelKind = ModelKind::Ggx;
 
 /// The fitted-table rung over the base fit `base_params` (a [`TABLE_BASE`] fit to `train`):
 /// the table fitted to `ln(f / f_base)` at `train`'s points with its smoothness chosen by
-/// cross-validation on them, and its record for `--chosen`.
-pub fn table_rung(train: &Dataset, base_params: &[f64; MAX_PARAMS]) -> Result<(Rung, TableRecord), String> {
-    table_rung_over(TABLE_BASE, train, base_params)
+/// cross-validation on them, over the noise floor `floor` (1/sr; 0 for none:
+/// `FittedTable::fit_cv_floored`), and its record for `--chosen`.
+pub fn table_rung(
+    train: &Dataset,
+    base_params: &[f64; MAX_PARAMS],
+    floor: f64,
+) -> Result<(Rung, TableRecord), String> {
+    table_rung_over(TABLE_BASE, train, base_params, floor)
 }
 
 /// [`table_rung`] over a base of any model `kind` (`base_params` its fit to `train`), for
@@ -155,6 +163,7 @@ pub fn table_rung_over(
     kind: ModelKind,
     train: &Dataset,
     base_params: &[f64; MAX_PARAMS],
+    floor: f64,
 ) -> Result<(Rung, TableRecord), String> {
     let name = &train.name;
     let base = Material::from_params(kind, base_params).map_err(|e| format!("{name}: table base: {e}"))?;
@@ -164,7 +173,7 @@ pub fn table_rung_over(
         .iter()
         .map(|p| f64::from(model.eval_angles(p.theta_i as f32, p.theta_r as f32, p.phi as f32)).ln())
         .collect();
-    let table = FittedTable::fit_cv(&train.points, &base_ln, &SHAPES)
+    let table = FittedTable::fit_cv_floored(&train.points, &base_ln, &SHAPES, floor)
         .map_err(|e| format!("{name}: fitted table: {e}"))?;
     let record = TableRecord::new(&table).map_err(|e| format!("{name}: fitted table: {e}"))?;
     let bytes = table
@@ -212,11 +221,13 @@ pub fn cv_folds(points: &[brdf_fit::Point]) -> Vec<usize> {
 
 /// Sets `cv_rms_rel` of every representation: per fold and model of the ladder, the model
 /// refitted with `settings` on the points outside the fold, each of its rungs evaluated at the
-/// fold's points. A rung gets a value only when every point was predicted.
+/// fold's points (errors relative over the domain's noise floor `floor`). A rung gets a value
+/// only when every point was predicted.
 fn cross_validate(
     domain: &Dataset,
     settings: &(dyn Fn(ModelKind) -> brdf_fit::FitSettings + Sync),
     with_table: bool,
+    floor: f64,
     reprs: &mut [Representation],
     stop: &Stop,
 ) {
@@ -255,7 +266,7 @@ fn cross_validate(
                 return Vec::new();
             };
             if with_table && kind == TABLE_BASE {
-                if let Ok((r, _)) = table_rung(&train, &params) {
+                if let Ok((r, _)) = table_rung(&train, &params, floor) {
                     built.push(r);
                 }
             }
@@ -273,7 +284,7 @@ fn cross_validate(
                     let rel: Vec<f64> = values
                         .iter()
                         .zip(&test.points)
-                        .map(|(v, p)| ((v - p.brdf) / p.brdf).abs())
+                        .map(|(v, p)| floored_relative(*v, p.brdf, floor).abs())
                         .collect();
                     (rung.name, rel)
                 })
@@ -291,6 +302,49 @@ fn cross_validate(
         // Infinite when a value is not finite anywhere (`trimmed_rms_rel`).
         r.cv_rms_rel = (all.len() == n).then(|| trimmed_rms_rel(&all));
     }
+}
+
+/// The yardstick of the held-out errors: four-nearest-neighbour interpolation of `ln f`
+/// (`brdf_fit::holdout::nearest_neighbours`) of each fold's points from the other folds' —
+/// the same folds and the same floored relative error as the representations, so that a
+/// representation's `cv_rms_rel` above it says the data hold detail the representation
+/// misses. Training readings at or below zero are raised to the smallest positive reading
+/// (`ln` has no value there); every held-out reading is judged as it is.
+fn knn_yardstick(domain: &Dataset, floor: f64) -> f64 {
+    use rayon::prelude::*;
+    let fold = cv_folds(&domain.points);
+    let lowest = domain
+        .points
+        .iter()
+        .map(|p| p.brdf)
+        .filter(|&v| v > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let errors: Vec<f64> = (0..cv_fold_count(domain.points.len()))
+        .into_par_iter()
+        .flat_map_iter(|f| {
+            let train: Vec<brdf_fit::Point> = domain
+                .points
+                .iter()
+                .zip(&fold)
+                .filter(|(_, &g)| g != f)
+                .map(|(p, _)| brdf_fit::Point {
+                    brdf: p.brdf.max(lowest),
+                    ..*p
+                })
+                .collect();
+            domain
+                .points
+                .iter()
+                .zip(&fold)
+                .filter(|(_, &g)| g == f)
+                .map(|(p, _)| {
+                    let v = brdf_fit::holdout::nearest_neighbours(&train, p);
+                    floored_relative(v, p.brdf, floor).abs()
+                })
+                .collect::<Vec<f64>>()
+        })
+        .collect();
+    trimmed_rms_rel(&errors)
 }
 
 /// The one dataset of `origin` that `brdf select DATA` works on; an error naming `origin` when
@@ -383,6 +437,14 @@ pub struct DataSelection {
     pub max_theta_r: f64,
     /// Points in the domain.
     pub n: usize,
+    /// The yardstick: the held-out error of four-nearest-neighbour interpolation of the same
+    /// points over the same folds (`knn_yardstick`). A representation whose `cv_rms_rel` is
+    /// above it misses detail the data hold.
+    pub knn_cv_rms_rel: f64,
+    /// The noise floor the relative errors are taken over (`brdf_fit::noise`), when the data
+    /// have readings at or below zero or a floor was given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise_floor: Option<brdf_fit::noise::NoiseFloor>,
     pub allow_nonphysical: bool,
     /// The representation chosen: the cheapest within the budget, or the most accurate when
     /// none is; `None` only when none could be cross-validated or fits a slot.
@@ -472,11 +534,16 @@ pub fn select_data_until(
             domain.points.len(),
         ));
     }
-    // Representations are judged by relative error, which a zero reading (allowed for
-    // absolute residuals) leaves undefined.
-    if let Some(p) = domain.points.iter().find(|p| p.brdf <= 0.0) {
+    // Representations are judged by relative error over the noise floor the fits use: the
+    // floor estimated from readings at or below zero (or given); with none, such a reading
+    // leaves the error undefined.
+    let noise_floor = brdf_fit::noise::floor_for(settings(TABLE_BASE).noise_floor, &domain.points)
+        .map_err(|e| format!("{}: {e}", domain.name))?;
+    let floor = noise_floor.as_ref().map_or(0.0, |f| f.value);
+    if let Some(p) = domain.points.iter().find(|p| p.brdf <= 0.0 && floor == 0.0) {
         return Err(format!(
-            "{}: line {}: brdf {}: select judges representations by relative error, undefined at a zero reading",
+            "{}: line {}: brdf {}: select judges representations by relative error, undefined at a \
+             zero reading without a noise floor (leave --noise-floor out to estimate one, or give one above 0)",
             domain.name,
             p.line,
             brdf_core::Compact(p.brdf)
@@ -503,7 +570,7 @@ pub fn select_data_until(
     if stop.requested() {
         return Err(format!("{}: the selection was stopped", domain.name));
     }
-    let mut reprs = representations(&candidates, domain, &mut notes)?;
+    let mut reprs = representations(&candidates, domain, floor, &mut notes)?;
     // The fitted table over the base model's fit to the whole domain.
     let with_table = domain.points.len() >= TABLE_MIN_POINTS;
     let mut table_record = None;
@@ -514,10 +581,10 @@ pub fn select_data_until(
                 .map_err(|p| format!("{}: no parameter `{p}`", base.dataset))?;
             // A base the device cannot take (an uncalibrated reading scale) leaves the table
             // out, said in the notes, as any other unrepresentable fit.
-            match table_rung(domain, &params) {
+            match table_rung(domain, &params, floor) {
                 Ok((rung, record)) => {
                     let coverage = record.coverage;
-                    reprs.push(measured(rung, domain, Some(coverage)));
+                    reprs.push(measured(rung, domain, Some(coverage), floor));
                     table_record = Some(record);
                 }
                 Err(e) => notes.push(format!("{e}; fitted table left out")),
@@ -529,7 +596,7 @@ pub fn select_data_until(
             domain.points.len()
         ));
     }
-    cross_validate(domain, settings, with_table, &mut reprs, stop);
+    cross_validate(domain, settings, with_table, floor, &mut reprs, stop);
     if stop.requested() {
         return Err(format!("{}: the selection was stopped", domain.name));
     }
@@ -547,10 +614,14 @@ pub fn select_data_until(
         &all,
         &errors,
         &format!(
-            "held-out RMS relative error ({})",
+            "held-out RMS relative error ({}{})",
             match cv_fold_count(domain.points.len()) {
                 k if k == domain.points.len() => "leave-one-out cross-validation".to_owned(),
                 k => format!("{k}-fold cross-validation"),
+            },
+            match floor {
+                0.0 => String::new(),
+                s => format!(", over the noise floor {} 1/sr", brdf_core::Compact(s)),
             }
         ),
         budget,
@@ -585,6 +656,8 @@ pub fn select_data_until(
         max_theta_i,
         max_theta_r,
         n: domain.points.len(),
+        knn_cv_rms_rel: knn_yardstick(domain, floor),
+        noise_floor,
         allow_nonphysical,
         chosen: chosen.map(|i| reprs[i].rung.name.clone()),
         within_budget,
@@ -663,7 +736,7 @@ mod unrepresentable_tests {
         bad.params.0[0].1 = 2e18;
         reports.push(bad);
         let mut notes = Vec::new();
-        let reprs = representations(&reports, &d, &mut notes).unwrap();
+        let reprs = representations(&reports, &d, 0.0, &mut notes).unwrap();
         assert_eq!(reprs.len(), 1, "only the good fit's rung");
         assert_eq!(notes.len(), 1, "{notes:?}");
         assert!(

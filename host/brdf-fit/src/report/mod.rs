@@ -120,7 +120,7 @@ pub fn metrics_floored(f: &[f64], y: &[f64], floor: f64) -> Metrics {
     let (mut se, mut sr, mut mr, mut sl) = (0.0, 0.0, 0.0_f64, 0.0);
     for (&f, &y) in f.iter().zip(y) {
         se += (f - y) * (f - y);
-        let rel = (f - y) / y.hypot(floor);
+        let rel = crate::noise::floored_relative(f, y, floor);
         sr += rel * rel;
         mr = mr.max(rel.abs());
         let l = if y <= 0.0 {
