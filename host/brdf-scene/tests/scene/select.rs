@@ -78,19 +78,39 @@ fn the_default_budget_is_the_command_lines() {
 }
 
 /// Before: data with a zero reading (allowed with absolute residuals) gave every
-/// representation an infinite error and the reason "closest ... at inf%".
+/// representation an infinite error and the reason "closest ... at inf%"; then it was refused.
+/// Now a reading at or below zero is judged over the noise floor the fits estimate (a dark
+/// band's noise), and refused, naming its line, only when the floor is set to none.
 #[test]
-fn data_selection_refuses_a_zero_reading_naming_its_line() {
+fn data_selection_judges_a_zero_reading_over_the_noise_floor() {
+    use brdf_fit::noise::FloorChoice;
     use brdf_scene::represent::{select_data, DataDomain};
     let mut d = brdf_fit::synth::in_plane(ModelKind::Lambert, &[0.5], &[0.0, 30.0], 10.0, 0.0, 1).unwrap();
     d.points[3].brdf = 0.0;
     let line = d.points[3].line;
     let kept = DataDomain::new(&d, 90.0, 90.0);
-    let settings = |kind| brdf_fit::FitSettings {
-        residual: brdf_fit::Residual::Absolute,
-        ..brdf_fit::FitSettings::new(kind)
+    let settings = |floor: FloorChoice| {
+        move |kind| brdf_fit::FitSettings {
+            residual: brdf_fit::Residual::Absolute,
+            noise_floor: floor,
+            ..brdf_fit::FitSettings::new(kind)
+        }
     };
-    let e = select_data(&kept, &settings, 0.02, false).unwrap_err();
+    let s = select_data(&kept, &settings(FloorChoice::Auto), 0.02, false).unwrap();
+    let floor = s.noise_floor.as_ref().expect("a floor estimated from the zero reading");
+    assert_eq!(floor.at_or_below_zero, 1);
+    // The floored errors are finite; at the zero reading a model's error is its value over
+    // the floor, the largest of the Lambert fit's (its other readings are near its value).
+    for r in &s.representations {
+        assert!(r.rms_rel.is_finite() && r.max_rel.is_finite(), "{}: {}", r.rung.name, r.max_rel);
+    }
+    let lambert = &s.representations.iter().find(|r| r.rung.name == "lambert exact").unwrap();
+    let fit = s.candidates.iter().find(|c| c.model == ModelKind::Lambert).unwrap();
+    let rho = fit.params_array().unwrap()[0];
+    let at_zero = f64::from((rho as f32) / std::f32::consts::PI) / floor.value;
+    assert!((lambert.max_rel - at_zero).abs() < 1e-6 * at_zero, "{} {at_zero}", lambert.max_rel);
+    assert!(s.knn_cv_rms_rel.is_finite());
+    let e = select_data(&kept, &settings(FloorChoice::Given(0.0)), 0.02, false).unwrap_err();
     assert!(
         e.contains(&format!(
             "line {line}: brdf 0: select judges representations by relative error"
