@@ -852,6 +852,16 @@ impl Mesh {
                 ),
             ));
         }
+        // A bare `solid` (no name, which the format allows) made the reader fail with "failed
+        // to fill whole buffer": the name is not used, so one is supplied.
+        let named;
+        let bytes = match bytes.strip_prefix(b"solid") {
+            Some(rest) if !binary && rest.first().is_some_and(|&c| c == b'\n' || c == b'\r') => {
+                named = [b"solid unnamed".as_slice(), rest].concat();
+                named.as_slice()
+            }
+            _ => bytes,
+        };
         let mut cursor = std::io::Cursor::new(bytes);
         let stl = stl_io::read_stl(&mut cursor).map_err(|e| MeshError::Stl {
             file: file.clone(),
@@ -998,6 +1008,17 @@ fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
         let line_no = k as u64 + 1;
         let mut words = line.split_whitespace();
         let at = Origin::Line(line_no);
+        // The reader does not join a line ending in `\` with the next (the OBJ format's
+        // continuation): the next line's words were read as a statement of their own.
+        if line.trim_end().ends_with('\\') && !line.trim_start().starts_with('#') {
+            return Err(MeshError::Parse {
+                file: file.to_owned(),
+                at,
+                message: "a line continuation (`\\` at the end of the line) is not read: join \
+                          the statement onto one line"
+                    .into(),
+            });
+        }
         match words.next() {
             Some("f") => {
                 let n = words.count();
@@ -1239,6 +1260,25 @@ mod tests {
 
     /// A binary STL whose header counts other than the facets it holds, and an ASCII STL of
     /// two solids, are refused (the first was read short, the second lost its second solid).
+    #[test]
+    fn a_line_continuation_is_refused_and_a_bare_solid_read() {
+        // A continued vertex (`v 0 1 \` then `0`) was blamed on the next line's `0`.
+        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 \\\n 0\nf 1 2 3\n").unwrap_err().to_string();
+        assert!(e.contains("line 3") && e.contains("line continuation"), "{e}");
+        // A comment ending in a backslash is a comment.
+        obj("# C:\\meshes\\\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        // An ASCII STL whose `solid` has no name (the format allows it) failed with "failed
+        // to fill whole buffer".
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.stl");
+        let body = "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid\n";
+        for head in ["solid\n", "solid\r\n", "solid name\n"] {
+            std::fs::write(&p, format!("{head}{body}")).unwrap();
+            let m = Mesh::load(&p).unwrap_or_else(|e| panic!("{head:?}: {e}"));
+            assert_eq!(m.facets.len(), 1);
+        }
+    }
+
     #[test]
     fn stl_facet_counts_and_solids_are_checked() {
         let dir = tempfile::tempdir().unwrap();

@@ -521,6 +521,13 @@ impl Scene {
                 ),
             ));
         }
+        if parsed.mesh.get_ref().trim().is_empty() {
+            return Err(field(
+                parsed.mesh.span(),
+                "mesh",
+                "empty: name the target's OBJ or STL file (relative to the scene file)".into(),
+            ));
+        }
         let mesh_path = dir.join(parsed.mesh.get_ref());
         let mesh = Mesh::load(&mesh_path)?;
         let mut scene = Scene::new(

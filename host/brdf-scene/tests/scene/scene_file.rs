@@ -340,3 +340,12 @@ fn spectral_materials_are_taken_at_the_sensors_wavelength() {
     let e = Scene::load(&p).unwrap_err().to_string();
     assert!(e.contains("holds 3 bands of p.csv (0.5–0.7 µm): give [sensor] wavelength_um"), "{e}");
 }
+
+/// `mesh = ""` was reported as ": unknown mesh format", naming no file.
+#[test]
+fn an_empty_mesh_path_is_refused_by_line() {
+    let e = err(&format!(
+        "mesh = \"\"\n[[material]]\npart = \"*\"\nmodel = \"lambert\"\nparams = \"rho0=0.3\"\n{SENSOR}"
+    ));
+    assert!(e.contains("line 1: mesh: empty"), "{e}");
+}
