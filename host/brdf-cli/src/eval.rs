@@ -57,7 +57,10 @@ pub struct EvalCmd {
 type Parts<'a, T> = Vec<(T, AnyModel<T>, Option<FittedTable<'a>>)>;
 
 /// One band of a spectral fit as a weighted part.
-fn band_part<T: Float>(fit: &brdf_fit::report::OneFit, w: f64) -> Result<(T, AnyModel<T>, Option<FittedTable<'_>>), String> {
+fn band_part<T: Float>(
+    fit: &brdf_fit::report::OneFit,
+    w: f64,
+) -> Result<(T, AnyModel<T>, Option<FittedTable<'_>>), String> {
     let at = |e: String| format!("fit {}: {e}", fit.index);
     // The ranges hold for the parameters as given (before any rounding to f32).
     build::<f64>(fit.model, &fit.params).map_err(|e| at(e.to_string()))?;
@@ -137,7 +140,9 @@ impl EvalCmd {
             }
             // (clap does not apply `requires = "fit"` once --model, which --fit excludes, is given.)
             (None, _, _) if self.index.is_some() => bail!("--index picks a fit of --fit; give --fit"),
-            (None, _, _) if self.wavelength.is_some() => bail!("--wavelength picks the bands of --fit; give --fit"),
+            (None, _, _) if self.wavelength.is_some() => {
+                bail!("--wavelength picks the bands of --fit; give --fit")
+            }
             (None, Some(kind), Some(text)) => (kind, parse_params(kind, text)?),
             _ => bail!("give --model with --params, or --fit"),
         };
@@ -183,7 +188,9 @@ impl EvalCmd {
             Column(usize),
         }
         let at_fixed = |um: f64| -> Result<Where<'_, T>> {
-            Ok(Where::Fixed(material_at(bands, um).map_err(|e| anyhow!("--wavelength: {shown}: {e}"))?))
+            Ok(Where::Fixed(
+                material_at(bands, um).map_err(|e| anyhow!("--wavelength: {shown}: {e}"))?,
+            ))
         };
         let source = match (self.wavelength, column) {
             (Some(_), Some(_)) => bail!(
@@ -217,9 +224,9 @@ impl EvalCmd {
                         };
                         match by_band.entry(um.to_bits()) {
                             std::collections::hash_map::Entry::Occupied(e) => &*e.into_mut(),
-                            std::collections::hash_map::Entry::Vacant(e) => {
-                                &*e.insert(material_at(bands, um).map_err(|m| anyhow!("{}: {shown}: {m}", at()))?)
-                            }
+                            std::collections::hash_map::Entry::Vacant(e) => &*e.insert(
+                                material_at(bands, um).map_err(|m| anyhow!("{}: {shown}: {m}", at()))?,
+                            ),
                         }
                     }
                 };
@@ -228,7 +235,11 @@ impl EvalCmd {
                 let mut f = T::ZERO;
                 for (w, model, table) in parts {
                     let v = match table {
-                        Some(table) => Corrected { base: *model, table: *table }.eval(&g),
+                        Some(table) => Corrected {
+                            base: *model,
+                            table: *table,
+                        }
+                        .eval(&g),
                         None => model.eval(&g),
                     };
                     f = f + *w * v;

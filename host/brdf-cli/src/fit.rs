@@ -87,7 +87,14 @@ impl FitCmd {
         }
         let mut csv = match &self.output {
             Some(path) => {
-                Some(ResultsCsv::create(path).with_context(|| format!("cannot write {}", path.display()))?)
+                let mut w =
+                    ResultsCsv::create(path).with_context(|| format!("cannot write {}", path.display()))?;
+                // Every dataset has its row: the ones left out first, saying why.
+                for s in &skipped {
+                    w.skipped_row(s, settings.kind.name())
+                        .with_context(|| format!("cannot write {}", path.display()))?;
+                }
+                Some(w)
             }
             None => None,
         };
@@ -154,8 +161,22 @@ impl ResultsCsv {
         })
     }
 
-    /// Parameters, metrics, cost, convergence, the energy check and the flagged parameters.
-    fn row(&mut self, r: &FitReport) -> Result<()> {
+    /// A dataset left out (`--skip-invalid`): its name and points, `converged` false, and why
+    /// in `flags`; the fit's columns empty.
+    fn skipped_row(&mut self, s: &brdf_fit::SkippedDataset, model: &str) -> Result<()> {
+        self.header()?;
+        let mut row = vec![s.dataset.clone(), model.to_owned(), s.points.to_string()];
+        row.extend(std::iter::repeat_n(String::new(), 12 + 8));
+        row.push("false".to_owned());
+        row.extend(std::iter::repeat_n(String::new(), 6));
+        row.push(format!("not fitted: {}", s.reason));
+        self.w.write_record(&row)?;
+        self.w.flush()?;
+        Ok(())
+    }
+
+    /// The header row, once.
+    fn header(&mut self) -> Result<()> {
         if !self.header_done {
             let mut header = vec!["dataset".to_owned(), "model".to_owned(), "n".to_owned()];
             for j in 0..6 {
@@ -185,6 +206,12 @@ impl ResultsCsv {
             self.w.write_record(&header)?;
             self.header_done = true;
         }
+        Ok(())
+    }
+
+    /// Parameters, metrics, cost, convergence, the energy check and the flagged parameters.
+    fn row(&mut self, r: &FitReport) -> Result<()> {
+        self.header()?;
         let mut row = vec![r.dataset.clone(), r.model.name().to_owned(), r.n.to_string()];
         for j in 0..6 {
             match r.params.0.get(j) {

@@ -215,8 +215,12 @@ impl SelectCmd {
         }
         writeln!(
             out,
-            "yardstick: 4-nearest-neighbour interpolation of the same points, held out alike: {:.3}%{}",
-            100.0 * s.knn_cv_rms_rel,
+            "yardstick: 4-nearest-neighbour interpolation of the same points, held out alike: {}{}",
+            s.knn_cv_rms_rel
+                .map_or("- (one fold holds every point)".into(), |e| format!(
+                    "{:.3}%",
+                    100.0 * e
+                )),
             s.noise_floor.as_ref().map_or(String::new(), |f| format!(
                 " (errors relative over the noise floor {} 1/sr: {} readings at or below zero)",
                 brdf_core::Compact(f.value),
@@ -258,7 +262,12 @@ impl SelectCmd {
         let base = self.engine.settings(ModelKind::Six)?;
         let mut order: Vec<(f64, &brdf_fit::Dataset)> = bands
             .iter()
-            .map(|d| (brdf_fit::data::split_wavelength(&d.name).map_or(0.0, |(_, w)| w), d))
+            .map(|d| {
+                (
+                    brdf_fit::data::split_wavelength(&d.name).map_or(0.0, |(_, w)| w),
+                    d,
+                )
+            })
             .collect();
         order.sort_by(|a, b| a.0.total_cmp(&b.0));
         let bar = crate::progress::bar(order.len(), "bands");
@@ -323,7 +332,16 @@ impl SelectCmd {
         writeln!(
             out,
             "{:>9} {:>6} {:>7} {:>10}  {:<18} {:>9}  {:<16} {:>9} {:>7} {:>9}",
-            "band um", "points", "<= 0", "floor", "best analytic", "cv rms %", "chosen", "cv rms %", "bytes", "4-NN cv %"
+            "band um",
+            "points",
+            "<= 0",
+            "floor",
+            "best analytic",
+            "cv rms %",
+            "chosen",
+            "cv rms %",
+            "bytes",
+            "4-NN cv %"
         )?;
         for ((um, _), s) in order.iter().zip(&selections) {
             let cv = |r: &brdf_scene::represent::Representation| r.cv_rms_rel.unwrap_or(f64::INFINITY);
@@ -337,11 +355,12 @@ impl SelectCmd {
                 .as_ref()
                 .and_then(|c| s.representations.iter().find(|r| &r.rung.name == c));
             let pct = |r: Option<&brdf_scene::represent::Representation>| {
-                r.and_then(|r| r.cv_rms_rel).map_or("-".into(), |e| format!("{:.2}", 100.0 * e))
+                r.and_then(|r| r.cv_rms_rel)
+                    .map_or("-".into(), |e| format!("{:.2}", 100.0 * e))
             };
             writeln!(
                 out,
-                "{:>9} {:>6} {:>7} {:>10}  {:<18} {:>9}  {:<16} {:>9} {:>7} {:>9.2}",
+                "{:>9} {:>6} {:>7} {:>10}  {:<18} {:>9}  {:<16} {:>9} {:>7} {:>9}",
                 brdf_fit::data::wavelength_text(*um),
                 s.n,
                 s.noise_floor.as_ref().map_or(0, |f| f.at_or_below_zero),
@@ -353,7 +372,8 @@ impl SelectCmd {
                 s.chosen.as_deref().unwrap_or("none"),
                 pct(chosen),
                 chosen.map_or("-".into(), |r| r.rung.blob_bytes.to_string()),
-                100.0 * s.knn_cv_rms_rel
+                s.knn_cv_rms_rel
+                    .map_or("-".into(), |e| format!("{:.2}", 100.0 * e))
             )?;
         }
         let median = |mut v: Vec<f64>| {
@@ -375,7 +395,10 @@ impl SelectCmd {
                     .unwrap_or(f64::INFINITY)
             })
             .collect();
-        let knn: Vec<f64> = selections.iter().map(|s| s.knn_cv_rms_rel).collect();
+        let knn: Vec<f64> = selections
+            .iter()
+            .map(|s| s.knn_cv_rms_rel.unwrap_or(f64::INFINITY))
+            .collect();
         writeln!(
             out,
             "median over bands: chosen {:.2}%, 4-NN {:.2}%; chosen at least as good as 4-NN in {} of {} bands",

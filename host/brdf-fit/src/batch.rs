@@ -243,21 +243,43 @@ impl FitSettings {
     }
 }
 
+/// A dataset a batch left out ([`fittable`] with `skip`): printed as `skipped dataset
+/// REASON`, and a row of its own in `brdf fit -o`'s CSV.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkippedDataset {
+    /// Its name.
+    pub dataset: String,
+    /// Its points.
+    pub points: usize,
+    /// Why it cannot be fitted ([`FitSettings::check`]'s error, naming the dataset).
+    pub reason: String,
+}
+
+impl std::fmt::Display for SkippedDataset {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "skipped dataset {}", self.reason)
+    }
+}
+
 /// The datasets of a batch that `settings` can fit ([`FitSettings::check`]), checked before
 /// any is fitted so that a batch fails before it writes: the first refusal is the error, or,
-/// with `skip`, each refused dataset is left out and its reason returned (`brdf fit
+/// with `skip`, each refused dataset is left out and returned with its reason (`brdf fit
 /// --skip-invalid`, `brdf.fit(skip_invalid=True)`). An error when none is left.
 pub fn fittable(
     settings: &FitSettings,
     datasets: Vec<Dataset>,
     skip: bool,
-) -> Result<(Vec<Dataset>, Vec<String>), FitError> {
+) -> Result<(Vec<Dataset>, Vec<SkippedDataset>), FitError> {
     let mut kept = Vec::with_capacity(datasets.len());
     let mut skipped = Vec::new();
     for d in datasets {
         match settings.check(&d) {
             Ok(()) => kept.push(d),
-            Err(e) if skip => skipped.push(format!("skipped dataset {e}")),
+            Err(e) if skip => skipped.push(SkippedDataset {
+                reason: e.to_string(),
+                points: d.points.len(),
+                dataset: d.name,
+            }),
             Err(e) => return Err(e),
         }
     }

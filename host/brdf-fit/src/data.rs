@@ -948,9 +948,18 @@ mod tests {
             LoadOptions::default(),
         );
         let e = r.unwrap_err().to_string();
-        assert!(e.contains("line 3") && e.contains("delimits dataset names"), "{e}");
-        assert_eq!(split_wavelength("f.csv[sample=A,wavelength=0.55]"), Some(("f.csv[sample=A]".into(), 0.55)));
-        assert_eq!(split_wavelength("f.csv[wavelength=0.55]"), Some(("f.csv".into(), 0.55)));
+        assert!(
+            e.contains("line 3") && e.contains("delimits dataset names"),
+            "{e}"
+        );
+        assert_eq!(
+            split_wavelength("f.csv[sample=A,wavelength=0.55]"),
+            Some(("f.csv[sample=A]".into(), 0.55))
+        );
+        assert_eq!(
+            split_wavelength("f.csv[wavelength=0.55]"),
+            Some(("f.csv".into(), 0.55))
+        );
         assert_eq!(split_wavelength("f.csv[sample=A]"), None);
         assert_eq!(split_wavelength("f.csv"), None);
         // sigma and weight within the magnitudes a BRDF may have.

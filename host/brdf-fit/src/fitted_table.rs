@@ -732,7 +732,10 @@ fn prepare(
             needed: MIN_POINTS,
         });
     }
-    assert!(floor.is_finite() && floor >= 0.0, "noise floor must be >= 0: {floor}");
+    assert!(
+        floor.is_finite() && floor >= 0.0,
+        "noise floor must be >= 0: {floor}"
+    );
     if let Some(p) = points
         .iter()
         .find(|p| !(p.brdf.is_finite() && (p.brdf > 0.0 || floor > 0.0)))
@@ -1267,7 +1270,13 @@ mod tests {
                     splitmix64_unit(&mut noise),
                 );
                 let z = (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos();
-                point(ti, tr, phi, (synthetic(ti, tr, phi) + sigma_a * z).max(0.0), k as u64 + 2)
+                point(
+                    ti,
+                    tr,
+                    phi,
+                    (synthetic(ti, tr, phi) + sigma_a * z).max(0.0),
+                    k as u64 + 2,
+                )
             })
             .collect();
         let zeros = train.iter().filter(|p| p.brdf <= 0.0).count();
@@ -1299,10 +1308,19 @@ mod tests {
             dark.len()
         );
         assert!(zeros > 50, "the test needs dark readings: {zeros}");
-        assert!(b_dropped.abs() > 0.2, "dropping the dark readings biases the table: {b_dropped}");
-        assert!(b_all.abs() < 0.5 * b_dropped.abs(), "over the floor {b_all}, dropped {b_dropped}");
+        assert!(
+            b_dropped.abs() > 0.2,
+            "dropping the dark readings biases the table: {b_dropped}"
+        );
+        assert!(
+            b_all.abs() < 0.5 * b_dropped.abs(),
+            "over the floor {b_all}, dropped {b_dropped}"
+        );
         let e = FittedTable::fit_cv(&train, &vec![0.0; train.len()], &SHAPES).unwrap_err();
-        assert!(matches!(e, TableError::NotPositive { value, .. } if value == 0.0), "{e}");
+        assert!(
+            matches!(e, TableError::NotPositive { value, .. } if value == 0.0),
+            "{e}"
+        );
     }
 
     /// The refinement towards the least relative error must lower the objective it claims to

@@ -34,7 +34,9 @@ pub mod request;
 pub mod spectral;
 pub mod synth;
 
-pub use batch::{fit_all, fit_streamed, fit_streamed_until, fittable, Engine, FitError, FitSettings};
+pub use batch::{
+    fit_all, fit_streamed, fit_streamed_until, fittable, Engine, FitError, FitSettings, SkippedDataset,
+};
 pub use data::{load_csv, DataError, Dataset, LoadOptions, Loaded, Point, RowDegrees, RowError, Skipped};
 pub use fit::{fit, FitOptions, FitOutcome};
 pub use problem::{Loss, LossKind, Problem, Residual, Stop};

@@ -32,9 +32,9 @@ use brdf_core::{ModelKind, MAX_PARAMS};
 use serde::{Deserialize, Serialize};
 
 use crate::fit::{FitOutcome, SearchSummary, AGREEMENT};
+use crate::import::SAME_BAND_UM;
 use crate::kernel::{assemble, to_internal, to_natural};
 use crate::problem::{nonlinear_indices, Problem};
-use crate::import::SAME_BAND_UM;
 use crate::report::{FitReport, FittedModel, OneFit};
 
 /// How the bands of one measurement are fitted.
@@ -144,7 +144,10 @@ impl BandFits {
         }
         let measurement = match index {
             Some(k) if k >= fits.len() => {
-                return Err(format!("{origin}: holds {} fits; there is no index {k}", fits.len()))
+                return Err(format!(
+                    "{origin}: holds {} fits; there is no index {k}",
+                    fits.len()
+                ))
             }
             Some(k) => match &split[k] {
                 Some((m, _)) => m.clone(),
@@ -196,7 +199,13 @@ impl BandFits {
     pub fn describe(&self) -> String {
         let text = crate::data::wavelength_text;
         let (lo, hi) = (self.bands[0].0, self.bands[self.bands.len() - 1].0);
-        format!("{} bands of {} ({}–{} µm)", self.bands.len(), self.measurement, text(lo), text(hi))
+        format!(
+            "{} bands of {} ({}–{} µm)",
+            self.bands.len(),
+            self.measurement,
+            text(lo),
+            text(hi)
+        )
     }
 
     /// The material at `um` µm: a band's fit, or the two bands around it with the upper one's
@@ -456,7 +465,9 @@ mod tests {
 
     /// A fit-result array of Lambertian fits, one per `(dataset, rho0)`.
     fn fits(items: &[(&str, f64)]) -> String {
-        let one = |(d, r): &(&str, f64)| format!(r#"{{"dataset": "{d}", "model": "lambert", "params": {{"rho0": {r}}}}}"#);
+        let one = |(d, r): &(&str, f64)| {
+            format!(r#"{{"dataset": "{d}", "model": "lambert", "params": {{"rho0": {r}}}}}"#)
+        };
         format!("[{}]", items.iter().map(one).collect::<Vec<_>>().join(","))
     }
 
@@ -469,7 +480,10 @@ mod tests {
             ("a.csv[wavelength=0.4]", 0.4),
         ]);
         let e = BandFits::read(&text, "f.json", None).unwrap_err();
-        assert!(e.contains("2 measurements") && e.contains("b.csv (index 2)"), "{e}");
+        assert!(
+            e.contains("2 measurements") && e.contains("b.csv (index 2)"),
+            "{e}"
+        );
         let bands = BandFits::read(&text, "f.json", Some(3)).unwrap().unwrap();
         assert_eq!(bands.measurement, "a.csv");
         let w: Vec<f64> = bands.bands.iter().map(|b| b.0).collect();
@@ -494,12 +508,21 @@ mod tests {
         let one = BandFits::read(&text, "f.json", Some(2)).unwrap().unwrap();
         assert!(one.at(0.55).unwrap_err().contains("only band is 0.5 µm"));
         // Grey fits: none. A band given twice, or an index of a fit without a band: refused.
-        assert_eq!(BandFits::read(&fits(&[("a.csv", 0.5)]), "f.json", None).unwrap(), None);
+        assert_eq!(
+            BandFits::read(&fits(&[("a.csv", 0.5)]), "f.json", None).unwrap(),
+            None
+        );
         let twice = fits(&[("a.csv[wavelength=0.5]", 0.5), ("a.csv[wavelength=0.50]", 0.6)]);
-        assert!(BandFits::read(&twice, "f.json", None).unwrap_err().contains("one fit per band"));
+        assert!(BandFits::read(&twice, "f.json", None)
+            .unwrap_err()
+            .contains("one fit per band"));
         let mixed = fits(&[("a.csv[wavelength=0.5]", 0.5), ("c.csv", 0.6)]);
-        assert!(BandFits::read(&mixed, "f.json", Some(1)).unwrap_err().contains("no band"));
-        assert!(BandFits::read(&mixed, "f.json", Some(2)).unwrap_err().contains("no index 2"));
+        assert!(BandFits::read(&mixed, "f.json", Some(1))
+            .unwrap_err()
+            .contains("no band"));
+        assert!(BandFits::read(&mixed, "f.json", Some(2))
+            .unwrap_err()
+            .contains("no index 2"));
     }
 
     #[test]

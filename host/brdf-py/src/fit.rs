@@ -108,9 +108,10 @@ const SIGNAL_POLL: std::time::Duration = std::time::Duration::from_millis(50);
 /// `KeyboardInterrupt` (or whatever a signal handler raises) within [`SIGNAL_POLL`] of Ctrl-C
 /// instead of when the work ends (a fit may run for minutes). On the signal, the [`Stop`]
 /// handed to `work` is requested: a fit's searches end within a few milliseconds
-/// ([`brdf_fit::FitSettings::fit_until`]) and the result is dropped. Work that does not look
-/// at it (scenes, selections, the embedded engine, bounded by their own limits) finishes on
-/// its thread in the background.
+/// ([`brdf_fit::FitSettings::fit_until`]), a scene's sweep within one aspect
+/// (`brdf_scene::lrcs::lrcs_until`), and the result is dropped. Work that does not look at it
+/// (a scene's queries, selections, the embedded engine, bounded by their own limits) finishes
+/// on its thread in the background.
 pub(crate) fn interruptible<T: Send + 'static>(
     py: Python<'_>,
     work: impl FnOnce(&Stop) -> T + Send + 'static,
@@ -187,7 +188,7 @@ pub(crate) fn fit_paths(
     let (datasets, mut notes) = load(settings, &paths)?;
     let (datasets, skipped) = brdf_fit::fittable(&settings.settings, datasets, settings.skip_invalid)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    notes.extend(skipped);
+    notes.extend(skipped.iter().map(ToString::to_string));
     Ok((fit_datasets(py, settings, datasets)?, notes))
 }
 
@@ -205,7 +206,9 @@ pub(crate) fn band_of(name: &str) -> Option<f64> {
 pub(crate) fn named_band(name: &str, um: f64) -> PyResult<String> {
     use brdf_fit::data::{split_wavelength, wavelength_text};
     if !(um.is_finite() && um > 0.0) {
-        return Err(PyValueError::new_err(format!("data: wavelength {um} is not a wavelength above 0 (µm)")));
+        return Err(PyValueError::new_err(format!(
+            "data: wavelength {um} is not a wavelength above 0 (µm)"
+        )));
     }
     match split_wavelength(name) {
         Some((_, w)) if (w - um).abs() < brdf_fit::import::SAME_BAND_UM => Ok(name.to_owned()),
@@ -354,7 +357,12 @@ pub(crate) fn fitted_at<'py>(
     use brdf_fit::spectral::{AtWavelength, BandFits};
     let part = |one: &brdf_fit::report::OneFit, w: f64| -> FittedPart<'py> {
         let (model, params) = model_and_params(one);
-        (w, model, params, one.table.as_ref().map(|b| pyo3::types::PyBytes::new(py, b)))
+        (
+            w,
+            model,
+            params,
+            one.table.as_ref().map(|b| pyo3::types::PyBytes::new(py, b)),
+        )
     };
     let bands = BandFits::read(text, origin, index).map_err(PyValueError::new_err)?;
     match (bands, wavelength) {
@@ -368,12 +376,15 @@ pub(crate) fn fitted_at<'py>(
         (None, Some(_)) => Err(PyValueError::new_err(format!(
             "wavelength: {origin} holds no bands (no fit's dataset has a wavelength)"
         ))),
-        (Some(bands), None) if bands.bands.len() > 1 && index.is_none() => Err(PyValueError::new_err(format!(
-            "{origin} holds {}: give wavelength= (µm), or index= for one fit",
-            bands.describe()
-        ))),
+        (Some(bands), None) if bands.bands.len() > 1 && index.is_none() => {
+            Err(PyValueError::new_err(format!(
+                "{origin} holds {}: give wavelength= (µm), or index= for one fit",
+                bands.describe()
+            )))
+        }
         _ => {
-            let one = brdf_fit::report::FittedModel::one_of(text, origin, index).map_err(PyValueError::new_err)?;
+            let one =
+                brdf_fit::report::FittedModel::one_of(text, origin, index).map_err(PyValueError::new_err)?;
             Ok(vec![part(&one, 1.0)])
         }
     }
@@ -394,4 +405,3 @@ fn model_and_params(one: &brdf_fit::report::OneFit) -> (String, String) {
         .join(",");
     (one.model.name().to_owned(), params)
 }
-

@@ -24,11 +24,11 @@ pub(crate) type SceneLrcs = (
 /// material's share and the facets seen, then the materials' parts.
 #[pyfunction]
 pub(crate) fn scene_lrcs(py: Python<'_>, path: String) -> PyResult<SceneLrcs> {
-    use brdf_scene::lrcs::{lrcs, LrcsReport};
+    use brdf_scene::lrcs::{lrcs_until, LrcsReport};
     let scene = scene_at(&path)?;
-    // Ctrl-C raises at once (`interruptible`); an interrupted sweep ends in the background.
-    crate::fit::interruptible(py, move |_| -> Result<SceneLrcs, String> {
-        let result = lrcs(&scene, &|| {});
+    // Ctrl-C raises at once (`interruptible`); the sweep then ends within one aspect's work.
+    crate::fit::interruptible(py, move |stop| -> Result<SceneLrcs, String> {
+        let result = lrcs_until(&scene, &|| {}, stop).ok_or("the sweep was stopped")?;
         let text = serde_json::to_string_pretty(&LrcsReport::new(path, &scene, &result))
             .map_err(|e| e.to_string())?;
         let a = &result.aspects;

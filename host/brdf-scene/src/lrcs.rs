@@ -18,6 +18,8 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use brdf_fit::Stop;
+
 use crate::eval::Evaluator;
 use crate::queries::{aspect_queries, QueryBatch};
 use crate::scene::{Mode, Scene};
@@ -157,6 +159,20 @@ pub fn lrcs(scene: &Scene, progress: &(dyn Fn() + Sync)) -> Lrcs {
 
 /// σ at every aspect with the given representation of each material (scene order).
 pub fn lrcs_with(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + Sync)) -> Lrcs {
+    lrcs_with_until(scene, models, progress, &Stop::new())
+}
+
+/// [`lrcs`] that ends within one aspect's work once `stop` is requested (the Python package's
+/// Ctrl-C): `None` then, and the sweep's threads are free.
+pub fn lrcs_until(scene: &Scene, progress: &(dyn Fn() + Sync), stop: &Stop) -> Option<Lrcs> {
+    let models: Vec<Evaluator> = scene.materials.iter().map(|m| m.evaluator()).collect();
+    let result = lrcs_with_until(scene, &models, progress, stop);
+    (!stop.requested()).then_some(result)
+}
+
+/// [`lrcs_with`], each aspect skipped once `stop` is requested (the result is then partial,
+/// its skipped aspects zero, and meant to be dropped: [`lrcs_until`]).
+fn lrcs_with_until(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + Sync), stop: &Stop) -> Lrcs {
     let started = Instant::now();
     let aspects: Vec<AspectSigma> = scene
         .aspects()
@@ -164,6 +180,16 @@ pub fn lrcs_with(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + Syn
         .map_init(
             || (Vec::new(), Vec::new()),
             |(stack, scratch), a| {
+                if stop.requested() {
+                    return AspectSigma {
+                        azimuth: a.azimuth_deg,
+                        elevation: a.elevation_deg,
+                        lrcs: 0.0,
+                        by_material: Vec::new(),
+                        facets_seen: 0,
+                        outside_coverage: Vec::new(),
+                    };
+                }
                 let batches = aspect_queries(scene, a, stack);
                 let (by_material, outside_coverage): (Vec<f64>, Vec<f64>) = batches
                     .iter()

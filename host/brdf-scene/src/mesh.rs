@@ -489,7 +489,11 @@ impl Mesh {
         }
         // Two axes across a unit normal, for comparisons in a plane.
         let frame = |n: [f64; 3]| {
-            let helper = if n[0].abs() < 0.6 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+            let helper = if n[0].abs() < 0.6 {
+                [1.0, 0.0, 0.0]
+            } else {
+                [0.0, 1.0, 0.0]
+            };
             let u = v3::cross(n, helper);
             let u = v3::scale(u, 1.0 / v3::norm(u));
             [u, v3::cross(n, u)]
@@ -546,8 +550,7 @@ impl Mesh {
                     .into_iter()
                     .filter(|&v| {
                         let m = mean[v as usize];
-                        degree[v as usize] >= HUB_DEGREE
-                            && v3::dot(m, f.normal) >= 0.5 * v3::norm(m)
+                        degree[v as usize] >= HUB_DEGREE && v3::dot(m, f.normal) >= 0.5 * v3::norm(m)
                     })
                     .max_by_key(|&v| (degree[v as usize], std::cmp::Reverse(v)))
                     .unwrap_or(u32::MAX)
@@ -596,7 +599,8 @@ impl Mesh {
         }
         for (&at, list) in &grid {
             // Facets of one hub were compared above: each facet meets only those of other hubs.
-            let mut list: Vec<(u32, usize)> = list.iter().map(|&k| (hub_of[k as usize], k as usize)).collect();
+            let mut list: Vec<(u32, usize)> =
+                list.iter().map(|&k| (hub_of[k as usize], k as usize)).collect();
             list.sort_unstable();
             let mut run_end = 0;
             for (i, &(ha, a)) in list.iter().enumerate() {
@@ -881,7 +885,37 @@ impl Mesh {
         let part = path
             .file_stem()
             .map_or_else(|| "stl".to_owned(), |s| s.to_string_lossy().into_owned());
-        Self::from_triangles(path.to_path_buf(), vertices, &triangles, vec![part])
+        let mesh = Self::from_triangles(path.to_path_buf(), vertices, &triangles, vec![part])?;
+        // The winding decides which side faces out; an STL also stores a normal per facet. An
+        // open shell wound inside out has no volume to give it away, and its stored normals
+        // were the only sign (sigma was -0 at every aspect). Stored normals that are unit
+        // vectors and point against the winding on most facets: refused.
+        let stored: Vec<(usize, f64)> = stl
+            .faces
+            .iter()
+            .zip(&mesh.facets)
+            .enumerate()
+            .filter_map(|(k, (f, facet))| {
+                let n = [f.normal[0], f.normal[1], f.normal[2]].map(f64::from);
+                let len = v3::norm(n);
+                ((0.9..=1.1).contains(&len)).then(|| (k, v3::dot(n, facet.normal) / len))
+            })
+            .collect();
+        let against: Vec<usize> = stored.iter().filter(|(_, d)| *d < 0.0).map(|(k, _)| *k).collect();
+        if !stored.is_empty() && 2 * against.len() > stored.len() {
+            return Err(refuse(
+                Origin::Facet(against[0] + 1),
+                format!(
+                    "the stored normals of {} of {} facets point against their winding (facets are \
+                     counter-clockwise seen from outside): the surface is wound inside out, or its \
+                     normals are wrong; reverse the facets' vertex order, or write the normals that \
+                     match it",
+                    against.len(),
+                    stored.len()
+                ),
+            ));
+        }
+        Ok(mesh)
     }
 }
 
@@ -1263,7 +1297,9 @@ mod tests {
     #[test]
     fn a_line_continuation_is_refused_and_a_bare_solid_read() {
         // A continued vertex (`v 0 1 \` then `0`) was blamed on the next line's `0`.
-        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 \\\n 0\nf 1 2 3\n").unwrap_err().to_string();
+        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 \\\n 0\nf 1 2 3\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("line 3") && e.contains("line continuation"), "{e}");
         // A comment ending in a backslash is a comment.
         obj("# C:\\meshes\\\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
@@ -1277,6 +1313,44 @@ mod tests {
             let m = Mesh::load(&p).unwrap_or_else(|e| panic!("{head:?}: {e}"));
             assert_eq!(m.facets.len(), 1);
         }
+    }
+
+    /// An open surface wound inside out with its stored normals pointing out gave sigma -0 at
+    /// every aspect with no word: the normals are compared with the winding.
+    #[test]
+    fn stl_normals_against_the_winding_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.stl");
+        // Two triangles of a plate, wound clockwise seen from +z (facing -z).
+        let write = |normals: [[f32; 3]; 2]| {
+            let tris = [
+                [[0., 0., 0.], [0., 1., 0.], [1., 0., 0.]],
+                [[1., 0., 0.], [0., 1., 0.], [1., 1., 0.]],
+            ];
+            let mut text = String::from("solid t\n");
+            for (t, n) in tris.iter().zip(normals) {
+                text.push_str(&format!("facet normal {} {} {}\nouter loop\n", n[0], n[1], n[2]));
+                for v in t {
+                    text.push_str(&format!("vertex {} {} {}\n", v[0], v[1], v[2]));
+                }
+                text.push_str("endloop\nendfacet\n");
+            }
+            text.push_str("endsolid t\n");
+            std::fs::write(&p, text).unwrap();
+            Mesh::load(&p)
+        };
+        let e = write([[0., 0., 1.], [0., 0., 1.]]).unwrap_err().to_string();
+        assert!(
+            e.contains("facet 1") && e.contains("2 of 2 facets point against their winding"),
+            "{e}"
+        );
+        // Normals that agree, zero normals (left to the reader), or one of two against: read.
+        assert_eq!(
+            write([[0., 0., -1.], [0., 0., -1.]]).unwrap().facets[0].normal,
+            [0., 0., -1.]
+        );
+        write([[0., 0., 0.], [0., 0., 0.]]).unwrap();
+        write([[0., 0., 1.], [0., 0., -1.]]).unwrap();
     }
 
     #[test]
@@ -1515,7 +1589,13 @@ mod coincident_tests {
             let (x, z) = (p[0] * b.cos() + z * b.sin(), -p[0] * b.sin() + z * b.cos());
             format!("v {:.6} {:.6} {:.6}\n", x + 3.0, y, z - 2.0)
         };
-        let pts = [[0.0, 0.0], [1.0, 0.0], [1.0 / 3.0, 1.0], [2.0 / 3.0, 0.5], [1.0, 1.0]];
+        let pts = [
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0 / 3.0, 1.0],
+            [2.0 / 3.0, 0.5],
+            [1.0, 1.0],
+        ];
         let mut text: String = pts.iter().map(|p| place(*p)).collect();
         text.push_str("f 1 2 4\nf 1 4 3\nf 2 5 3\n");
         obj(&text).unwrap();
@@ -1542,7 +1622,11 @@ mod coincident_tests {
             let t = turns * std::f64::consts::TAU * i as f64 / k as f64;
             text.push_str(&format!("v {:.6} {:.6} 0\n", t.cos(), t.sin()));
         }
-        let last = if turns >= 1.0 && turns.fract() == 0.0 { k } else { k - 1 };
+        let last = if turns >= 1.0 && turns.fract() == 0.0 {
+            k
+        } else {
+            k - 1
+        };
         for copy in 0..1 + twice as usize {
             text.push_str(&format!("o copy{copy}\n"));
             for i in 0..last {
@@ -1564,9 +1648,16 @@ mod coincident_tests {
         // A fan winding one and a half turns lies on itself; a fan written twice (two
         // parts) too.
         // (601 slivers, so that no rim vertex of the second turn falls on one of the first.)
-        for text in [fan(601, 1.5, 0.0, false), fan(500, 1.0, 0.0, true), fan(40, 1.0, 0.0, true)] {
+        for text in [
+            fan(601, 1.5, 0.0, false),
+            fan(500, 1.0, 0.0, true),
+            fan(40, 1.0, 0.0, true),
+        ] {
             let e = obj(&text).unwrap_err().to_string();
-            assert!(e.contains("lie on each other") || e.contains("inconsistent winding"), "{e}");
+            assert!(
+                e.contains("lie on each other") || e.contains("inconsistent winding"),
+                "{e}"
+            );
         }
         // The first overlapping pair in file order is named: sliver 0, from 0 to 1.5/601 of
         // a turn, and sliver 400, from 0.9983 to 1.0008 turns (lines 604 and 1004).

@@ -309,8 +309,9 @@ fn cross_validate(
 /// the same folds and the same floored relative error as the representations, so that a
 /// representation's `cv_rms_rel` above it says the data hold detail the representation
 /// misses. Training readings at or below zero are raised to the smallest positive reading
-/// (`ln` has no value there); every held-out reading is judged as it is.
-fn knn_yardstick(domain: &Dataset, floor: f64) -> f64 {
+/// (`ln` has no value there); every held-out reading is judged as it is. `None` when a fold
+/// leaves nothing to interpolate from (every reading of one direction).
+fn knn_yardstick(domain: &Dataset, floor: f64) -> Option<f64> {
     use rayon::prelude::*;
     let fold = cv_folds(&domain.points);
     let lowest = domain
@@ -319,7 +320,11 @@ fn knn_yardstick(domain: &Dataset, floor: f64) -> f64 {
         .map(|p| p.brdf)
         .filter(|&v| v > 0.0)
         .fold(f64::INFINITY, f64::min);
-    let errors: Vec<f64> = (0..cv_fold_count(domain.points.len()))
+    let folds = cv_fold_count(domain.points.len());
+    if (0..folds).any(|f| fold.iter().all(|&g| g == f)) {
+        return None;
+    }
+    let errors: Vec<f64> = (0..folds)
         .into_par_iter()
         .flat_map_iter(|f| {
             let train: Vec<brdf_fit::Point> = domain
@@ -344,7 +349,7 @@ fn knn_yardstick(domain: &Dataset, floor: f64) -> f64 {
                 .collect::<Vec<f64>>()
         })
         .collect();
-    trimmed_rms_rel(&errors)
+    Some(trimmed_rms_rel(&errors))
 }
 
 /// The one dataset of `origin` that `brdf select DATA` works on; an error naming `origin` when
@@ -439,8 +444,9 @@ pub struct DataSelection {
     pub n: usize,
     /// The yardstick: the held-out error of four-nearest-neighbour interpolation of the same
     /// points over the same folds (`knn_yardstick`). A representation whose `cv_rms_rel` is
-    /// above it misses detail the data hold.
-    pub knn_cv_rms_rel: f64,
+    /// above it misses detail the data hold. `None` when a fold holds every point (one
+    /// direction read several times: nothing to interpolate from).
+    pub knn_cv_rms_rel: Option<f64>,
     /// The noise floor the relative errors are taken over (`brdf_fit::noise`), when the data
     /// have readings at or below zero or a floor was given.
     #[serde(skip_serializing_if = "Option::is_none")]

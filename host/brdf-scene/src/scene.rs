@@ -690,7 +690,12 @@ fn resolve_material(
             .map_err(|err| field(model.span(), "model", err.to_string()))?;
         let p = brdf_fit::params::parse_params(kind, params.get_ref())
             .map_err(|err| field(params.span(), "params", err.to_string()))?;
-        return Ok((build(kind, &p, params.span(), "params")?, Source::Params, None, None));
+        return Ok((
+            build(kind, &p, params.span(), "params")?,
+            Source::Params,
+            None,
+            None,
+        ));
     }
     if let Some(fit) = &e.fit {
         let path = dir.join(fit.get_ref());

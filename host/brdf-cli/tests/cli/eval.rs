@@ -393,38 +393,82 @@ fn a_spectral_fit_evaluates_at_each_rows_wavelength() {
     );
     let out = eval_ok(&["eval", "--fit", f, rows.to_str().unwrap()]);
     let v: Vec<f64> = out[1..].iter().map(|r| r[4].parse().unwrap()).collect();
-    let six = AnyModel::<f64>::new(ModelKind::Six, &[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
+    let six =
+        AnyModel::<f64>::new(ModelKind::Six, &[0.2545, 21.8031, -27.5721, 0.6705, 0.3676, 1.2]).unwrap();
     let rad = f64::to_radians;
     let six_at = six.eval_angles(rad(30.0), rad(40.0), rad(180.0));
     let lambert = 0.5 / std::f64::consts::PI;
-    assert!((v[0] - six_at).abs() <= F64_REFERENCE_REL * six_at, "{} {six_at}", v[0]);
+    assert!(
+        (v[0] - six_at).abs() <= F64_REFERENCE_REL * six_at,
+        "{} {six_at}",
+        v[0]
+    );
     let blend = 0.25 * six_at + 0.75 * lambert;
-    assert!((v[1] - blend).abs() <= F64_REFERENCE_REL * blend, "{} {blend}", v[1]);
+    assert!(
+        (v[1] - blend).abs() <= F64_REFERENCE_REL * blend,
+        "{} {blend}",
+        v[1]
+    );
     assert!((v[2] - lambert).abs() <= F64_REFERENCE_REL * lambert);
     assert_eq!(v[3], v[0], "0.5 and 0.5000 are one band");
     // --wavelength for rows without one; f32 within f32 rounding of f64.
     let plain = write(&dir, "plain.csv", "theta_i,theta_r,phi\n30,40,180\n");
     for precision in ["f64", "f32"] {
-        let out = eval_ok(&["eval", "--fit", f, "--wavelength", "0.575", "--precision", precision, plain.to_str().unwrap()]);
+        let out = eval_ok(&[
+            "eval",
+            "--fit",
+            f,
+            "--wavelength",
+            "0.575",
+            "--precision",
+            precision,
+            plain.to_str().unwrap(),
+        ]);
         let got: f64 = out[1][3].parse().unwrap();
         assert!((got - blend).abs() <= 1e-6 * blend, "{precision}: {got} {blend}");
     }
     // Refused: several bands and no wavelength; both a column and --wavelength; a wavelength
     // outside the bands (no extrapolation) or that is none, each with its line.
     let e = eval_err(&["eval", "--fit", f, plain.to_str().unwrap()]);
-    assert!(e.contains("holds 2 bands of p.csv (0.5–0.6 µm): give --wavelength"), "{e}");
+    assert!(
+        e.contains("holds 2 bands of p.csv (0.5–0.6 µm): give --wavelength"),
+        "{e}"
+    );
     let e = eval_err(&["eval", "--fit", f, "--wavelength", "0.55", rows.to_str().unwrap()]);
     assert!(e.contains("both give the wavelength"), "{e}");
     let e = eval_err(&["eval", "--fit", f, "--wavelength", "0.7", plain.to_str().unwrap()]);
     assert!(e.contains("--wavelength") && e.contains("span 0.5–0.6 µm"), "{e}");
-    for (bad, says) in [("0.45", "outside the bands"), ("x", "`x` is not a wavelength"), ("-0.5", "not a wavelength"), ("", "not a wavelength")] {
-        let p = write(&dir, "bad.csv", &format!("theta_i,theta_r,phi,wavelength\n30,40,180,0.5\n30,40,180,{bad}\n"));
+    for (bad, says) in [
+        ("0.45", "outside the bands"),
+        ("x", "`x` is not a wavelength"),
+        ("-0.5", "not a wavelength"),
+        ("", "not a wavelength"),
+    ] {
+        let p = write(
+            &dir,
+            "bad.csv",
+            &format!("theta_i,theta_r,phi,wavelength\n30,40,180,0.5\n30,40,180,{bad}\n"),
+        );
         let e = eval_err(&["eval", "--fit", f, p.to_str().unwrap()]);
-        assert!(e.contains("bad.csv: line 3: column wavelength") && e.contains(says), "{bad}: {e}");
+        assert!(
+            e.contains("bad.csv: line 3: column wavelength") && e.contains(says),
+            "{bad}: {e}"
+        );
     }
     // A grey fit has no bands: --wavelength is refused, a wavelength column passed through.
-    let grey = write(&dir, "grey.json", r#"{"model": "lambert", "params": {"rho0": 0.5}}"#);
-    let e = eval_err(&["eval", "--fit", grey.to_str().unwrap(), "--wavelength", "0.5", plain.to_str().unwrap()]);
+    let grey = write(
+        &dir,
+        "grey.json",
+        r#"{"model": "lambert", "params": {"rho0": 0.5}}"#,
+    );
+    let e = eval_err(&[
+        "eval",
+        "--fit",
+        grey.to_str().unwrap(),
+        "--wavelength",
+        "0.5",
+        plain.to_str().unwrap(),
+    ]);
     assert!(e.contains("holds no bands"), "{e}");
     let out = eval_ok(&["eval", "--fit", grey.to_str().unwrap(), rows.to_str().unwrap()]);
     assert_eq!(out[0], ["theta_i", "theta_r", "phi", "wavelength", "brdf"]);

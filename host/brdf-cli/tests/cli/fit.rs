@@ -563,6 +563,27 @@ fn every_fitting_command_refuses_repeated_directions() {
         )),
         "{err}"
     );
+    // The CSV has a row for the dataset left out, saying why (it had none).
+    let out = brdf(&["fit", "--skip-invalid", &good, p, "-o", rows.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&rows).unwrap();
+    let mut reader = csv::Reader::from_reader(text.as_bytes());
+    let header = reader.headers().unwrap().clone();
+    let records: Vec<csv::StringRecord> = reader.records().map(Result::unwrap).collect();
+    assert_eq!(records.len(), 2, "{text}");
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let left = records
+        .iter()
+        .find(|r| r[col("dataset")] == *p)
+        .expect("a row for the skipped dataset");
+    assert_eq!((&left[col("converged")], &left[col("model")]), ("false", "six"));
+    assert!(
+        left[col("flags")].starts_with("not fitted: ") && left[col("rms_rel")].is_empty(),
+        "{text}"
+    );
+    assert!(records.iter().any(
+        |r| r[col("dataset")].ends_with("khaki-synthetic-inplane.csv") && &r[col("converged")] == "true"
+    ));
     let out = brdf(&["fit", "--skip-invalid", p]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no dataset left to fit: all 1 were skipped"));

@@ -568,7 +568,8 @@ fn select_takes_every_band_of_a_spectral_file() {
         for ti in (0..80).step_by(16) {
             for tr in (0..85).step_by(8) {
                 let (i, r) = ((ti as f64).to_radians(), (tr as f64).to_radians());
-                let f = (0.5 + 0.5 * b as f64) * brdf_core::Brdf::eval_angles(&six, i, r, std::f64::consts::PI);
+                let f =
+                    (0.5 + 0.5 * b as f64) * brdf_core::Brdf::eval_angles(&six, i, r, std::f64::consts::PI);
                 let noise = 1.0 + 0.05 * (brdf_core::accuracy::splitmix64_unit(&mut seed) - 0.5);
                 text.push_str(&format!("{um},{ti},{tr},180,{}\n", f * noise));
             }
@@ -583,23 +584,44 @@ fn select_takes_every_band_of_a_spectral_file() {
     let out = ok(&["select", d, "--budget", "5%", "--chosen", c]);
     let rows: Vec<&str> = out.lines().filter(|l| l.trim_start().starts_with("0.")).collect();
     assert_eq!(rows.len(), 2, "{out}");
-    assert!(rows[0].split_whitespace().nth(2) == Some("1"), "one reading <= 0 in 0.5: {}", rows[0]);
+    assert!(
+        rows[0].split_whitespace().nth(2) == Some("1"),
+        "one reading <= 0 in 0.5: {}",
+        rows[0]
+    );
     assert!(out.contains("median over bands: chosen"), "{out}");
-    let fits: Vec<serde_json::Value> = serde_json::from_str(&std::fs::read_to_string(&chosen).unwrap()).unwrap();
+    let fits: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(&chosen).unwrap()).unwrap();
     let names: Vec<&str> = fits.iter().map(|f| f["dataset"].as_str().unwrap()).collect();
-    assert!(names[0].ends_with("[wavelength=0.5]") && names[1].ends_with("[wavelength=0.6]"), "{names:?}");
-    assert!(fits[0]["noise_floor"].is_object(), "the dark band's fit states its floor");
+    assert!(
+        names[0].ends_with("[wavelength=0.5]") && names[1].ends_with("[wavelength=0.6]"),
+        "{names:?}"
+    );
+    assert!(
+        fits[0]["noise_floor"].is_object(),
+        "the dark band's fit states its floor"
+    );
     // Between bands: the two chosen fits blended.
     let angles = dir.path().join("a.csv");
     std::fs::write(&angles, "theta_i,theta_r,phi\n30,30,180\n").unwrap();
     let at = |w: &str| -> f64 {
         let o = ok(&["eval", "--fit", c, "--wavelength", w, angles.to_str().unwrap()]);
-        o.lines().nth(1).unwrap().rsplit(',').next().unwrap().parse().unwrap()
+        o.lines()
+            .nth(1)
+            .unwrap()
+            .rsplit(',')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
     };
     let (lo, mid, hi) = (at("0.5"), at("0.55"), at("0.6"));
     assert!((mid - 0.5 * (lo + hi)).abs() < 1e-12 * mid, "{lo} {mid} {hi}");
     // The yardstick's column holds a number for each band.
-    assert!(rows.iter().all(|r| r.split_whitespace().last().is_some_and(|v| v.parse::<f64>().is_ok())));
+    assert!(rows.iter().all(|r| r
+        .split_whitespace()
+        .last()
+        .is_some_and(|v| v.parse::<f64>().is_ok())));
     // -o refused (before any fit).
     let blob = dir.path().join("b.bin");
     let e = fails(&["select", d, "-o", blob.to_str().unwrap()]);

@@ -299,7 +299,11 @@ fn spectral_materials_are_taken_at_the_sensors_wavelength() {
         (dir, Scene::load(&p))
     };
     let sigma = |s: &Scene| -> Vec<f64> {
-        brdf_scene::lrcs::lrcs(s, &|| {}).aspects.iter().map(|a| a.lrcs).collect()
+        brdf_scene::lrcs::lrcs(s, &|| {})
+            .aspects
+            .iter()
+            .map(|a| a.lrcs)
+            .collect()
     };
     let (_d, at_05) = scene("wavelength_um = 0.5\n", "index = 0\n");
     let at_05 = at_05.unwrap();
@@ -310,9 +314,15 @@ fn spectral_materials_are_taken_at_the_sensors_wavelength() {
     let at_065 = at_065.unwrap();
     let m = &at_065.materials[0];
     let upper = m.upper.as_ref().unwrap();
-    assert_eq!((m.model.to_params()[0], upper.model.to_params()[0], upper.index), (0.2, 0.6, 0));
+    assert_eq!(
+        (m.model.to_params()[0], upper.model.to_params()[0], upper.index),
+        (0.2, 0.6, 0)
+    );
     assert!((upper.weight - 0.75).abs() < 1e-12, "{}", upper.weight);
-    assert!(at_065.material_description(0).contains("x 0.25") && at_065.material_description(0).contains("x 0.75"));
+    assert!(
+        at_065.material_description(0).contains("x 0.25")
+            && at_065.material_description(0).contains("x 0.75")
+    );
     for (a, b) in sigma(&at_065).iter().zip(sigma(&at_05)) {
         assert!((a / b - 2.5).abs() < 1e-12, "{a} {b}");
     }
@@ -320,25 +330,47 @@ fn spectral_materials_are_taken_at_the_sensors_wavelength() {
     // banded fit, two measurements without index, a wavelength that is none.
     let (_d, e) = scene("wavelength_um = 0.45\n", "index = 0\n");
     let e = e.unwrap_err().to_string();
-    assert!(e.contains("line 8: wavelength_um") && e.contains("span 0.5–0.7 µm"), "{e}");
+    assert!(
+        e.contains("line 8: wavelength_um") && e.contains("span 0.5–0.7 µm"),
+        "{e}"
+    );
     let (_d, e) = scene("", "index = 1\n");
-    assert_eq!(e.unwrap().materials[0].model.to_params()[0], 0.2, "index alone picks one fit");
+    assert_eq!(
+        e.unwrap().materials[0].model.to_params()[0],
+        0.2,
+        "index alone picks one fit"
+    );
     let (_d, e) = scene("wavelength_um = 0.6\n", "");
     let e = e.unwrap_err().to_string();
     assert!(e.contains("line 4: fit") && e.contains("2 measurements"), "{e}");
     for bad in ["0", "-0.5", "nan", "inf"] {
         let (_d, e) = scene(&format!("wavelength_um = {bad}\n"), "index = 0\n");
         let e = e.unwrap_err().to_string();
-        assert!(e.contains("wavelength_um") && e.contains("not a wavelength"), "{bad}: {e}");
+        assert!(
+            e.contains("wavelength_um") && e.contains("not a wavelength"),
+            "{bad}: {e}"
+        );
     }
     // The second measurement has one band: only its own wavelength.
     let (_d, e) = scene("wavelength_um = 0.6\n", "index = 2\n");
     assert!(e.unwrap_err().to_string().contains("only band is 0.5 µm"));
     // Without an index or a wavelength, a single measurement's bands are refused by name.
-    let (dir, p) = scene_with(&format!("mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nfit = \"fits.json\"\n{SENSOR}"));
-    std::fs::write(dir.path().join("fits.json"), fits.replace("q.csv", "p.csv").replace("0.5]\", \"model\": \"lambert\", \"params\": {\"rho0\": 0.9", "0.6]\", \"model\": \"lambert\", \"params\": {\"rho0\": 0.9")).unwrap();
+    let (dir, p) = scene_with(&format!(
+        "mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nfit = \"fits.json\"\n{SENSOR}"
+    ));
+    std::fs::write(
+        dir.path().join("fits.json"),
+        fits.replace("q.csv", "p.csv").replace(
+            "0.5]\", \"model\": \"lambert\", \"params\": {\"rho0\": 0.9",
+            "0.6]\", \"model\": \"lambert\", \"params\": {\"rho0\": 0.9",
+        ),
+    )
+    .unwrap();
     let e = Scene::load(&p).unwrap_err().to_string();
-    assert!(e.contains("holds 3 bands of p.csv (0.5–0.7 µm): give [sensor] wavelength_um"), "{e}");
+    assert!(
+        e.contains("holds 3 bands of p.csv (0.5–0.7 µm): give [sensor] wavelength_um"),
+        "{e}"
+    );
 }
 
 /// `mesh = ""` was reported as ": unknown mesh format", naming no file.
@@ -348,4 +380,35 @@ fn an_empty_mesh_path_is_refused_by_line() {
         "mesh = \"\"\n[[material]]\npart = \"*\"\nmodel = \"lambert\"\nparams = \"rho0=0.3\"\n{SENSOR}"
     ));
     assert!(e.contains("line 1: mesh: empty"), "{e}");
+}
+
+/// A sweep stopped part way (the Python package's Ctrl-C) ends within the aspects in flight
+/// and returns nothing; it used to run to the end in the background.
+#[test]
+fn a_stopped_sweep_ends_early_and_returns_nothing() {
+    use brdf_scene::lrcs::{lrcs, lrcs_until};
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let s = Scene::load(&bundled().join("target.toml")).unwrap();
+    let whole = lrcs(&s, &|| {});
+    let stop = brdf_fit::Stop::new();
+    let same = lrcs_until(&s, &|| {}, &stop).expect("not stopped");
+    let sigma = |l: &brdf_scene::lrcs::Lrcs| l.aspects.iter().map(|a| a.lrcs).collect::<Vec<_>>();
+    assert_eq!(sigma(&same), sigma(&whole));
+    let done = AtomicUsize::new(0);
+    let stopped = lrcs_until(
+        &s,
+        &|| {
+            if done.fetch_add(1, Ordering::SeqCst) == 5 {
+                stop.request();
+            }
+        },
+        &stop,
+    );
+    assert!(stopped.is_none());
+    let n = done.load(Ordering::SeqCst);
+    assert!(
+        n < 6 + 2 * rayon::current_num_threads(),
+        "{n} of {} aspects traced after the stop",
+        whole.aspects.len()
+    );
 }

@@ -97,19 +97,39 @@ fn data_selection_judges_a_zero_reading_over_the_noise_floor() {
         }
     };
     let s = select_data(&kept, &settings(FloorChoice::Auto), 0.02, false).unwrap();
-    let floor = s.noise_floor.as_ref().expect("a floor estimated from the zero reading");
+    let floor = s
+        .noise_floor
+        .as_ref()
+        .expect("a floor estimated from the zero reading");
     assert_eq!(floor.at_or_below_zero, 1);
     // The floored errors are finite; at the zero reading a model's error is its value over
     // the floor, the largest of the Lambert fit's (its other readings are near its value).
     for r in &s.representations {
-        assert!(r.rms_rel.is_finite() && r.max_rel.is_finite(), "{}: {}", r.rung.name, r.max_rel);
+        assert!(
+            r.rms_rel.is_finite() && r.max_rel.is_finite(),
+            "{}: {}",
+            r.rung.name,
+            r.max_rel
+        );
     }
-    let lambert = &s.representations.iter().find(|r| r.rung.name == "lambert exact").unwrap();
-    let fit = s.candidates.iter().find(|c| c.model == ModelKind::Lambert).unwrap();
+    let lambert = &s
+        .representations
+        .iter()
+        .find(|r| r.rung.name == "lambert exact")
+        .unwrap();
+    let fit = s
+        .candidates
+        .iter()
+        .find(|c| c.model == ModelKind::Lambert)
+        .unwrap();
     let rho = fit.params_array().unwrap()[0];
     let at_zero = f64::from((rho as f32) / std::f32::consts::PI) / floor.value;
-    assert!((lambert.max_rel - at_zero).abs() < 1e-6 * at_zero, "{} {at_zero}", lambert.max_rel);
-    assert!(s.knn_cv_rms_rel.is_finite());
+    assert!(
+        (lambert.max_rel - at_zero).abs() < 1e-6 * at_zero,
+        "{} {at_zero}",
+        lambert.max_rel
+    );
+    assert!(s.knn_cv_rms_rel.is_some_and(f64::is_finite));
     let e = select_data(&kept, &settings(FloorChoice::Given(0.0)), 0.02, false).unwrap_err();
     assert!(
         e.contains(&format!(
