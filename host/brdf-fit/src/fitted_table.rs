@@ -853,7 +853,8 @@ impl FittedTable {
     /// [`FittedTable::fit`] over a noise floor `floor` (1/sr, `> 0`; 0 for none): readings
     /// count by `(f - y) / sqrt(y^2 + floor^2)`, the fit's floored relative error
     /// ([`crate::noise`]), so readings at or below zero (a dark band's noise) are fitted
-    /// instead of refused. See [`Targets`].
+    /// instead of refused: each reading is fitted through `ln(max(y, floor))` and judged by
+    /// that error.
     ///
     /// # Panics
     /// As [`FittedTable::fit`], or if `floor` is negative or not finite.
