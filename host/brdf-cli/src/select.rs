@@ -103,23 +103,9 @@ impl SelectCmd {
             }
         }
         let d = &one_dataset(&data.display().to_string(), datasets).map_err(|e| anyhow!(e))?;
-        let (max_i, max_r) = (
-            self.max_theta_i.unwrap_or(self.max_theta),
-            self.max_theta_r.unwrap_or(self.max_theta),
-        );
-        let kept = DataDomain::new(d, max_i, max_r);
-        if let Some(note) = kept.left_out_note() {
-            eprintln!("{note}");
-        }
+        let (max_i, max_r) = self.limits();
+        let (kept, s) = self.select_one(d, &|note| eprintln!("{note}"))?;
         let domain = &kept.domain;
-        let base = self.engine.settings(ModelKind::Six)?;
-        let s = select_data(
-            &kept,
-            &|kind| FitSettings { kind, ..base },
-            self.budget,
-            self.allow_nonphysical,
-        )
-        .map_err(|e| anyhow!(e))?;
         match (&self.output, &s.material) {
             (Some(path), Some((m, table))) => write_blob(
                 &brdf_fit::pack::encode(&[*m], std::slice::from_ref(table), self.sequence)?,
@@ -242,6 +228,36 @@ impl SelectCmd {
 }
 
 impl SelectCmd {
+    /// The angular domain's limits (degrees): `(max theta_i, max theta_r)`.
+    fn limits(&self) -> (f64, f64) {
+        (
+            self.max_theta_i.unwrap_or(self.max_theta),
+            self.max_theta_r.unwrap_or(self.max_theta),
+        )
+    }
+
+    /// One dataset's selection over the domain, `note` told what the domain left out.
+    fn select_one(
+        &self,
+        d: &brdf_fit::Dataset,
+        note: &dyn Fn(&str),
+    ) -> Result<(DataDomain, brdf_scene::represent::DataSelection)> {
+        let (max_i, max_r) = self.limits();
+        let kept = DataDomain::new(d, max_i, max_r);
+        if let Some(n) = kept.left_out_note() {
+            note(&n);
+        }
+        let base = self.engine.settings(ModelKind::Six)?;
+        let s = select_data(
+            &kept,
+            &|kind| FitSettings { kind, ..base },
+            self.budget,
+            self.allow_nonphysical,
+        )
+        .map_err(|e| anyhow!(e))?;
+        Ok((kept, s))
+    }
+
     /// The bands of one spectral measurement (datasets that differ only in `wavelength`): each
     /// band selected on its own, one line per band; `--chosen` writes every band's chosen fit
     /// (an array in band order, which `brdf eval --fit`, scenes and `brdf.eval_fit` take at a
@@ -255,11 +271,7 @@ impl SelectCmd {
                 bands.len()
             );
         }
-        let (max_i, max_r) = (
-            self.max_theta_i.unwrap_or(self.max_theta),
-            self.max_theta_r.unwrap_or(self.max_theta),
-        );
-        let base = self.engine.settings(ModelKind::Six)?;
+        let (max_i, max_r) = self.limits();
         let mut order: Vec<(f64, &brdf_fit::Dataset)> = bands
             .iter()
             .map(|d| {
@@ -273,17 +285,7 @@ impl SelectCmd {
         let bar = crate::progress::bar(order.len(), "bands");
         let mut selections = Vec::with_capacity(order.len());
         for (_, d) in &order {
-            let kept = DataDomain::new(d, max_i, max_r);
-            if let Some(note) = kept.left_out_note() {
-                bar.suspend(|| eprintln!("{note}"));
-            }
-            let s = select_data(
-                &kept,
-                &|kind| FitSettings { kind, ..base },
-                self.budget,
-                self.allow_nonphysical,
-            )
-            .map_err(|e| anyhow!(e))?;
+            let (_, s) = self.select_one(d, &|note| bar.suspend(|| eprintln!("{note}")))?;
             bar.inc(1);
             selections.push(s);
         }
@@ -376,15 +378,7 @@ impl SelectCmd {
                     .map_or("-".into(), |e| format!("{:.2}", 100.0 * e))
             )?;
         }
-        let median = |mut v: Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            let n = v.len();
-            if n % 2 == 1 {
-                v[n / 2]
-            } else {
-                0.5 * (v[n / 2 - 1] + v[n / 2])
-            }
-        };
+        let median = brdf_fit::holdout::median;
         let chosen_cv: Vec<f64> = selections
             .iter()
             .map(|s| {

@@ -16,22 +16,12 @@ use std::path::Path;
 
 use brdf_core::{AnyModel, Brdf, ModelKind};
 use brdf_fit::fitted_table::trimmed_rms_rel;
-use brdf_fit::holdout::{nearest_neighbours, split, OUTER_FOLDS};
+use brdf_fit::holdout::{median, nearest_neighbours, split, OUTER_FOLDS};
 use brdf_fit::import::{import, Format, Pick};
 use brdf_fit::noise::{floor_for, FloorChoice};
 use brdf_fit::spectral::BandShape;
 use brdf_fit::{fit_streamed, Dataset, FitSettings, Point};
 use rayon::prelude::*;
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
 
 fn main() {
     let model: ModelKind = std::env::args()

@@ -1174,6 +1174,12 @@ mod tests {
         }
     }
 
+    /// A standard normal deviate (Box-Muller from two uniforms).
+    fn normal(state: &mut u64) -> f64 {
+        let (u, v) = (splitmix64_unit(state).max(1e-12), splitmix64_unit(state));
+        (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos()
+    }
+
     fn synthetic(theta_i: f64, theta_r: f64, phi: f64) -> f64 {
         let th = coordinates(theta_i, theta_r, phi)[0];
         0.1 / PI + 2.0 * (-(th / 0.3).powi(2)).exp()
@@ -1266,11 +1272,7 @@ mod tests {
             .into_iter()
             .enumerate()
             .map(|(k, [ti, tr, phi])| {
-                let (u, v) = (
-                    splitmix64_unit(&mut noise).max(1e-12),
-                    splitmix64_unit(&mut noise),
-                );
-                let z = (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos();
+                let z = normal(&mut noise);
                 point(
                     ti,
                     tr,
@@ -1338,12 +1340,7 @@ mod tests {
                 .into_iter()
                 .enumerate()
                 .map(|(k, [ti, tr, phi])| {
-                    // Box-Muller normal from two uniforms.
-                    let (u, v) = (
-                        splitmix64_unit(&mut noise).max(1e-12),
-                        splitmix64_unit(&mut noise),
-                    );
-                    let z = (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos();
+                    let z = normal(&mut noise);
                     point(
                         ti,
                         tr,

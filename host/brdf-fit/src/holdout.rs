@@ -42,6 +42,19 @@ fn features(p: &Point) -> [f64; 4] {
     [th, td, p.theta_i + p.theta_r, (p.theta_i - p.theta_r).abs()]
 }
 
+/// The median of `v` (the mean of the two middle values for an even count; NaN when empty):
+/// the summary over bands or datasets of the held-out studies and of `brdf select` of a
+/// spectral file.
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    match n {
+        0 => f64::NAN,
+        _ if n % 2 == 1 => v[n / 2],
+        _ => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
 /// The yardstick's prediction at `q` from `train` (an exact hit: that point's value).
 ///
 /// # Panics
