@@ -203,3 +203,30 @@ fn replicated_readings_do_not_leak_into_the_held_out_error() {
         "replicates leaked: {thrice} held out against {once} for the same directions read once"
     );
 }
+
+/// A material between two bands at the scene's wavelength is their blend, not the band below:
+/// every rung is fitted to the blend. Lambert bands 0.2 and 0.6 at weight 0.75 are Lambert 0.5,
+/// which the Lambert rung reproduces to its f32 rounding; the band below (0.2) would be 60% off.
+#[test]
+fn a_material_between_bands_is_selected_as_their_blend() {
+    let mut scene = ball(ModelKind::Lambert, &[0.2]);
+    scene.materials[0].upper = Some(brdf_scene::scene::Upper {
+        model: AnyModel::new(ModelKind::Lambert, &[0.6]).unwrap(),
+        table: None,
+        index: 1,
+        weight: 0.75,
+    });
+    let queries = collect_queries(&scene, &|| {});
+    let s = select(&scene, &queries, &SelectOptions::default());
+    let m = &s.materials[0];
+    let lambert = m
+        .candidates
+        .iter()
+        .find(|c| c.rung.name.starts_with("lambert"))
+        .expect("a Lambert rung");
+    assert_eq!(lambert.rung.name, "lambert fitted exact", "the band below is not offered as it is");
+    assert!(lambert.worst_sigma_error < 1e-6, "{}", lambert.worst_sigma_error);
+    let rho = f64::from(lambert.rung.material.params[0]);
+    assert!((rho - 0.5).abs() < 1e-6, "{rho}");
+    assert!(m.chosen.is_some());
+}
