@@ -37,13 +37,18 @@ pub struct Energy {
 /// Fresnel term rising towards grazing) while the report said it conserved energy.
 pub const ENERGY_INCIDENCES_DEG: [f64; 8] = [0.0, 30.0, 45.0, 60.0, 70.0, 80.0, 85.0, 89.0];
 
+/// A measured incidence this close (radians, 0.006 degrees) to one of
+/// [`ENERGY_INCIDENCES_DEG`] stands for it: files write radians to six decimals (Cornell's
+/// 30 degrees is 0.523599, 8e-7 rad off), and the report listed "30.0 deg" twice.
+pub const SAME_INCIDENCE_RAD: f64 = 1e-4;
+
 /// The measured incidences (radians) and [`ENERGY_INCIDENCES_DEG`], sorted, each once (a
-/// measured incidence within 1e-9 rad of a fixed one stands for it).
+/// measured incidence within [`SAME_INCIDENCE_RAD`] of a fixed one stands for it).
 pub fn checked_incidences(measured: &[f64]) -> Vec<f64> {
     let mut all: Vec<f64> = measured.to_vec();
     for d in ENERGY_INCIDENCES_DEG {
         let t = d.to_radians();
-        if !measured.iter().any(|m| (m - t).abs() < 1e-9) {
+        if !measured.iter().any(|m| (m - t).abs() < SAME_INCIDENCE_RAD) {
             all.push(t);
         }
     }
@@ -100,4 +105,22 @@ pub fn energy_of(kind: ModelKind, params: &[f64], incidences: &[f64]) -> Energy 
         e.albedo_conserves = e.albedo.iter().all(|a| a.albedo <= 1.0);
     }
     e
+}
+
+#[cfg(test)]
+mod incidence_tests {
+    use super::*;
+
+    /// Cornell's 30 degrees written to six decimals of a radian was listed beside the fixed 30.
+    #[test]
+    fn a_measured_incidence_written_to_six_decimals_stands_for_the_fixed_one() {
+        let all = checked_incidences(&[0.523599, 0.2]);
+        let thirty = all
+            .iter()
+            .filter(|t| (t.to_degrees() - 30.0).abs() < 0.05)
+            .count();
+        assert_eq!(thirty, 1, "{all:?}");
+        assert!(all.contains(&0.523599) && all.contains(&0.2));
+        assert_eq!(all.len(), 2 + ENERGY_INCIDENCES_DEG.len() - 1);
+    }
 }

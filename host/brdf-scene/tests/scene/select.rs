@@ -224,7 +224,10 @@ fn a_material_between_bands_is_selected_as_their_blend() {
         .iter()
         .find(|c| c.rung.name.starts_with("lambert"))
         .expect("a Lambert rung");
-    assert_eq!(lambert.rung.name, "lambert fitted exact", "the band below is not offered as it is");
+    assert_eq!(
+        lambert.rung.name, "lambert fitted exact",
+        "the band below is not offered as it is"
+    );
     assert!(lambert.worst_sigma_error < 1e-6, "{}", lambert.worst_sigma_error);
     let rho = f64::from(lambert.rung.material.params[0]);
     assert!((rho - 0.5).abs() < 1e-6, "{rho}");
