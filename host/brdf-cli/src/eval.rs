@@ -38,7 +38,8 @@ pub struct EvalCmd {
     /// Wavelength in µm at which to evaluate a spectral fit (the bands of one measurement,
     /// `brdf fit` of a spectral file): the band there, or the two bands around it blended
     /// linearly in wavelength; never extrapolated. Without it, each row's `wavelength` column
-    /// (µm) is used when the file has one.
+    /// (µm) is used when the file has one. A fit without bands is the same at every
+    /// wavelength.
     #[arg(long, requires = "fit", value_name = "UM")]
     wavelength: Option<f64>,
     /// f64 (reference) or f32 (the firmware's arithmetic: angles converted to radians in
@@ -52,6 +53,10 @@ pub struct EvalCmd {
     /// passed through unchanged.
     angles: PathBuf,
 }
+
+/// Most wavelengths whose materials `brdf eval --fit` keeps while it streams rows (a file of
+/// a million distinct wavelengths held 420 MB); beyond, the cache starts again.
+const BAND_CACHE: usize = 1024;
 
 /// A spectral material at one wavelength: each band's weight, model and fitted table.
 type Parts<'a, T> = Vec<(T, AnyModel<T>, Option<FittedTable<'a>>)>;
@@ -131,7 +136,10 @@ impl EvalCmd {
                     return self.eval_bands(&shown, &bands);
                 }
                 if self.wavelength.is_some() {
-                    bail!("--wavelength: {shown} holds no bands (no fit's dataset has a wavelength)");
+                    // As a scene takes a grey material at its wavelength.
+                    eprintln!(
+                        "note: --wavelength: the fit of {shown} has no band: it is the same at every wavelength"
+                    );
                 }
                 let one = brdf_fit::report::FittedModel::one_of(&text, &shown, self.index)
                     .map_err(|e| anyhow!(e))?;
@@ -222,6 +230,11 @@ impl EvalCmd {
                             Ok(v) if v.is_finite() && v > 0.0 => v,
                             _ => bail!("{}: `{t}` is not a wavelength above 0 (µm)", at()),
                         };
+                        // Rows of many distinct wavelengths: the cache is bounded (each entry
+                        // is two bands' models, a few hundred bytes).
+                        if by_band.len() >= BAND_CACHE {
+                            by_band.clear();
+                        }
                         match by_band.entry(um.to_bits()) {
                             std::collections::hash_map::Entry::Occupied(e) => &*e.into_mut(),
                             std::collections::hash_map::Entry::Vacant(e) => &*e.insert(

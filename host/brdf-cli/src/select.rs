@@ -128,6 +128,7 @@ impl SelectCmd {
         for n in &s.notes {
             eprintln!("{n}");
         }
+        warn_floor(&s);
         if s.chosen.is_some() && !s.within_budget {
             eprintln!("warning: {}", s.reason);
         }
@@ -227,6 +228,15 @@ impl SelectCmd {
     }
 }
 
+/// The doubt about an estimated noise floor (`brdf_fit::noise::NoiseFloor::note`: a floor
+/// above most readings, where every error becomes an absolute one and the relative errors
+/// shown are small however far off the fit is), as `brdf fit` warns of it.
+fn warn_floor(s: &brdf_scene::represent::DataSelection) {
+    if let Some(note) = s.noise_floor.as_ref().and_then(|f| f.note.as_ref()) {
+        eprintln!("warning: {}: {note}", s.dataset);
+    }
+}
+
 impl SelectCmd {
     /// The angular domain's limits (degrees): `(max theta_i, max theta_r)`.
     fn limits(&self) -> (f64, f64) {
@@ -266,7 +276,8 @@ impl SelectCmd {
         if let Some(o) = &self.output {
             bail!(
                 "-o {}: a parameter blob holds one representation per material, not {} bands; \
-                 write the bands with --chosen, or select one band with --band",
+                 write the bands with --chosen, or select one band (--band with --format cornell \
+                 or nist; for a CSV, a file of that band's rows)",
                 o.display(),
                 bands.len()
             );
@@ -309,6 +320,7 @@ impl SelectCmd {
             for n in &s.notes {
                 eprintln!("{}: {n}", s.dataset);
             }
+            warn_floor(s);
         }
         let short: Vec<&brdf_fit::Dataset> = order.iter().map(|(_, d)| *d).collect();
         let missed = selections.iter().filter(|s| !s.within_budget).count();

@@ -677,21 +677,35 @@ pub fn wavelength_text(um: f64) -> String {
 /// without a wavelength group. The inverse of the names [`Loaded`] gives (sample names cannot
 /// hold the delimiters, so a name has one reading).
 pub fn split_wavelength(name: &str) -> Option<(String, f64)> {
-    let (file, group) = name.rsplit_once('[')?;
-    let group = group.strip_suffix(']')?;
+    band_of_name(name).ok().flatten()
+}
+
+/// [`split_wavelength`], telling a name without a band (`Ok(None)`) from one whose
+/// `wavelength=` group is not a wavelength above 0 (`Err`, naming the text): a fit result
+/// edited by hand to `wavelength=NaN` was taken for a fit without a band.
+pub fn band_of_name(name: &str) -> Result<Option<(String, f64)>, String> {
+    let Some((file, group)) = name.rsplit_once('[') else {
+        return Ok(None);
+    };
+    let Some(group) = group.strip_suffix(']') else {
+        return Ok(None);
+    };
     let mut um = None;
     let mut rest = Vec::new();
     for g in group.split(',') {
         match g.strip_prefix("wavelength=") {
-            Some(v) => um = Some(v.parse::<f64>().ok().filter(|v| v.is_finite() && *v > 0.0)?),
+            Some(v) => match v.parse::<f64>() {
+                Ok(w) if w.is_finite() && w > 0.0 => um = Some(w),
+                _ => return Err(format!("`wavelength={v}` is not a wavelength above 0 (µm)")),
+            },
             None => rest.push(g),
         }
     }
-    let um = um?;
-    Some(match rest.is_empty() {
+    let Some(um) = um else { return Ok(None) };
+    Ok(Some(match rest.is_empty() {
         true => (file.to_owned(), um),
         false => (format!("{file}[{}]", rest.join(",")), um),
-    })
+    }))
 }
 
 /// The dataset a row belongs to: `sample=..,wavelength=..` from its columns. A sample is any

@@ -123,22 +123,29 @@ pub enum AtWavelength<'a> {
 
 impl BandFits {
     /// The bands of the measurement that fit `index` of `text` belongs to (or of the only
-    /// measurement when `index` is `None`); `Ok(None)` when the fits carry no wavelength (a
-    /// grey material, the same at every wavelength: then `index` picks a fit as
-    /// [`FittedModel::one_of`] does). Refused: a wavelength given twice for one measurement,
-    /// several measurements without `index`, a hand-written fit (no dataset) among bands.
+    /// measurement when `index` is `None`); `Ok(None)` when the fits carry no wavelength, or
+    /// `index` names a fit without one (a grey material, the same at every wavelength: then
+    /// `index` picks a fit as [`FittedModel::one_of`] does). Refused: a `wavelength=` group
+    /// that is not a wavelength, a band given twice for one measurement, several
+    /// measurements (or bands beside fits without one) without `index`.
     pub fn read(text: &str, origin: &str, index: Option<usize>) -> Result<Option<BandFits>, String> {
         let fits = FittedModel::from_json(text, origin).map_err(|e| e.to_string())?;
-        let split: Vec<Option<(String, f64)>> = fits
-            .iter()
-            .map(|f| f.dataset.as_deref().and_then(crate::data::split_wavelength))
-            .collect();
+        let mut split: Vec<Option<(String, f64)>> = Vec::with_capacity(fits.len());
+        for (k, f) in fits.iter().enumerate() {
+            let band = match f.dataset.as_deref() {
+                Some(name) => crate::data::band_of_name(name)
+                    .map_err(|e| format!("{origin}: fit {k}: dataset `{name}`: {e}"))?,
+                None => None,
+            };
+            split.push(band);
+        }
         let mut measurements: Vec<&str> = Vec::new();
         for (m, _) in split.iter().flatten() {
             if !measurements.contains(&m.as_str()) {
                 measurements.push(m);
             }
         }
+        let grey = split.iter().filter(|s| s.is_none()).count();
         if measurements.is_empty() {
             return Ok(None);
         }
@@ -151,26 +158,28 @@ impl BandFits {
             }
             Some(k) => match &split[k] {
                 Some((m, _)) => m.clone(),
-                None => {
-                    return Err(format!(
-                        "{origin}: fit {k} is of no band (its dataset has no wavelength), so it has no \
-                         value at a wavelength"
-                    ))
-                }
+                // A fit without a band: the same at every wavelength.
+                None => return Ok(None),
             },
-            None if measurements.len() == 1 => measurements[0].to_owned(),
+            None if measurements.len() == 1 && grey == 0 => measurements[0].to_owned(),
             None => {
-                let firsts: Vec<String> = measurements
+                let mut firsts: Vec<String> = measurements
                     .iter()
                     .map(|m| {
                         let k = split.iter().position(|s| s.as_ref().is_some_and(|(n, _)| n == m));
                         format!("{m} (index {})", k.unwrap_or(0))
                     })
                     .collect();
+                if grey > 0 {
+                    let k = split.iter().position(Option::is_none).unwrap_or(0);
+                    firsts.push(format!("{grey} fit(s) without a band (index {k}, ...)"));
+                }
                 return Err(format!(
-                    "{origin}: holds the bands of {} measurements: say which with the index of any \
-                     of its fits: {}",
+                    "{origin}: holds the bands of {} measurement{}{}: say which with the index of \
+                     any of its fits: {}",
                     measurements.len(),
+                    if measurements.len() == 1 { "" } else { "s" },
+                    if grey > 0 { " and fits without a band" } else { "" },
                     firsts.join(", ")
                 ));
             }
@@ -516,13 +525,28 @@ mod tests {
         assert!(BandFits::read(&twice, "f.json", None)
             .unwrap_err()
             .contains("one fit per band"));
+        // Bands beside a fit without one: which is meant must be said; the index of the fit
+        // without a band picks it (grey), which was refused.
         let mixed = fits(&[("a.csv[wavelength=0.5]", 0.5), ("c.csv", 0.6)]);
-        assert!(BandFits::read(&mixed, "f.json", Some(1))
-            .unwrap_err()
-            .contains("no band"));
+        let e = BandFits::read(&mixed, "f.json", None).unwrap_err();
+        assert!(e.contains("fits without a band") && e.contains("index 1"), "{e}");
+        assert_eq!(BandFits::read(&mixed, "f.json", Some(1)).unwrap(), None);
+        assert!(BandFits::read(&mixed, "f.json", Some(0)).unwrap().is_some());
         assert!(BandFits::read(&mixed, "f.json", Some(2))
             .unwrap_err()
             .contains("no index 2"));
+        // A `wavelength=` group that is not a wavelength was taken for no band.
+        for bad in ["NaN", "-0.5", "0", "inf", "", "1e400", "0.5nm"] {
+            let text = fits(&[
+                (&format!("a.csv[wavelength={bad}]"), 0.5),
+                ("a.csv[wavelength=0.6]", 0.6),
+            ]);
+            let e = BandFits::read(&text, "f.json", None).unwrap_err();
+            assert!(
+                e.contains("fit 0") && e.contains(&format!("`wavelength={bad}`")),
+                "{bad}: {e}"
+            );
+        }
     }
 
     #[test]

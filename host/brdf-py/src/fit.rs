@@ -343,8 +343,9 @@ pub(crate) type SelectArgs = (f64, f64, f64, bool, u32);
 /// round-trip exactly; a fitted table's device bytes, checked, which `eval_angles` takes as
 /// `table`). With `wavelength` (µm), the file's bands there
 /// ([`brdf_fit::spectral::BandFits`]): the band's fit, or the two around it with their
-/// weights. Without it, one fit (`FittedModel::one_of`, as `brdf eval --fit`); a file holding
-/// several bands of one measurement and no `index` is refused by name.
+/// weights. Without it, or for a fit without bands (the same at every wavelength), one fit
+/// (`FittedModel::one_of`, as `brdf eval --fit`); a file holding several bands of one
+/// measurement and no `index` or wavelength is refused by name.
 #[pyfunction]
 #[pyo3(signature = (text, origin, index=None, wavelength=None))]
 pub(crate) fn fitted_at<'py>(
@@ -373,9 +374,6 @@ pub(crate) fn fitted_at<'py>(
             }
             Err(e) => Err(PyValueError::new_err(format!("wavelength: {origin}: {e}"))),
         },
-        (None, Some(_)) => Err(PyValueError::new_err(format!(
-            "wavelength: {origin} holds no bands (no fit's dataset has a wavelength)"
-        ))),
         (Some(bands), None) if bands.bands.len() > 1 && index.is_none() => {
             Err(PyValueError::new_err(format!(
                 "{origin} holds {}: give wavelength= (µm), or index= for one fit",

@@ -289,10 +289,12 @@ def test_eval_fit_of_a_spectral_fit_refuses_what_the_cli_refuses(cli, tmp_path):
     for bad in (0.0, -1.0, float("nan"), float("inf")):
         with pytest.raises(ValueError, match=r"wavelength at index \[1\]: .* is not a wavelength above 0"):
             brdf.eval_fit(fits, [10, 10], 20, 30, wavelength=[0.55, bad])
+    # A fit without bands is the same at every wavelength (as the CLI and scenes take it).
     grey = tmp_path / "grey.json"
     grey.write_text('{"model": "lambert", "params": {"rho0": 0.5}}')
-    with pytest.raises(ValueError, match="holds no bands"):
-        brdf.eval_fit(grey, 10, 20, 30, wavelength=0.5)
+    np.testing.assert_array_equal(
+        brdf.eval_fit(grey, 10, 20, [30, 40], wavelength=[0.5, 7.0]), brdf.eval("lambert", "rho0=0.5", 10, 20, [30, 40])
+    )
     # index picks one fit, as the CLI's --index.
     np.testing.assert_array_equal(brdf.eval_fit(fits, 10, 20, 30, index=0), brdf.eval("lambert", "rho0=0.5", 10, 20, 30))
 

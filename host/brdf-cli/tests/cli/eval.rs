@@ -455,13 +455,14 @@ fn a_spectral_fit_evaluates_at_each_rows_wavelength() {
             "{bad}: {e}"
         );
     }
-    // A grey fit has no bands: --wavelength is refused, a wavelength column passed through.
+    // A grey fit has no bands: the same at every wavelength, given by --wavelength (with a
+    // note) or a column (passed through), as a scene takes it.
     let grey = write(
         &dir,
         "grey.json",
         r#"{"model": "lambert", "params": {"rho0": 0.5}}"#,
     );
-    let e = eval_err(&[
+    let out = brdf(&[
         "eval",
         "--fit",
         grey.to_str().unwrap(),
@@ -469,7 +470,19 @@ fn a_spectral_fit_evaluates_at_each_rows_wavelength() {
         "0.5",
         plain.to_str().unwrap(),
     ]);
-    assert!(e.contains("holds no bands"), "{e}");
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("has no band: it is the same at every wavelength"));
+    let v: f64 = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .nth(1)
+        .unwrap()
+        .rsplit(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((v - lambert).abs() <= F64_REFERENCE_REL * lambert);
     let out = eval_ok(&["eval", "--fit", grey.to_str().unwrap(), rows.to_str().unwrap()]);
     assert_eq!(out[0], ["theta_i", "theta_r", "phi", "wavelength", "brdf"]);
 }

@@ -235,6 +235,41 @@ fn a_dark_band_of_a_real_paint_fits_with_every_reading() {
     assert!(nf.note.unwrap().contains("dropouts"));
 }
 
+/// Three zeros among 60 readings of a uniform surface with 1% noise (5% dark, so not "few"):
+/// the floor came out 20 times the signal, every reading below it, and nothing said so while
+/// the relative errors looked like 1% for a fit 5% low. A floor above 90% of the readings is
+/// doubted however many are dark.
+#[test]
+fn a_floor_above_nearly_every_reading_is_doubted() {
+    use brdf_fit::noise::{floor_for, FloorChoice, FLOOR_ABOVE_ALL};
+    let mut seed = 4u64;
+    let points: Vec<brdf_fit::Point> = (0..60)
+        .map(|k| {
+            let u = brdf_core::accuracy::splitmix64_unit(&mut seed);
+            brdf_fit::Point {
+                theta_i: 0.01 * k as f64,
+                theta_r: 0.5,
+                phi: 0.1 * k as f64,
+                brdf: if k % 20 == 0 {
+                    0.0
+                } else {
+                    0.127 * (1.0 + 0.02 * (u - 0.5))
+                },
+                sigma: None,
+                weight: None,
+                line: k as u64 + 2,
+            }
+        })
+        .collect();
+    let nf = floor_for(FloorChoice::Auto, &points).unwrap().unwrap();
+    assert_eq!(nf.at_or_below_zero, 3);
+    assert!(nf.at_or_below_floor as f64 > FLOOR_ABOVE_ALL * 60.0, "{nf:?}");
+    assert!(
+        nf.note.as_deref().is_some_and(|n| n.contains("look small")),
+        "{nf:?}"
+    );
+}
+
 /// The 31 bands of a real paint fitted with one shape: every band's nonlinear parameters are
 /// the same, its weights its own; the summed cost is no worse than any band's own shape gives
 /// (the candidates the shared search starts from), and above the sum of the independent
