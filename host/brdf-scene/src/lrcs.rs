@@ -61,10 +61,11 @@ pub struct LrcsMaterial {
     pub params: Vec<f64>,
     /// Whether it carries a fitted table (the model is then its base).
     pub fitted_table: bool,
-    /// Between two bands of a spectral fit at the sensor's wavelength: what is blended
-    /// (`six (fit 15) x 0.25 + six (fit 16) x 0.75`; `model` and `params` are the band below).
+    /// A spectral fit at the sensor's wavelength: the band used (`six (fit 15)`), or the two
+    /// blended (`six (fit 15) x 0.25 + six (fit 16) x 0.75`; `model` and `params` are then the
+    /// band below's).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub blend: Option<String>,
+    pub band: Option<String>,
     /// With a fitted table: the share of the material's σ, summed over the sweep, that comes
     /// from lookups outside the table's coverage (where it holds the smoothness term's
     /// extrapolation, not a measurement).
@@ -95,7 +96,7 @@ impl<'a> LrcsReport<'a> {
                     model: m.model.kind().name(),
                     params: m.model.to_params()[..m.model.kind().param_count()].to_vec(),
                     fitted_table: m.table.is_some(),
-                    blend: m.upper.as_ref().map(|_| scene.material_description(k)),
+                    band: scene.band_used(k),
                     outside_coverage: m.table.as_ref().map(|_| result.outside_coverage(k)),
                 })
                 .collect(),

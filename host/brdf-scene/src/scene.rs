@@ -166,6 +166,9 @@ pub struct SceneMaterial {
     /// then `(1 - weight) f(model, table) + weight f(upper)` (`model` and `table` are the band
     /// below; [`brdf_fit::spectral::AtWavelength`]).
     pub upper: Option<Upper>,
+    /// Whether the material was taken from the bands of a spectral fit at the scene's
+    /// wavelength (one band, or two with `upper`).
+    pub banded: bool,
 }
 
 /// The band above a scene's wavelength, for a material interpolated between two bands.
@@ -191,6 +194,7 @@ impl SceneMaterial {
             source: Source::Params,
             line: 0,
             upper: None,
+            banded: false,
         }
     }
 
@@ -449,7 +453,7 @@ impl Scene {
         for entry in &parsed.materials {
             let e = entry.get_ref();
             let line = line_of(&text, e.part.span().start);
-            let (model, source, table, upper) = resolve_material(e, dir, wavelength.clone(), &field)?;
+            let (model, source, table, upper, banded) = resolve_material(e, dir, wavelength.clone(), &field)?;
             materials.push(SceneMaterial {
                 part: e.part.get_ref().clone(),
                 model,
@@ -457,6 +461,7 @@ impl Scene {
                 source,
                 line,
                 upper,
+                banded,
             });
         }
         if materials.is_empty() {
@@ -584,6 +589,20 @@ impl Scene {
         }
     }
 
+    /// For a material taken from a spectral fit at the scene's wavelength: the band used, or
+    /// the two blended ([`Scene::material_description`] with the fit's index); `None` for a
+    /// scene without a wavelength or a material without bands.
+    pub fn band_used(&self, m: usize) -> Option<String> {
+        let mat = &self.materials[m];
+        match (&mat.source, &mat.upper, self.wavelength_um) {
+            (_, Some(_), Some(_)) => Some(self.material_description(m)),
+            (Source::Fit(_, k), None, Some(_)) if mat.banded => {
+                Some(format!("{} (fit {k})", self.material_description(m)))
+            }
+            _ => None,
+        }
+    }
+
     /// A short name for material `m`: its part (`*` reads "other parts").
     pub fn material_label(&self, m: usize) -> String {
         match self.materials[m].part.as_str() {
@@ -638,9 +657,10 @@ fn sweep(v: &Spanned<Vec<f64>>, lo: f64, hi: f64) -> Result<Vec<f64>, String> {
     Ok(out)
 }
 
-/// A material entry resolved: its model, where it came from, a fitted table's bytes, and the
-/// band above when it lies between two bands at the scene's wavelength.
-type Resolved = (AnyModel<f64>, Source, Option<Vec<u8>>, Option<Upper>);
+/// A material entry resolved: its model, where it came from, a fitted table's bytes, the band
+/// above when it lies between two bands at the scene's wavelength, and whether it was taken
+/// from bands at all.
+type Resolved = (AnyModel<f64>, Source, Option<Vec<u8>>, Option<Upper>, bool);
 
 /// The model of one `[[material]]` entry: exactly one of `model`+`params`, `fit`, `blob`; a
 /// spectral fit at `wavelength` (µm, and the span of `wavelength_um`), when given.
@@ -695,6 +715,7 @@ fn resolve_material(
             Source::Params,
             None,
             None,
+            false,
         ));
     }
     if let Some(fit) = &e.fit {
@@ -703,6 +724,7 @@ fn resolve_material(
         let text = brdf_fit::data::read_input(&path)
             .map_err(|err| field(fit.span(), "fit", format!("{shown}: {err}")))?;
         let bands = BandFits::read(&text, &shown, index).map_err(|m| field(fit.span(), "fit", m))?;
+        let banded = bands.is_some() && wavelength.is_some();
         let (one, upper) = match (&bands, wavelength) {
             (Some(bands), Some((um, span))) => match bands.at(um) {
                 Ok(AtWavelength::Band(one)) => (one.clone(), None),
@@ -743,6 +765,7 @@ fn resolve_material(
             Source::Fit(path, one.index),
             one.table,
             upper,
+            banded,
         ));
     }
     let blob = e.blob.as_ref().expect("exactly one source is given");
@@ -782,5 +805,6 @@ fn resolve_material(
         Source::Blob(path, k),
         table,
         None,
+        false,
     ))
 }

@@ -323,6 +323,18 @@ fn spectral_materials_are_taken_at_the_sensors_wavelength() {
         at_065.material_description(0).contains("x 0.25")
             && at_065.material_description(0).contains("x 0.75")
     );
+    // What the sweep's JSON says was used: the band (with its fit), or the blend.
+    let band = |s: &Scene| {
+        let result = brdf_scene::lrcs::lrcs(s, &|| {});
+        brdf_scene::lrcs::LrcsReport::new("s".into(), s, &result).materials[0]
+            .band
+            .clone()
+    };
+    assert_eq!(band(&at_05).as_deref(), Some("lambert (fit 1)"));
+    assert_eq!(
+        band(&at_065).as_deref(),
+        Some("lambert (fit 1) x 0.25 + lambert (fit 0) x 0.75")
+    );
     for (a, b) in sigma(&at_065).iter().zip(sigma(&at_05)) {
         assert!((a / b - 2.5).abs() < 1e-12, "{a} {b}");
     }
