@@ -477,16 +477,19 @@ impl Mesh {
             cell *= 2.0;
         }
         let range = |b: &([f64; 3], [f64; 3]), c: usize| index(b.0[c], c, cell)..=index(b.1[c], c, cell);
-        let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+        // The grid as (cell, facet) pairs sorted by cell: 32 bytes per pair, a few pairs per
+        // facet (a map of cells to lists took about 300 bytes per facet).
+        let mut grid: Vec<([i64; 3], u32)> = Vec::new();
         for (j, b) in boxes.iter().enumerate() {
             for x in range(b, 0) {
                 for y in range(b, 1) {
                     for z in range(b, 2) {
-                        grid.entry([x, y, z]).or_default().push(j as u32);
+                        grid.push(([x, y, z], j as u32));
                     }
                 }
             }
         }
+        grid.sort_unstable();
         // Two axes across a unit normal, for comparisons in a plane.
         let frame = |n: [f64; 3]| {
             let helper = if n[0].abs() < 0.6 {
@@ -509,19 +512,21 @@ impl Mesh {
                 return;
             }
             let (pa, pb) = (corners(fa), corners(fb));
+            // In one plane first (neighbours on a curved surface are not), then apart at a
+            // shared vertex (the slivers of a fan), then the full test.
+            let t = tol[a] + tol[b];
+            let off = |p: &[[f64; 3]; 3], q: [f64; 3], n: [f64; 3]| {
+                p.iter().all(|v| v3::dot(v3::sub(*v, q), n).abs() <= t)
+            };
+            if !(off(&pb, pa[0], fa.normal) && off(&pa, pb[0], fb.normal)) {
+                return;
+            }
             let [u, w] = frames[a];
             let flat = |v: [f64; 3]| {
                 let d = v3::sub(v, pa[0]);
                 [v3::dot(d, u), v3::dot(d, w)]
             };
             if apart_at_shared_vertex(fa.vertices, fb.vertices, |k| flat(self.vertices[k as usize])) {
-                return;
-            }
-            let t = tol[a] + tol[b];
-            let off = |p: &[[f64; 3]; 3], q: [f64; 3], n: [f64; 3]| {
-                p.iter().all(|v| v3::dot(v3::sub(*v, q), n).abs() <= t)
-            };
-            if !(off(&pb, pa[0], fa.normal) && off(&pa, pb[0], fb.normal)) {
                 return;
             }
             let size = fa.area.min(fb.area).sqrt();
@@ -597,10 +602,13 @@ impl Mesh {
                 }
             }
         }
-        for (&at, list) in &grid {
+        for members in grid.chunk_by(|x, y| x.0 == y.0) {
+            let at = members[0].0;
             // Facets of one hub were compared above: each facet meets only those of other hubs.
-            let mut list: Vec<(u32, usize)> =
-                list.iter().map(|&k| (hub_of[k as usize], k as usize)).collect();
+            let mut list: Vec<(u32, usize)> = members
+                .iter()
+                .map(|&(_, k)| (hub_of[k as usize], k as usize))
+                .collect();
             list.sort_unstable();
             let mut run_end = 0;
             for (i, &(ha, a)) in list.iter().enumerate() {
