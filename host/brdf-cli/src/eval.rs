@@ -40,7 +40,7 @@ pub struct EvalCmd {
     /// linearly in wavelength; never extrapolated. Without it, each row's `wavelength` column
     /// (µm) is used when the file has one. A fit without bands is the same at every
     /// wavelength.
-    #[arg(long, requires = "fit", value_name = "UM")]
+    #[arg(long, requires = "fit", value_name = "UM", allow_hyphen_values = true)]
     wavelength: Option<f64>,
     /// f64 (reference) or f32 (the firmware's arithmetic: angles converted to radians in
     /// f64, then rounded once to f32; parameters rounded once to f32).
@@ -226,9 +226,8 @@ impl EvalCmd {
                     Where::Column(col) => {
                         let at = || format!("{}: line {}: column wavelength", reader.file(), chunk.line(i));
                         let t = chunk.field(i, *col).trim();
-                        let um = match t.parse::<f64>() {
-                            Ok(v) if v.is_finite() && v > 0.0 => v,
-                            _ => bail!("{}: `{t}` is not a wavelength above 0 (µm)", at()),
+                        let Some(um) = brdf_fit::data::parse_wavelength(t) else {
+                            bail!("{}: `{t}` is not a wavelength above 0 (µm)", at())
                         };
                         // Rows of many distinct wavelengths: the cache is bounded (each entry
                         // is two bands' models, a few hundred bytes).

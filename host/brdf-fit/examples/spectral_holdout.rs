@@ -16,7 +16,7 @@ use std::path::Path;
 
 use brdf_core::{AnyModel, Brdf, ModelKind};
 use brdf_fit::fitted_table::trimmed_rms_rel;
-use brdf_fit::holdout::{median, nearest_neighbours, split, OUTER_FOLDS};
+use brdf_fit::holdout::{median, nearest_neighbours, raised_for_ln, split, OUTER_FOLDS};
 use brdf_fit::import::{import, Format, Pick};
 use brdf_fit::noise::{floor_for, FloorChoice};
 use brdf_fit::spectral::BandShape;
@@ -84,20 +84,7 @@ fn main() {
                     };
                     let ms = of(fits_shared[b].as_ref().expect("shared fit"));
                     let mo = of(fits_own[b].as_ref().expect("band fit"));
-                    let lowest = train[b]
-                        .points
-                        .iter()
-                        .map(|p| p.brdf)
-                        .filter(|&v| v > 0.0)
-                        .fold(f64::INFINITY, f64::min);
-                    let raised: Vec<Point> = train[b]
-                        .points
-                        .iter()
-                        .map(|p| Point {
-                            brdf: p.brdf.max(lowest),
-                            ..*p
-                        })
-                        .collect();
+                    let raised = raised_for_ln(&train[b].points);
                     (
                         rel(&|p| ms.eval_angles(p.theta_i, p.theta_r, p.phi)),
                         rel(&|p| mo.eval_angles(p.theta_i, p.theta_r, p.phi)),

@@ -672,6 +672,16 @@ pub fn wavelength_text(um: f64) -> String {
     brdf_core::Compact((um * 1e9).round() / 1e9).to_string()
 }
 
+/// A wavelength in µm as every reader and option takes one: a finite number above 0.
+pub fn is_wavelength(um: f64) -> bool {
+    um.is_finite() && um > 0.0
+}
+
+/// `text` as a wavelength in µm ([`is_wavelength`]), or `None`.
+pub fn parse_wavelength(text: &str) -> Option<f64> {
+    text.parse::<f64>().ok().filter(|&v| is_wavelength(v))
+}
+
 /// A dataset name's measurement and band: `FILE[sample=x,wavelength=0.55]` is
 /// (`FILE[sample=x]`, 0.55), `FILE[wavelength=0.55]` is (`FILE`, 0.55); `None` for a name
 /// without a wavelength group. The inverse of the names [`Loaded`] gives (sample names cannot
@@ -694,9 +704,9 @@ pub fn band_of_name(name: &str) -> Result<Option<(String, f64)>, String> {
     let mut rest = Vec::new();
     for g in group.split(',') {
         match g.strip_prefix("wavelength=") {
-            Some(v) => match v.parse::<f64>() {
-                Ok(w) if w.is_finite() && w > 0.0 => um = Some(w),
-                _ => return Err(format!("`wavelength={v}` is not a wavelength above 0 (µm)")),
+            Some(v) => match parse_wavelength(v) {
+                Some(w) => um = Some(w),
+                None => return Err(format!("`wavelength={v}` is not a wavelength above 0 (µm)")),
             },
             None => rest.push(g),
         }
@@ -728,11 +738,9 @@ fn group_key(record: &csv::StringRecord, cols: &Columns) -> Result<String, Strin
     }
     if let Some(i) = cols.wavelength {
         let text = record.get(i).unwrap_or("").trim();
-        match text.parse::<f64>() {
-            Ok(v) if v.is_finite() && v > 0.0 => {
-                key.push(format!("wavelength={}", wavelength_text(v)));
-            }
-            _ => return Err(format!("column wavelength: `{text}` is not a wavelength above 0")),
+        match parse_wavelength(text) {
+            Some(v) => key.push(format!("wavelength={}", wavelength_text(v))),
+            None => return Err(format!("column wavelength: `{text}` is not a wavelength above 0")),
         }
     }
     Ok(key.join(","))

@@ -55,6 +55,23 @@ pub fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
+/// `points` as the yardstick interpolates them: readings at or below zero raised to the
+/// smallest positive reading among them (`ln f` has no value there).
+pub fn raised_for_ln(points: &[Point]) -> Vec<Point> {
+    let lowest = points
+        .iter()
+        .map(|p| p.brdf)
+        .filter(|&v| v > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    points
+        .iter()
+        .map(|p| Point {
+            brdf: p.brdf.max(lowest),
+            ..*p
+        })
+        .collect()
+}
+
 /// The yardstick's prediction at `q` from `train` (an exact hit: that point's value).
 ///
 /// # Panics

@@ -222,7 +222,7 @@ impl BandFits {
     pub fn at(&self, um: f64) -> Result<AtWavelength<'_>, String> {
         let text = crate::data::wavelength_text;
         let (lo, hi) = (self.bands[0].0, self.bands[self.bands.len() - 1].0);
-        if !um.is_finite() || um <= 0.0 {
+        if !crate::data::is_wavelength(um) {
             return Err(format!("wavelength {um} µm is not a wavelength above 0"));
         }
         if let Some((_, fit)) = self.bands.iter().find(|(w, _)| (w - um).abs() < SAME_BAND_UM) {

@@ -205,7 +205,7 @@ pub(crate) fn band_of(name: &str) -> Option<f64> {
 #[pyfunction]
 pub(crate) fn named_band(name: &str, um: f64) -> PyResult<String> {
     use brdf_fit::data::{split_wavelength, wavelength_text};
-    if !(um.is_finite() && um > 0.0) {
+    if !brdf_fit::data::is_wavelength(um) {
         return Err(PyValueError::new_err(format!(
             "data: wavelength {um} is not a wavelength above 0 (µm)"
         )));

@@ -308,18 +308,12 @@ fn cross_validate(
 /// (`brdf_fit::holdout::nearest_neighbours`) of each fold's points from the other folds' —
 /// the same folds and the same floored relative error as the representations, so that a
 /// representation's `cv_rms_rel` above it says the data hold detail the representation
-/// misses. Training readings at or below zero are raised to the smallest positive reading
-/// (`ln` has no value there); every held-out reading is judged as it is. `None` when a fold
+/// misses. Training readings at or below zero are raised to the smallest positive training
+/// reading (`brdf_fit::holdout::raised_for_ln`); every held-out reading is judged as it is. `None` when a fold
 /// leaves nothing to interpolate from (every reading of one direction).
 fn knn_yardstick(domain: &Dataset, floor: f64) -> Option<f64> {
     use rayon::prelude::*;
     let fold = cv_folds(&domain.points);
-    let lowest = domain
-        .points
-        .iter()
-        .map(|p| p.brdf)
-        .filter(|&v| v > 0.0)
-        .fold(f64::INFINITY, f64::min);
     let folds = cv_fold_count(domain.points.len());
     if (0..folds).any(|f| fold.iter().all(|&g| g == f)) {
         return None;
@@ -327,16 +321,14 @@ fn knn_yardstick(domain: &Dataset, floor: f64) -> Option<f64> {
     let errors: Vec<f64> = (0..folds)
         .into_par_iter()
         .flat_map_iter(|f| {
-            let train: Vec<brdf_fit::Point> = domain
+            let kept: Vec<brdf_fit::Point> = domain
                 .points
                 .iter()
                 .zip(&fold)
                 .filter(|(_, &g)| g != f)
-                .map(|(p, _)| brdf_fit::Point {
-                    brdf: p.brdf.max(lowest),
-                    ..*p
-                })
+                .map(|(p, _)| *p)
                 .collect();
+            let train = brdf_fit::holdout::raised_for_ln(&kept);
             domain
                 .points
                 .iter()

@@ -440,7 +440,7 @@ impl Scene {
         };
         let wavelength = match &parsed.sensor.get_ref().wavelength_um {
             None => None,
-            Some(w) if w.get_ref().is_finite() && *w.get_ref() > 0.0 => Some((*w.get_ref(), w.span())),
+            Some(w) if brdf_fit::data::is_wavelength(*w.get_ref()) => Some((*w.get_ref(), w.span())),
             Some(w) => {
                 return Err(field(
                     w.span(),

@@ -438,6 +438,27 @@ fn a_spectral_fit_evaluates_at_each_rows_wavelength() {
     assert!(e.contains("both give the wavelength"), "{e}");
     let e = eval_err(&["eval", "--fit", f, "--wavelength", "0.7", plain.to_str().unwrap()]);
     assert!(e.contains("--wavelength") && e.contains("span 0.5–0.6 µm"), "{e}");
+    // The flag's own hostile values: not wavelengths, refused naming the flag.
+    for bad in ["nan", "inf", "-0.5", "0"] {
+        let e = eval_err(&["eval", "--fit", f, "--wavelength", bad, plain.to_str().unwrap()]);
+        assert!(
+            e.contains("--wavelength") && e.contains("not a wavelength above 0"),
+            "{bad}: {e}"
+        );
+    }
+    let e = eval_err(&["eval", "--fit", f, "--wavelength", "", plain.to_str().unwrap()]);
+    assert!(e.contains("--wavelength"), "{e}");
+    let e = eval_err(&[
+        "eval",
+        "--model",
+        "lambert",
+        "--params",
+        "rho0=0.5",
+        "--wavelength",
+        "0.5",
+        plain.to_str().unwrap(),
+    ]);
+    assert!(e.contains("--wavelength"), "{e}");
     for (bad, says) in [
         ("0.45", "outside the bands"),
         ("x", "`x` is not a wavelength"),
