@@ -41,6 +41,7 @@
 //! | [`tolerance`] | every promised accuracy, with its reason | a test or a check compares two values |
 //! | [`checks`] | reciprocity, the energy bound, albedo by quadrature | you judge whether a parameter set is physical |
 //! | [`table`] | the tabulated six-parameter path, its byte layout and accuracy | a device repeats lookups of one material and can spare `table_len(n)` bytes |
+//! | [`bands`] | which band, or which two bands blended, answer at a wavelength | a material holds one parameter set per measured band |
 //! | [`batch`] | one material over many directions (`std` feature: AVX2/AVX-512 chosen at run time) | the host evaluates thousands of directions (renderers, scenes, quadrature) |
 //! | [`anneal`] | the heap-free simulated annealer and its degenerate-sample rule | a device refits a material from its own measurements |
 //! | [`fitted`] | fitted tables: an analytic base model times a measured correction tabulated in Rusinkiewicz coordinates ([`fitted::Corrected`]), their bytes and coverage | you serve a measured material no analytic model fits |
@@ -129,6 +130,7 @@ extern crate std;
 
 pub mod accuracy;
 pub mod anneal;
+pub mod bands;
 pub mod batch;
 pub mod checks;
 pub mod cost;

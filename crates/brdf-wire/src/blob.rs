@@ -1,39 +1,51 @@
 //! The parameter blob: the materials a device evaluates, as flashed or loaded.
 //!
-//! Little-endian layout, version 3 (version 2 is version 3 without fitted tables, version 1
-//! version 2 without lookup tables; both are still read, and a blob without fitted tables is
-//! written as version 2, so devices that know only version 2 still take it):
+//! Little-endian layout, version 4 (version 3 is version 4 without banded materials, version
+//! 2 version 3 without fitted tables, version 1 version 2 without lookup tables; all are still
+//! read, and a blob is written in the oldest version that holds it, so devices that know only
+//! an older version still take it):
 //!
 //! | offset | size | field |
 //! |---|---|---|
 //! | 0 | 4 | magic `BRDF` |
-//! | 4 | 2 | format version (2) |
+//! | 4 | 2 | format version (2, 3 or 4) |
 //! | 6 | 2 | flags (0; readers reject unknown flags) |
 //! | 8 | 4 | sequence number (newer blobs have larger numbers) |
 //! | 12 | 2 | material count (1 to [`MAX_MATERIALS`]) |
 //! | 14 | 2 | reserved (0; readers reject anything else) |
-//! | 16 | 4 + 4 n + ... | per material: model id, parameter count n, table word w (u16), n f32 parameters, then: for w = 0 nothing; for w in 2..=4096, w x 3 f32 lookup-table nodes ([`brdf_core::table`]; six-parameter model only); for w = [`FITTED_WORD`] (version 3), a fitted table ([`brdf_core::fitted`]: the model is its base, its length follows from its header) |
+//! | 16 | 4 + 4 n + ... | per material: model id, parameter count n, table word w (u16), n f32 parameters, then: for w = 0 nothing; for w in 2..=4096, w x 3 f32 lookup-table nodes ([`brdf_core::table`]; six-parameter model only); for w = [`FITTED_WORD`] (version 3), a fitted table ([`brdf_core::fitted`]: the model is its base, its length follows from its header); for w = [`BANDED_WORD`] + m with m in 2..=[`MAX_BANDS`] (version 4), a spectral material of m bands: the n parameters above are band 0's, then m f32 band centres in µm (ascending, [`brdf_core::bands::valid`]), then n f32 parameters for each of bands 1 to m - 1 |
 //! | end - 4 | 4 | CRC-32 (ISO-HDLC) of every byte before it |
 //!
 //! A reader rejects a wrong magic, a version or flag it does not know, a non-zero reserved
 //! field, any length mismatch, a bad CRC, an unknown model id, a wrong parameter count, parameters outside the model's
 //! valid ranges and a table that is malformed or belongs to other parameters (checked with
-//! [`SixTable::verify`]), each with its own [`BlobError`].
+//! [`SixTable::verify`]), each with its own [`BlobError`]; a banded material whose centres are
+//! not ascending or whose band's parameters are out of range is refused too.
+//!
+//! A banded material answers at a wavelength ([`Material::locate`], the rule of
+//! [`brdf_core::bands`]): one band's model at its centre, the two neighbours' blended between
+//! them, nothing outside.
 
 use brdf_core::fitted::{FittedShape, FittedTable, FITTED_HEADER_LEN};
+use brdf_core::bands::{BandError, Located};
 use brdf_core::table::{table_len, SixTable, MAX_TABLE_NODES, MIN_TABLE_NODES};
+pub use brdf_core::bands::MAX_BANDS;
 use brdf_core::{table1_f32, AnyModel, ModelKind, SixParams, MAX_PARAMS, TABLE1};
 
 use crate::crc32;
 
 /// `BRDF`.
 pub const BLOB_MAGIC: [u8; 4] = *b"BRDF";
-/// The newest blob format version this crate reads and writes (fitted tables).
-pub const BLOB_VERSION: u16 = 3;
-/// The version written for a blob without fitted tables.
+/// The newest blob format version this crate reads and writes (banded materials).
+pub const BLOB_VERSION: u16 = 4;
+/// The version written for a blob with fitted tables and no banded material.
+pub const BLOB_VERSION_WITHOUT_BANDS: u16 = 3;
+/// The version written for a blob without fitted tables or banded materials.
 pub const BLOB_VERSION_WITHOUT_FITTED: u16 = 2;
 /// The table word of a material followed by a fitted table (version 3).
 pub const FITTED_WORD: u16 = 0x8000;
+/// The table word of a banded material is this plus its band count (version 4).
+pub const BANDED_WORD: u16 = 0x4000;
 /// Most materials in one blob.
 pub const MAX_MATERIALS: usize = 8;
 /// Largest encoded blob: one flash slot, and what one LOAD frame carries. Eight materials
@@ -94,6 +106,7 @@ pub fn table1_blob() -> Blob {
             params,
             table: None,
             fitted: None,
+            bands: None,
         });
     }
     Blob {
@@ -114,6 +127,27 @@ pub struct Material {
     /// Where this material's fitted table is: the model is then its base, `f = f_base *
     /// exp(t)` ([`brdf_core::fitted::Corrected`]). Never together with `table`.
     pub fitted: Option<FittedRef>,
+    /// Where this spectral material's other bands are; `params` are then band 0's. Never
+    /// together with `table` or `fitted`.
+    pub bands: Option<BandsRef>,
+}
+
+/// A banded material's band centres and other bands' parameters inside an encoded blob.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BandsRef {
+    /// Bands (2 to [`MAX_BANDS`]).
+    pub count: u8,
+    /// Byte offset of the first band centre in the encoded blob (set by [`Blob::decode`];
+    /// ignored by [`Blob::encode_with_tables`]).
+    pub offset: u16,
+}
+
+impl BandsRef {
+    /// Bytes after band 0's parameters: the centres, then bands 1.. of `params` parameters.
+    pub fn len(&self, params: usize) -> usize {
+        let m = usize::from(self.count);
+        4 * m + 4 * params * m.saturating_sub(1)
+    }
 }
 
 /// A material's fitted table inside an encoded blob.
@@ -182,9 +216,106 @@ impl Material {
             params,
             table: None,
             fitted: None,
+            bands: None,
         };
         m.model()?;
         Ok(m)
+    }
+
+    /// A spectral material of `bands` (centre in µm, that band's material: one model, no
+    /// tables), ascending at least [`brdf_core::bands::SAME_BAND_UM`] apart once rounded to
+    /// f32, 2 to [`MAX_BANDS`] of them. Writes its band bytes into `out` and returns the
+    /// material and their length; pass them with it to [`Blob::encode_with_tables`].
+    pub fn banded(bands: &[(f64, Material)], out: &mut [u8]) -> Result<(Material, usize), BandError> {
+        let (Some((_, first)), true) = (bands.first(), (2..=MAX_BANDS).contains(&bands.len())) else {
+            return Err(BandError::Malformed);
+        };
+        let k = first.kind.param_count();
+        let mut centres = [0.0f32; MAX_BANDS];
+        for ((c, (um, m)), _) in centres.iter_mut().zip(bands).zip(0..) {
+            if m.kind != first.kind || m.table.is_some() || m.fitted.is_some() || m.bands.is_some() {
+                return Err(BandError::Malformed);
+            }
+            *c = *um as f32;
+        }
+        if !brdf_core::bands::valid(&centres[..bands.len()]) {
+            return Err(BandError::Malformed);
+        }
+        let r = BandsRef {
+            count: bands.len() as u8,
+            offset: 0,
+        };
+        let len = r.len(k);
+        let out = out.get_mut(..len).ok_or(BandError::Malformed)?;
+        let mut at = 0;
+        for c in &centres[..bands.len()] {
+            out[at..at + 4].copy_from_slice(&c.to_le_bytes());
+            at += 4;
+        }
+        for (_, m) in &bands[1..] {
+            for p in &m.params[..k] {
+                out[at..at + 4].copy_from_slice(&p.to_le_bytes());
+                at += 4;
+            }
+        }
+        let mut material = *first;
+        material.bands = Some(r);
+        Ok((material, len))
+    }
+
+    /// Bands of this material: 0 unless it is banded.
+    pub fn band_count(&self) -> usize {
+        self.bands.map_or(0, |b| usize::from(b.count))
+    }
+
+    /// Band `i`'s centre (µm) over `blob`, the bytes this material was decoded from.
+    pub fn band_centre(&self, blob: &[u8], i: usize) -> Option<f32> {
+        let r = self.bands?;
+        if i >= usize::from(r.count) {
+            return None;
+        }
+        let at = usize::from(r.offset) + 4 * i;
+        Some(f32::from_le_bytes(blob.get(at..at + 4)?.try_into().ok()?))
+    }
+
+    /// Band `i`'s parameters over `blob` (band 0's are [`Material::params`]).
+    pub fn band_params(&self, blob: &[u8], i: usize) -> Option<[f32; MAX_PARAMS]> {
+        let r = self.bands?;
+        let m = usize::from(r.count);
+        if i >= m {
+            return None;
+        }
+        if i == 0 {
+            return Some(self.params);
+        }
+        let k = self.kind.param_count();
+        let start = usize::from(r.offset) + 4 * m + 4 * k * (i - 1);
+        let bytes = blob.get(start..start + 4 * k)?;
+        let mut p = [0.0f32; MAX_PARAMS];
+        for (v, c) in p.iter_mut().zip(bytes.chunks_exact(4)) {
+            *v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+        }
+        Some(p)
+    }
+
+    /// Band `i`'s exact f32 model over `blob`.
+    pub fn band_model(&self, blob: &[u8], i: usize) -> Option<AnyModel<f32>> {
+        let p = self.band_params(blob, i)?;
+        AnyModel::new(self.kind, &p[..self.kind.param_count()]).ok()
+    }
+
+    /// Which band, or which two, answer at `um` µm ([`brdf_core::bands::locate`] over the
+    /// centres in `blob`); [`BandError::Malformed`] for a material without bands.
+    pub fn locate(&self, blob: &[u8], um: f32) -> Result<Located<f32>, BandError> {
+        let m = self.band_count();
+        let mut centres = [0.0f32; MAX_BANDS];
+        for (i, c) in centres.iter_mut().enumerate().take(m) {
+            *c = self.band_centre(blob, i).ok_or(BandError::Malformed)?;
+        }
+        if m == 0 {
+            return Err(BandError::Malformed);
+        }
+        brdf_core::bands::locate(&centres[..m], um)
     }
 
     /// Gives this six-parameter material `nodes`-node tables: fills `out`
@@ -219,11 +350,13 @@ impl Material {
         Ok(self)
     }
 
-    /// Bytes this material takes in an encoded blob (model id, counts, parameters, tables).
+    /// Bytes this material takes in an encoded blob (model id, counts, parameters, tables,
+    /// bands).
     pub fn encoded_len(&self) -> usize {
         4 + 4 * self.kind.param_count()
             + self.table.map_or(0, |t| t.len())
             + self.fitted.map_or(0, |f| usize::from(f.len))
+            + self.bands.map_or(0, |b| b.len(self.kind.param_count()))
     }
 
     /// The fitted table over `blob` (the bytes this material was decoded from), if the
@@ -278,6 +411,9 @@ pub enum BlobError {
     /// A table that is malformed, on a model without tables, in a version-1 blob, or not
     /// matching the material's parameters (material index).
     Table(u8),
+    /// Bands that are too few or too many, not ascending, in a blob older than version 4, or
+    /// a band's parameters out of range (material index).
+    Bands(u8),
     /// The output buffer is too small to encode into.
     BufferTooSmall,
 }
@@ -296,6 +432,10 @@ impl core::fmt::Display for BlobError {
             BlobError::ParamCount(i) => write!(f, "material {i}: wrong parameter count"),
             BlobError::Params(i) => write!(f, "material {i}: parameters out of range"),
             BlobError::Table(i) => write!(f, "material {i}: table malformed or not matching its parameters"),
+            BlobError::Bands(i) => write!(
+                f,
+                "material {i}: bands malformed (count, centres not ascending, or a band's parameters out of range)"
+            ),
             BlobError::BufferTooSmall => write!(f, "output buffer too small"),
         }
     }
@@ -320,6 +460,7 @@ impl defmt::Format for BlobError {
             BlobError::ParamCount(_) => defmt::write!(f, "parameter count"),
             BlobError::Params(_) => defmt::write!(f, "parameters"),
             BlobError::Table(_) => defmt::write!(f, "table"),
+            BlobError::Bands(_) => defmt::write!(f, "bands"),
             BlobError::BufferTooSmall => defmt::write!(f, "buffer too small"),
         }
     }
@@ -346,7 +487,9 @@ impl Blob {
     }
 
     /// Writes the blob into `out`, with `tables[i]` the node bytes of material `i` wherever
-    /// that material has a [`TableRef`]; returns the length written.
+    /// that material has a [`TableRef`], its fitted table's bytes where it has a
+    /// [`FittedRef`], its band bytes ([`Material::banded`]) where it has a [`BandsRef`];
+    /// returns the length written.
     pub fn encode_with_tables(&self, tables: &[Option<&[u8]>], out: &mut [u8]) -> Result<usize, BlobError> {
         let n = self.encoded_len();
         if out.len() < n {
@@ -355,8 +498,10 @@ impl Blob {
         if self.materials.is_empty() {
             return Err(BlobError::MaterialCount(0));
         }
-        let version = if self.materials.iter().any(|m| m.fitted.is_some()) {
+        let version = if self.materials.iter().any(|m| m.bands.is_some()) {
             BLOB_VERSION
+        } else if self.materials.iter().any(|m| m.fitted.is_some()) {
+            BLOB_VERSION_WITHOUT_BANDS
         } else {
             BLOB_VERSION_WITHOUT_FITTED
         };
@@ -369,11 +514,15 @@ impl Blob {
         let mut at = HEADER_LEN;
         for (i, m) in self.materials.iter().enumerate() {
             let k = m.kind.param_count();
-            let word = match (m.table, m.fitted) {
-                (Some(_), Some(_)) => return Err(BlobError::Table(i as u8)),
-                (Some(t), None) => t.nodes,
-                (None, Some(_)) => FITTED_WORD,
-                (None, None) => 0,
+            let word = match (m.table, m.fitted, m.bands) {
+                (Some(t), None, None) => t.nodes,
+                (None, Some(_), None) => FITTED_WORD,
+                (None, None, Some(b)) if (2..=MAX_BANDS).contains(&usize::from(b.count)) => {
+                    BANDED_WORD + u16::from(b.count)
+                }
+                (None, None, Some(_)) => return Err(BlobError::Bands(i as u8)),
+                (None, None, None) => 0,
+                _ => return Err(BlobError::Table(i as u8)),
             };
             out[at] = model_id(m.kind);
             out[at + 1] = k as u8;
@@ -383,12 +532,19 @@ impl Blob {
                 out[at..at + 4].copy_from_slice(&p.to_le_bytes());
                 at += 4;
             }
-            let want = m.table.map(|t| t.len()).or(m.fitted.map(|f| usize::from(f.len)));
+            let want = m
+                .table
+                .map(|t| t.len())
+                .or(m.fitted.map(|f| usize::from(f.len)))
+                .or(m.bands.map(|b| b.len(k)));
             if let Some(len) = want {
                 match tables.get(i).copied().flatten() {
                     Some(bytes) if bytes.len() == len => {
                         if m.fitted.is_some() && FittedTable::new(bytes).is_err() {
                             return Err(BlobError::Table(i as u8));
+                        }
+                        if let Some(b) = m.bands {
+                            check_bands(m, b.count, bytes).map_err(|_| BlobError::Bands(i as u8))?;
                         }
                         out[at..at + bytes.len()].copy_from_slice(bytes);
                         at += bytes.len();
@@ -460,9 +616,27 @@ impl Blob {
                 params,
                 table: None,
                 fitted: None,
+                bands: None,
             };
             m.model().map_err(|_| BlobError::Params(i))?;
-            if nodes == FITTED_WORD {
+            if nodes & !(MAX_BANDS as u16 * 2 - 1) == BANDED_WORD {
+                let count = nodes - BANDED_WORD;
+                if version < 4 || !(2..=MAX_BANDS).contains(&usize::from(count)) {
+                    return Err(BlobError::Bands(i));
+                }
+                let r = BandsRef {
+                    count: count as u8,
+                    // at <= body < MAX_BLOB_LEN = 4096 was checked.
+                    offset: at as u16,
+                };
+                let len = r.len(k);
+                if at + len > body {
+                    return Err(BlobError::Length);
+                }
+                check_bands(&m, r.count, &bytes[at..at + len]).map_err(|_| BlobError::Bands(i))?;
+                m.bands = Some(r);
+                at += len;
+            } else if nodes == FITTED_WORD {
                 if version < 3 || at + FITTED_HEADER_LEN > body {
                     return Err(if version < 3 {
                         BlobError::Table(i)
@@ -518,6 +692,26 @@ impl Blob {
     }
 }
 
+/// Checks a banded material's band bytes (centres, then bands 1.. of `m`'s model).
+fn check_bands(m: &Material, count: u8, bytes: &[u8]) -> Result<(), BandError> {
+    let probe = Material {
+        bands: Some(BandsRef { count, offset: 0 }),
+        ..*m
+    };
+    let n = usize::from(count);
+    let mut centres = [0.0f32; MAX_BANDS];
+    for (i, c) in centres.iter_mut().enumerate().take(n) {
+        *c = probe.band_centre(bytes, i).ok_or(BandError::Malformed)?;
+    }
+    if n < 2 || n > MAX_BANDS || !brdf_core::bands::valid(&centres[..n]) {
+        return Err(BandError::Malformed);
+    }
+    for i in 1..n {
+        probe.band_model(bytes, i).ok_or(BandError::Malformed)?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -530,6 +724,7 @@ mod tests {
             params,
             table: None,
             fitted: None,
+            bands: None,
         }
     }
 
@@ -544,6 +739,7 @@ mod tests {
                 params: l,
                 table: None,
                 fitted: None,
+                bands: None,
             })
             .unwrap();
         Blob {
@@ -565,7 +761,7 @@ mod tests {
             Blob::decode(&c[..n]).unwrap_err()
         };
         assert_eq!(bad(&|c| c[0] = b'X'), BlobError::Magic);
-        assert_eq!(bad(&|c| c[4] = 4), BlobError::Version(4));
+        assert_eq!(bad(&|c| c[4] = 5), BlobError::Version(5));
         assert_eq!(bad(&|c| c[20] ^= 1), BlobError::Crc);
         // A non-zero reserved field, even correctly signed, is refused.
         let mut c = buf;
@@ -769,5 +965,145 @@ mod fitted_tests {
         let n2 = table1_blob().encode(&mut buf2).unwrap();
         assert_eq!(u16::from_le_bytes([buf2[4], buf2[5]]), 2);
         assert!(Blob::decode(&buf2[..n2]).is_ok());
+    }
+}
+
+#[cfg(test)]
+mod band_tests {
+    extern crate std;
+    use super::*;
+    use brdf_core::Brdf;
+
+    /// Three bands of the khaki plate with kd scaled per band.
+    fn bands() -> std::vec::Vec<(f64, Material)> {
+        let khaki = TABLE1[0].1;
+        [(0.4, 0.2), (0.5, 0.5), (0.7, 0.9)]
+            .into_iter()
+            .map(|(um, kd)| {
+                let mut p = khaki;
+                p[4] = kd;
+                (um, Material::from_params(ModelKind::Six, &p).unwrap())
+            })
+            .collect()
+    }
+
+    fn encoded() -> (std::vec::Vec<u8>, usize) {
+        let mut extra = [0u8; 256];
+        let (m, len) = Material::banded(&bands(), &mut extra).unwrap();
+        let mut b = table1_blob();
+        b.materials[1] = m;
+        let mut buf = std::vec![0u8; MAX_BLOB_LEN];
+        let n = b
+            .encode_with_tables(&[None, Some(&extra[..len]), None], &mut buf)
+            .unwrap();
+        assert_eq!(n, b.encoded_len());
+        buf.truncate(n);
+        (buf, len)
+    }
+
+    #[test]
+    fn a_banded_material_round_trips_and_answers_by_band() {
+        let (buf, len) = encoded();
+        // Three centres and two more bands of six parameters.
+        assert_eq!(len, 4 * 3 + 2 * 24);
+        assert_eq!(u16::from_le_bytes([buf[4], buf[5]]), BLOB_VERSION);
+        let d = Blob::decode(&buf).unwrap();
+        let m = d.materials[1];
+        assert_eq!(m.band_count(), 3);
+        assert_eq!(d.materials[0].band_count(), 0);
+        assert_eq!(m.band_centre(&buf, 2), Some(0.7));
+        assert_eq!(m.band_centre(&buf, 3), None);
+        assert_eq!(m.band_params(&buf, 1).unwrap()[4], 0.5);
+        assert_eq!(m.locate(&buf, 0.5), Ok(Located::Band(1)));
+        let Ok(Located::Between { lower: 1, weight }) = m.locate(&buf, 0.65) else {
+            panic!("{:?}", m.locate(&buf, 0.65))
+        };
+        assert!((weight - 0.75).abs() < 1e-6);
+        assert_eq!(m.locate(&buf, 0.8), Err(BandError::Outside));
+        assert_eq!(d.materials[0].locate(&buf, 0.5), Err(BandError::Malformed));
+        // Band 2's model is the khaki plate with kd = 0.9.
+        let f = m.band_model(&buf, 2).unwrap().eval_cosines(1.0, 1.0, 1.0);
+        let mut p = table1_f32(0);
+        p[4] = 0.9;
+        let want = AnyModel::new(ModelKind::Six, &p).unwrap().eval_cosines(1.0, 1.0, 1.0);
+        assert_eq!(f, want);
+    }
+
+    #[test]
+    fn malformed_bands_are_refused() {
+        let mut out = [0u8; MAX_BLOB_LEN];
+        let b = bands();
+        // Fewer than two, not ascending, two centres within a picometre once in f32.
+        assert!(Material::banded(&b[..1], &mut out).is_err());
+        let mut swapped = b.clone();
+        swapped.swap(0, 1);
+        assert!(Material::banded(&swapped, &mut out).is_err());
+        let mut close = b.clone();
+        close[1].0 = 0.4 + 1e-8;
+        assert!(Material::banded(&close, &mut out).is_err());
+        // Bands of two models, or a band with a table.
+        let mut mixed = b.clone();
+        mixed[2].1 = Material::from_params(ModelKind::Lambert, &[0.3]).unwrap();
+        assert!(Material::banded(&mixed, &mut out).is_err());
+        // Too many bands.
+        let many: std::vec::Vec<(f64, Material)> =
+            (0..=MAX_BANDS).map(|i| (0.4 + 0.01 * i as f64, b[0].1)).collect();
+        assert!(Material::banded(&many, &mut out).is_err());
+        assert!(Material::banded(&many[..MAX_BANDS], &mut out).is_ok());
+
+        let (buf, _) = encoded();
+        let n = buf.len();
+        // Material 1 starts after the header and material 0 (4 + 24 bytes); its centres after
+        // its own 4 + 24.
+        let word = 16 + 28 + 2;
+        let centres = 16 + 28 + 28;
+        let resign = |c: &mut [u8]| {
+            let crc = crc32(&c[..n - 4]);
+            c[n - 4..n].copy_from_slice(&crc.to_le_bytes());
+        };
+        let refused = |f: &dyn Fn(&mut [u8])| {
+            let mut c = buf.clone();
+            f(&mut c);
+            resign(&mut c);
+            Blob::decode(&c).unwrap_err()
+        };
+        // Centres out of order, a NaN centre, a zero one.
+        assert_eq!(
+            refused(&|c| c[centres..centres + 4].copy_from_slice(&0.6f32.to_le_bytes())),
+            BlobError::Bands(1)
+        );
+        assert_eq!(
+            refused(&|c| c[centres + 4..centres + 8].copy_from_slice(&f32::NAN.to_le_bytes())),
+            BlobError::Bands(1)
+        );
+        assert_eq!(
+            refused(&|c| c[centres..centres + 4].copy_from_slice(&0.0f32.to_le_bytes())),
+            BlobError::Bands(1)
+        );
+        // Band 2's kb negative.
+        let band2 = centres + 12 + 24;
+        assert_eq!(
+            refused(&|c| c[band2..band2 + 4].copy_from_slice(&(-1.0f32).to_le_bytes())),
+            BlobError::Bands(1)
+        );
+        // A band count of 1, of 65, or bands in a version-3 blob.
+        assert_eq!(
+            refused(&|c| c[word..word + 2].copy_from_slice(&(BANDED_WORD + 1).to_le_bytes())),
+            BlobError::Bands(1)
+        );
+        assert_eq!(
+            refused(&|c| c[word..word + 2].copy_from_slice(&(BANDED_WORD + 65).to_le_bytes())),
+            BlobError::Bands(1)
+        );
+        assert_eq!(refused(&|c| c[4] = 3), BlobError::Bands(1));
+        // More bands than the bytes hold (four would take material 2's bytes for bands).
+        assert_eq!(
+            refused(&|c| c[word..word + 2].copy_from_slice(&(BANDED_WORD + 5).to_le_bytes())),
+            BlobError::Length
+        );
+        // Every truncation is refused, never a panic.
+        for cut in 0..n {
+            assert!(Blob::decode(&buf[..cut]).is_err());
+        }
     }
 }

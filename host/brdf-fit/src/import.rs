@@ -114,8 +114,8 @@ impl From<Channel> for Pick {
 }
 
 /// Two wavelengths closer than this (µm) are the same band: files print them to a few
-/// decimals of a nanometre at most.
-pub const SAME_BAND_UM: f64 = 1e-6;
+/// decimals of a nanometre at most. The rule of host and device, [`brdf_core::bands`].
+pub use brdf_core::bands::SAME_BAND_UM;
 
 /// What to import: `channel` and `band_um` as given, checked against `format` (neither
 /// applies to the canonical CSV, `format` `None`, nor a channel to anything but `cornell`

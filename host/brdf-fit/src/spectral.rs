@@ -28,6 +28,7 @@
 //! differ more than their noise. Sharing is for a device that stores one shape per
 //! material, or a spectrum too noisy band by band.
 
+use brdf_core::bands::Located;
 use brdf_core::{ModelKind, MAX_PARAMS};
 use serde::{Deserialize, Serialize};
 
@@ -225,27 +226,26 @@ impl BandFits {
         if !crate::data::is_wavelength(um) {
             return Err(format!("wavelength {um} µm is not a wavelength above 0"));
         }
-        if let Some((_, fit)) = self.bands.iter().find(|(w, _)| (w - um).abs() < SAME_BAND_UM) {
-            return Ok(AtWavelength::Band(fit));
+        let centres: Vec<f64> = self.bands.iter().map(|b| b.0).collect();
+        match brdf_core::bands::locate(&centres, um) {
+            Ok(Located::Band(k)) => Ok(AtWavelength::Band(&self.bands[k].1)),
+            Ok(Located::Between { lower, weight }) => Ok(AtWavelength::Between {
+                lower: &self.bands[lower].1,
+                upper: &self.bands[lower + 1].1,
+                weight,
+            }),
+            Err(_) => {
+                let range = match self.bands.len() {
+                    1 => format!("its only band is {} µm", text(lo)),
+                    n => format!("its {n} bands span {}–{} µm", text(lo), text(hi)),
+                };
+                Err(format!(
+                    "{} µm is outside the bands of {}: {range} (a BRDF is not extrapolated in wavelength)",
+                    text(um),
+                    self.measurement
+                ))
+            }
         }
-        if um < lo || um > hi {
-            let range = match self.bands.len() {
-                1 => format!("its only band is {} µm", text(lo)),
-                n => format!("its {n} bands span {}–{} µm", text(lo), text(hi)),
-            };
-            return Err(format!(
-                "{} µm is outside the bands of {}: {range} (a BRDF is not extrapolated in wavelength)",
-                text(um),
-                self.measurement
-            ));
-        }
-        let k = self.bands.partition_point(|(w, _)| *w < um);
-        let ((w0, lower), (w1, upper)) = (&self.bands[k - 1], &self.bands[k]);
-        Ok(AtWavelength::Between {
-            lower,
-            upper,
-            weight: (um - w0) / (w1 - w0),
-        })
     }
 }
 
