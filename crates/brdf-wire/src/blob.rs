@@ -26,10 +26,10 @@
 //! [`brdf_core::bands`]): one band's model at its centre, the two neighbours' blended between
 //! them, nothing outside.
 
-use brdf_core::fitted::{FittedShape, FittedTable, FITTED_HEADER_LEN};
-use brdf_core::bands::{BandError, Located};
-use brdf_core::table::{table_len, SixTable, MAX_TABLE_NODES, MIN_TABLE_NODES};
 pub use brdf_core::bands::MAX_BANDS;
+use brdf_core::bands::{BandError, Located};
+use brdf_core::fitted::{FittedShape, FittedTable, FITTED_HEADER_LEN};
+use brdf_core::table::{table_len, SixTable, MAX_TABLE_NODES, MIN_TABLE_NODES};
 use brdf_core::{table1_f32, AnyModel, ModelKind, SixParams, MAX_PARAMS, TABLE1};
 
 use crate::crc32;
@@ -1025,7 +1025,9 @@ mod band_tests {
         let f = m.band_model(&buf, 2).unwrap().eval_cosines(1.0, 1.0, 1.0);
         let mut p = table1_f32(0);
         p[4] = 0.9;
-        let want = AnyModel::new(ModelKind::Six, &p).unwrap().eval_cosines(1.0, 1.0, 1.0);
+        let want = AnyModel::new(ModelKind::Six, &p)
+            .unwrap()
+            .eval_cosines(1.0, 1.0, 1.0);
         assert_eq!(f, want);
     }
 

@@ -13,6 +13,7 @@
 //! | 0x04 | LOAD | a parameter blob, into RAM |
 //! | 0x05 | COMMIT | a parameter blob, into the inactive flash slot |
 //! | 0x06 | FIT | model id u8, budget u32, count u16, count × (theta_i, theta_r, phi, brdf) f32 |
+//! | 0x07 | EVAL_AT | material u8, input u8, wavelength f32 (µm), count u16, count × 3 × f32 (count ≤ [`MAX_BATCH`]) |
 //!
 //! | kind | reply | body |
 //! |---|---|---|
@@ -28,6 +29,12 @@
 //! the FIT's tag at least every [`PROGRESS_SAMPLE_EVALS`] sample evaluations (so a host's
 //! silence timeout never expires during a fit it is waiting for) and answers every other
 //! request with ERROR `Busy`; the FITTED reply ends it.
+//!
+//! EVAL_AT is EVAL_BATCH at a wavelength, answered with VALUES: a banded material
+//! (`brdf_wire::blob`, version 4) answers by its band there, or the two bands around it
+//! blended ([`brdf_core::bands`]); outside its bands, or at a wavelength that is not finite
+//! and above 0, with `OutOfDomain`. A material without bands is the same at every wavelength.
+//! EVAL and EVAL_BATCH of a banded material are refused with `NeedsWavelength`.
 
 use brdf_core::{ModelKind, MAX_PARAMS};
 
@@ -85,6 +92,8 @@ pub enum ErrorCode {
     StaleSequence = 11,
     /// Writing or verifying a flash slot failed; the active parameters are unchanged.
     FlashFailed = 12,
+    /// EVAL or EVAL_BATCH of a banded material: it answers only at a wavelength (EVAL_AT).
+    NeedsWavelength = 13,
 }
 
 impl ErrorCode {
@@ -104,6 +113,7 @@ impl ErrorCode {
             FitFailed,
             StaleSequence,
             FlashFailed,
+            NeedsWavelength,
         ]
         .into_iter()
         .find(|c| *c as u8 == b)
@@ -135,6 +145,7 @@ impl ErrorCode {
             ErrorCode::FitFailed => "FitFailed",
             ErrorCode::StaleSequence => "StaleSequence",
             ErrorCode::FlashFailed => "FlashFailed",
+            ErrorCode::NeedsWavelength => "NeedsWavelength",
         }
     }
 }
@@ -168,6 +179,17 @@ pub enum Request<'a> {
         material: u8,
         /// Angles or cosines.
         input: Input,
+        /// `count * 12` bytes of little-endian f32 triples; see [`points`].
+        points: &'a [u8],
+    },
+    /// Up to [`MAX_BATCH`] evaluations at a wavelength.
+    EvalAt {
+        /// Material id.
+        material: u8,
+        /// Angles or cosines.
+        input: Input,
+        /// Wavelength in µm.
+        wavelength: f32,
         /// `count * 12` bytes of little-endian f32 triples; see [`points`].
         points: &'a [u8],
     },
@@ -304,6 +326,7 @@ pub fn encode_request(req: &Request<'_>, tag: u8, out: &mut [u8]) -> Result<usiz
         Request::Load(_) => 0x04,
         Request::Commit(_) => 0x05,
         Request::Fit { .. } => 0x06,
+        Request::EvalAt { .. } => 0x07,
     };
     w.put(&[FRAME_VERSION, kind, tag])?;
     match req {
@@ -323,6 +346,20 @@ pub fn encode_request(req: &Request<'_>, tag: u8, out: &mut [u8]) -> Result<usiz
                 return Err(ErrorCode::Malformed);
             }
             w.put(&[*material, *input as u8])?;
+            w.put(&((points.len() / 12) as u16).to_le_bytes())?;
+            w.put(points)?;
+        }
+        Request::EvalAt {
+            material,
+            input,
+            wavelength,
+            points,
+        } => {
+            if points.len() % 12 != 0 || points.len() / 12 > MAX_BATCH {
+                return Err(ErrorCode::Malformed);
+            }
+            w.put(&[*material, *input as u8])?;
+            w.put(&wavelength.to_le_bytes())?;
             w.put(&((points.len() / 12) as u16).to_le_bytes())?;
             w.put(points)?;
         }
@@ -438,7 +475,19 @@ pub fn parse_request(payload: &[u8]) -> Result<(u8, Request<'_>), ErrorCode> {
                 samples: &body[7..],
             }
         }
-        0x01..=0x06 => return Err(ErrorCode::Malformed),
+        0x07 if body.len() >= 8 => {
+            let n = usize::from(u16_at(body, 6));
+            if n > MAX_BATCH || body.len() != 8 + 12 * n {
+                return Err(ErrorCode::Malformed);
+            }
+            Request::EvalAt {
+                material: body[0],
+                input: input(body[1])?,
+                wavelength: f32_at(body, 2),
+                points: &body[8..],
+            }
+        }
+        0x01..=0x07 => return Err(ErrorCode::Malformed),
         _ => return Err(ErrorCode::UnknownKind),
     };
     Ok((tag, req))

@@ -67,6 +67,15 @@ fn requests() -> Vec<Vec<u8>> {
             },
             6,
         ),
+        frame(
+            &Request::EvalAt {
+                material: 1,
+                input: Input::Angles,
+                wavelength: 0.555,
+                points: &pts,
+            },
+            7,
+        ),
     ]
 }
 
@@ -102,6 +111,25 @@ fn every_request_and_reply_round_trips() {
                 panic!("{req:?}")
             };
             assert_eq!(points(p).collect::<Vec<_>>(), [[0.1, 0.2, 3.0], [0.5, 0.5, 0.0]]);
+        }
+    }
+    // EVAL_AT carries its wavelength and points; a count that disagrees with the body is
+    // malformed.
+    let at = Request::EvalAt {
+        material: 3,
+        input: Input::Cosines,
+        wavelength: 1.064,
+        points: &pts,
+    };
+    let f = frame(&at, 11);
+    let mut rd = Reader::new();
+    for &b in &f {
+        if let Some(Ok(())) = rd.push(b) {
+            assert_eq!(parse_request(rd.payload()).unwrap(), (11, at));
+            let mut bad = rd.payload().to_vec();
+            bad[3 + 6] = 3;
+            assert_eq!(parse_request(&bad).unwrap_err(), ErrorCode::Malformed);
+            assert_eq!(parse_request(&bad[..3 + 7]).unwrap_err(), ErrorCode::Malformed);
         }
     }
     let vals: Vec<u8> = [1.5f32, 2.5].iter().flat_map(|v| v.to_le_bytes()).collect();
@@ -250,6 +278,6 @@ fn error_codes_print_their_names() {
             n += 1;
         }
     }
-    assert_eq!(n, 12);
+    assert_eq!(n, 13);
     assert_eq!(ErrorCode::StaleSequence.to_string(), "StaleSequence");
 }

@@ -12,6 +12,7 @@
 #![no_main]
 
 use brdf_core::anneal::{anneal_kind, AnnealConfig, Samples, DEVICE_SEED};
+use brdf_core::bands::{blend, Located};
 use brdf_core::fitted::{Corrected, FittedConsts, FittedTable};
 use brdf_core::table::{SixTable, TableConsts};
 use brdf_core::{AnyModel, Brdf, Geometry, ModelKind};
@@ -91,9 +92,11 @@ impl Active {
     }
 
     /// Evaluates material `id`: through its lookup tables if it has them, as its base model
-    /// times its correction if it has a fitted table, else the exact model.
-    /// Out-of-domain inputs are refused, never clamped.
-    fn eval(&self, id: u8, input: Input, x: [f32; 3]) -> Result<f32, ErrorCode> {
+    /// times its correction if it has a fitted table, by its band at `wavelength` (or the two
+    /// around it blended) if it is banded, else the exact model. A banded material needs a
+    /// wavelength; any other is the same at every wavelength. Out-of-domain inputs
+    /// (wavelengths outside the bands included) are refused, never clamped.
+    fn eval(&self, id: u8, input: Input, wavelength: Option<f32>, x: [f32; 3]) -> Result<f32, ErrorCode> {
         let i = usize::from(id);
         let (Some(model), Some(table), Some(fitted)) =
             (self.models.get(i), self.tables.get(i), self.fitted.get(i))
@@ -106,6 +109,17 @@ impl Active {
         }
         .map_err(|_| ErrorCode::OutOfDomain)?;
         let blob = &self.bytes[..self.len];
+        if let Some(m) = self.blob.materials.get(i).filter(|m| m.bands.is_some()) {
+            let um = wavelength.ok_or(ErrorCode::NeedsWavelength)?;
+            let band = |k: usize| m.band_model(blob, k).ok_or(ErrorCode::OutOfDomain);
+            let f = match m.locate(blob, um).map_err(|_| ErrorCode::OutOfDomain)? {
+                Located::Band(k) => band(k)?.eval(&g),
+                Located::Between { lower, weight } => {
+                    blend(band(lower)?.eval(&g), band(lower + 1)?.eval(&g), weight)
+                }
+            };
+            return if f.is_finite() { Ok(f) } else { Err(ErrorCode::OutOfDomain) };
+        }
         let table = table.and_then(|(r, c)| SixTable::from_parts(c, r.bytes(blob)?));
         let fitted = fitted.and_then(|(r, c)| FittedTable::from_parts(c, r.bytes(blob)?));
         let f = match (table, fitted) {
@@ -213,7 +227,7 @@ fn handle<'v, F: Flash>(
             active_crc: active.crc,
             materials: active.blob.materials.len() as u8,
         },
-        Request::Eval { material, input, x } => match active.eval(material, input, x) {
+        Request::Eval { material, input, x } => match active.eval(material, input, None, x) {
             Ok(f) => Response::Value(f),
             Err(e) => Response::Error(e),
         },
@@ -221,20 +235,13 @@ fn handle<'v, F: Flash>(
             material,
             input,
             points,
-        } => {
-            let mut n = 0;
-            for x in brdf_wire::frame::points(points) {
-                match active.eval(material, input, x) {
-                    Ok(f) => values[4 * n..4 * n + 4].copy_from_slice(&f.to_le_bytes()),
-                    Err(e) => return Response::Error(e),
-                }
-                n += 1;
-            }
-            if n == 0 && usize::from(material) >= active.blob.materials.len() {
-                return Response::Error(ErrorCode::UnknownMaterial);
-            }
-            Response::Values(&values[..4 * n])
-        }
+        } => eval_batch(active, material, input, None, points, values),
+        Request::EvalAt {
+            material,
+            input,
+            wavelength,
+            points,
+        } => eval_batch(active, material, input, Some(wavelength), points, values),
         Request::Load(bytes) => match Active::from_bytes(bytes) {
             Some(a) => {
                 *active = a;
@@ -252,6 +259,30 @@ fn handle<'v, F: Flash>(
         // `serve` runs FIT itself (it needs the port while fitting).
         Request::Fit { .. } => Response::Error(ErrorCode::Malformed),
     }
+}
+
+/// EVAL_BATCH and EVAL_AT: every point of `points` (at `wavelength`), the first refusal
+/// ending the reply.
+fn eval_batch<'v>(
+    active: &Active,
+    material: u8,
+    input: Input,
+    wavelength: Option<f32>,
+    points: &[u8],
+    values: &'v mut [u8; 4 * MAX_BATCH],
+) -> Response<'v> {
+    let mut n = 0;
+    for x in brdf_wire::frame::points(points) {
+        match active.eval(material, input, wavelength, x) {
+            Ok(f) => values[4 * n..4 * n + 4].copy_from_slice(&f.to_le_bytes()),
+            Err(e) => return Response::Error(e),
+        }
+        n += 1;
+    }
+    if n == 0 && usize::from(material) >= active.blob.materials.len() {
+        return Response::Error(ErrorCode::UnknownMaterial);
+    }
+    Response::Values(&values[..4 * n])
 }
 
 /// Reads both slots, logs what each holds, and returns the newest valid one's contents.

@@ -219,17 +219,38 @@ impl<T: Transport> Link<T> {
 
     /// Evaluates any number of inputs (sent in batches of [`MAX_BATCH`]).
     pub fn eval(&mut self, material: u8, input: Input, xs: &[[f32; 3]]) -> Result<Vec<f32>, LinkError> {
+        self.eval_at(material, input, None, xs)
+    }
+
+    /// Evaluates any number of inputs at a wavelength in µm (EVAL_AT; a banded material
+    /// answers by its bands there), or without one (EVAL_BATCH).
+    pub fn eval_at(
+        &mut self,
+        material: u8,
+        input: Input,
+        wavelength: Option<f32>,
+        xs: &[[f32; 3]],
+    ) -> Result<Vec<f32>, LinkError> {
         let mut out = Vec::with_capacity(xs.len());
         for chunk in xs.chunks(MAX_BATCH) {
             let bytes: Vec<u8> = chunk
                 .iter()
                 .flat_map(|x| x.iter().flat_map(|v| v.to_le_bytes()))
                 .collect();
-            let reply = self.request(&Request::EvalBatch {
-                material,
-                input,
-                points: &bytes,
-            })?;
+            let req = match wavelength {
+                Some(wavelength) => Request::EvalAt {
+                    material,
+                    input,
+                    wavelength,
+                    points: &bytes,
+                },
+                None => Request::EvalBatch {
+                    material,
+                    input,
+                    points: &bytes,
+                },
+            };
+            let reply = self.request(&req)?;
             match parse_response(&reply).map(|r| r.1) {
                 Ok(Response::Values(v)) => out.extend(values(v)),
                 Ok(Response::Error(e)) => return Err(LinkError::Device(e)),

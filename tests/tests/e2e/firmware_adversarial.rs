@@ -49,6 +49,7 @@ fn material(kind: ModelKind, params: &[f32]) -> Material {
         params: p,
         table: None,
         fitted: None,
+        bands: None,
     }
 }
 

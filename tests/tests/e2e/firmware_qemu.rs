@@ -343,3 +343,118 @@ fn firmware_serves_a_fitted_table_like_the_host() {
     let (_, _, active, materials) = dev.info().unwrap();
     assert_eq!((active, materials), (crc, 1));
 }
+
+/// A banded material (a blob of version 4: 31 bands of the six-parameter model, as `brdf pack`
+/// makes of a spectral fit) answers EVAL_AT by its band at a centre and by the two bands around
+/// a wavelength between them, bit for bit as the host's f32 path computes it; it refuses plain
+/// EVAL and EVAL_BATCH, wavelengths outside its bands and ones that are not wavelengths. A
+/// material without bands beside it is the same at every wavelength.
+#[test]
+fn firmware_serves_a_banded_material_like_the_host() {
+    use brdf_core::bands::{blend, Located};
+    use brdf_link::LinkError;
+    use brdf_wire::blob::Material;
+    use brdf_wire::frame::ErrorCode;
+
+    let Some(elf) = firmware() else { return };
+    let mut dev = Link::new(Qemu::spawn(&elf).unwrap());
+    let khaki = TABLE1[0].1;
+    let bands: Vec<(f64, Material)> = (0..31)
+        .map(|k| {
+            let mut p = khaki;
+            // A spectrum: kd and the lobe's width vary smoothly with the band.
+            p[4] = 0.1 + 0.02 * k as f64;
+            p[1] = 10.0 + k as f64;
+            (
+                0.4 + 0.01 * k as f64,
+                Material::from_params(ModelKind::Six, &p).unwrap(),
+            )
+        })
+        .collect();
+    let mut extra = vec![0u8; MAX_BLOB_LEN];
+    let (banded, len) = Material::banded(&bands, &mut extra).unwrap();
+    let mut blob = table1_blob();
+    blob.materials.truncate(1);
+    blob.materials.push(banded).unwrap();
+    blob.sequence = 11;
+    let mut buf = vec![0u8; MAX_BLOB_LEN];
+    let n = blob
+        .encode_with_tables(&[None, Some(&extra[..len])], &mut buf)
+        .unwrap();
+    assert_eq!(u16::from_le_bytes([buf[4], buf[5]]), BLOB_VERSION);
+    let crc = dev.load(&buf[..n]).unwrap();
+    assert_eq!(crc, brdf_wire::blob::blob_crc(&buf[..n]));
+    let decoded = Blob::decode(&buf[..n]).unwrap();
+    let m = decoded.materials[1];
+    let bytes = &buf[..n];
+    let host = |um: f32, x: &[f32; 3]| -> f32 {
+        let f = |k: usize| m.band_model(bytes, k).unwrap().eval_angles(x[0], x[1], x[2]);
+        match m.locate(bytes, um).unwrap() {
+            Located::Band(k) => f(k),
+            Located::Between { lower, weight } => blend(f(lower), f(lower + 1), weight),
+        }
+    };
+    let mut rng = SplitMix(5);
+    let angles: Vec<[f32; 3]> = (0..MAX_BATCH)
+        .map(|_| {
+            [
+                rng.uniform(0.0, 1.5) as f32,
+                rng.uniform(0.0, 1.5) as f32,
+                rng.uniform(0.0, std::f64::consts::TAU) as f32,
+            ]
+        })
+        .collect();
+    // Every centre, every midpoint, and the ends of the range.
+    let mut wavelengths: Vec<f32> = (0..31).map(|k| 0.4 + 0.01 * k as f32).collect();
+    wavelengths.extend((0..30).map(|k| 0.405 + 0.01 * k as f32));
+    wavelengths.extend([0.4003, 0.6997]);
+    let mut blended = 0;
+    for &um in &wavelengths {
+        let device = dev.eval_at(1, Input::Angles, Some(um), &angles).unwrap();
+        for (x, d) in angles.iter().zip(&device) {
+            assert_eq!(d.to_bits(), host(um, x).to_bits(), "at {um} µm, {x:?}");
+        }
+        if matches!(m.locate(bytes, um), Ok(Located::Between { .. })) {
+            blended += 1;
+            // Strictly between its neighbours' values where they differ.
+            let Ok(Located::Between { lower, .. }) = m.locate(bytes, um) else {
+                unreachable!()
+            };
+            let x = angles[0];
+            let (a, b) = (
+                m.band_model(bytes, lower).unwrap().eval_angles(x[0], x[1], x[2]),
+                m.band_model(bytes, lower + 1)
+                    .unwrap()
+                    .eval_angles(x[0], x[1], x[2]),
+            );
+            assert!(
+                device[0] > a.min(b) && device[0] < a.max(b),
+                "{um}: {a} {} {b}",
+                device[0]
+            );
+        }
+    }
+    assert_eq!(blended, 32);
+    let refused = |r: Result<Vec<f32>, LinkError>| match r {
+        Err(LinkError::Device(code)) => code,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(
+        refused(dev.eval(1, Input::Angles, &angles[..3])),
+        ErrorCode::NeedsWavelength
+    );
+    for um in [0.39f32, 0.701, 0.0, -0.5, f32::NAN, f32::INFINITY] {
+        assert_eq!(
+            refused(dev.eval_at(1, Input::Angles, Some(um), &angles[..3])),
+            ErrorCode::OutOfDomain,
+            "{um}"
+        );
+    }
+    let plain = dev.eval(0, Input::Angles, &angles).unwrap();
+    assert_eq!(
+        dev.eval_at(0, Input::Angles, Some(1.064), &angles).unwrap(),
+        plain
+    );
+    let (_, _, active, materials) = dev.info().unwrap();
+    assert_eq!((active, materials), (crc, 2));
+}
