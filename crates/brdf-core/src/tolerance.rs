@@ -38,6 +38,16 @@ pub const SEVEN_DIGIT_REFERENCE_REL: f64 = 1.5e-7;
 /// same figure.
 pub const F32_MAX_REL: f64 = 2e-6;
 
+/// Relative error a blend halfway between two bands (`crate::bands::blend` in f32 at weight
+/// 1/2) adds to its two bands' f32 errors: the blend of two positive values each within a
+/// relative error `e` is within `e` (a convex combination); its own arithmetic rounds four
+/// times (`1 - w`, two products, the sum), each within half an ulp, and the weight's division
+/// once (its two subtractions are exact for neighbouring bands, Sterbenz): under
+/// `2.5 * f32::EPSILON`, here `4 * f32::EPSILON` (4.8e-7). Away from the midpoint the weight's
+/// rounding is amplified by the ratio of the two bands' values, so `brdf check` holds the
+/// device to [`F32_MAX_REL`] plus this at band centres and midpoints only.
+pub const BAND_BLEND_MAX_REL: f64 = 4.0 * f32::EPSILON as f64;
+
 /// Relative floor below which [`F32_MAX_REL`] is not claimed: values under one millionth of
 /// the material's maximum are dominated by absolute rounding of near-cancelled terms and
 /// carry no measurable signal for a sensor.

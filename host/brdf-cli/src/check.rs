@@ -4,10 +4,13 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Context, Result};
 use brdf_core::accuracy::compare_above;
+use brdf_core::bands::{blend, Located};
 use brdf_core::fitted::Corrected;
-use brdf_core::tolerance::{table_max_rel, F32_FLOOR_OF_MAX, F32_MAX_REL, TABLE_MAX_ZENITH_DEG};
+use brdf_core::tolerance::{
+    table_max_rel, BAND_BLEND_MAX_REL, F32_FLOOR_OF_MAX, F32_MAX_REL, TABLE_MAX_ZENITH_DEG,
+};
 use brdf_core::{AnyModel, Brdf};
-use brdf_wire::blob::{table1_blob, MAX_BLOB_LEN};
+use brdf_wire::blob::{table1_blob, Material, MAX_BLOB_LEN};
 use brdf_wire::frame::Input;
 use clap::Args;
 use serde::Serialize;
@@ -19,7 +22,10 @@ use crate::device::DeviceArgs;
 /// cases near grazing, near the retro and mirror directions, and in the plane phi = 0, 180 deg)
 /// evaluated by the device in f32 and by the host in f64 at the same inputs. Prints the
 /// maximum and mean absolute and relative errors per material and region; exits non-zero when
-/// a relative error exceeds the f32 tolerance (2e-6, where f >= 1e-6 of its maximum).
+/// a relative error exceeds the f32 tolerance (2e-6, where f >= 1e-6 of its maximum). A
+/// banded (spectral) material is checked in every band: the directions are asked in turn at
+/// each band centre and each midpoint between neighbouring bands (EVAL_AT), against the f64
+/// bands blended on the host (within 2e-6 at the centres, 2.5e-6 at the midpoints).
 #[derive(Debug, Args)]
 pub struct CheckCmd {
     #[command(flatten)]
@@ -77,6 +83,9 @@ struct Region {
     region: String,
     /// Table nodes, for a tabulated material.
     tabulated: Option<u16>,
+    /// For a banded material: the wavelengths (µm) this region's directions were asked at
+    /// (each direction at one, in turn): its band centres, or the midpoints between them.
+    wavelengths: Option<Vec<f32>>,
     n: usize,
     max_abs: f64,
     mean_abs: f64,
@@ -149,6 +158,99 @@ fn regions(n: usize, edge: usize, seed: u64) -> Vec<(&'static str, Vec<[f32; 3]>
             .collect(),
     ));
     out
+}
+
+/// How a banded material is checked: its band centres and the midpoints between neighbours,
+/// the f64 model of every band (from the device's f32 parameters), the host's blend.
+struct BandPlan {
+    centres: Vec<f32>,
+    midpoints: Vec<f32>,
+    models: Vec<AnyModel<f64>>,
+}
+
+/// The plan of material `m` if it is banded.
+fn band_plan(mat: &Material, blob: &[u8], m: usize, blob_name: &str) -> Result<Option<BandPlan>> {
+    let count = mat.band_count();
+    if count == 0 {
+        return Ok(None);
+    }
+    let mut centres = Vec::with_capacity(count);
+    let mut models = Vec::with_capacity(count);
+    for k in 0..count {
+        let (Some(c), Some(p)) = (mat.band_centre(blob, k), mat.band_params(blob, k)) else {
+            bail!("{blob_name}: material {m}: band {k} is not in the blob");
+        };
+        let p64: Vec<f64> = p[..mat.kind.param_count()]
+            .iter()
+            .map(|&v| f64::from(v))
+            .collect();
+        centres.push(c);
+        models.push(
+            AnyModel::<f64>::new(mat.kind, &p64)
+                .with_context(|| format!("{blob_name}: material {m}: band {k}"))?,
+        );
+    }
+    // The midpoint in f32, as sent; the host blends at that same wavelength.
+    let midpoints = centres.windows(2).map(|w| w[0] + 0.5 * (w[1] - w[0])).collect();
+    Ok(Some(BandPlan {
+        centres,
+        midpoints,
+        models,
+    }))
+}
+
+impl BandPlan {
+    /// The region's directions as two parts, at the centres and between the bands; direction
+    /// `k` is asked at the `k`-th wavelength of the `2 m - 1`, in turn.
+    #[allow(clippy::type_complexity)]
+    fn split(
+        &self,
+        name: &str,
+        xs: &[[f32; 3]],
+    ) -> Vec<(String, Vec<[f32; 3]>, Vec<Option<f32>>, f64, Option<Vec<f32>>)> {
+        let all: Vec<(f32, bool)> = self
+            .centres
+            .iter()
+            .map(|&c| (c, true))
+            .chain(self.midpoints.iter().map(|&c| (c, false)))
+            .collect();
+        let mut centre = (Vec::new(), Vec::new());
+        let mut between = (Vec::new(), Vec::new());
+        for (k, x) in xs.iter().enumerate() {
+            let (um, at_centre) = all[k % all.len()];
+            let part = if at_centre { &mut centre } else { &mut between };
+            part.0.push(*x);
+            part.1.push(Some(um));
+        }
+        vec![
+            (
+                format!("{name} @ {} bands", self.centres.len()),
+                centre.0,
+                centre.1,
+                0.0,
+                Some(self.centres.clone()),
+            ),
+            (
+                format!("{name} @ {} midpoints", self.midpoints.len()),
+                between.0,
+                between.1,
+                BAND_BLEND_MAX_REL,
+                Some(self.midpoints.clone()),
+            ),
+        ]
+    }
+
+    /// The host's f64 value at `um` (a centre or a midpoint) from angles in radians.
+    fn eval_angles(&self, um: f32, ti: f64, tr: f64, phi: f64) -> f64 {
+        let centres: Vec<f64> = self.centres.iter().map(|&c| f64::from(c)).collect();
+        let f = |k: usize| self.models[k].eval_angles(ti, tr, phi);
+        match brdf_core::bands::locate(&centres, f64::from(um)) {
+            Ok(Located::Band(k)) => f(k),
+            Ok(Located::Between { lower, weight }) => blend(f(lower), f(lower + 1), weight),
+            // Never asked: the plan's wavelengths lie within the bands.
+            Err(_) => f64::NAN,
+        }
+    }
 }
 
 impl CheckCmd {
@@ -246,50 +348,93 @@ impl CheckCmd {
                 (None, None) => Some((F32_MAX_REL, 90.0)),
                 (Some(t), None) => table_max_rel(usize::from(t.nodes)).map(|b| (b, TABLE_MAX_ZENITH_DEG)),
             };
+            // A banded material: its centres, then the midpoints between them, each with the
+            // extra tolerance of a blend there; the f64 model of every band.
+            let banded = band_plan(mat, &blob_bytes, m, &self.device.blob_name())?;
             let mut results = Vec::new();
             for (name, xs) in dirs.iter().filter(|d| !d.1.is_empty()) {
-                let dev = link
-                    .eval(m as u8, Input::Angles, xs)
-                    .with_context(|| format!("material {m}: the {name} directions"))?;
-                let exact: Vec<f64> = xs
-                    .iter()
-                    .map(|x| match &fitted {
-                        Some(f) => f.eval_angles(x[0].into(), x[1].into(), x[2].into()),
-                        None => host.eval_angles(x[0].into(), x[1].into(), x[2].into()),
-                    })
-                    .collect();
-                let limit = promise.map_or(-1.0, |p| p.1.to_radians() as f32);
-                let inside = |x: &[f32; 3]| x[0] <= limit && x[1] <= limit;
-                let split = |keep: bool| -> (Vec<f32>, Vec<f64>) {
-                    xs.iter()
-                        .zip(dev.iter().zip(&exact))
-                        .filter(|(x, _)| inside(x) == keep)
-                        .map(|(_, (d, e))| (*d, *e))
-                        .unzip()
-                };
-                let (d_in, e_in) = split(true);
-                let (d_out, e_out) = split(false);
-                if !d_in.is_empty() {
-                    results.push((name.to_string(), d_in, e_in, promise.map(|p| p.0)));
-                }
-                if !d_out.is_empty() {
-                    let label = match promise {
-                        Some((_, z)) => format!("{name} (>{z} deg)"),
-                        None => format!("{name} (table size not measured)"),
+                // Parts of this region: (label, directions, wavelength of each, extra
+                // tolerance, wavelengths asked at).
+                let parts: Vec<(String, Vec<[f32; 3]>, Vec<Option<f32>>, f64, Option<Vec<f32>>)> =
+                    match &banded {
+                        None => vec![(name.to_string(), xs.clone(), vec![None; xs.len()], 0.0, None)],
+                        Some(plan) => plan.split(name, xs),
                     };
-                    results.push((label, d_out, e_out, None));
+                for (label, xs, at, extra, asked) in parts {
+                    if xs.is_empty() {
+                        continue;
+                    }
+                    let mut dev = vec![0.0f32; xs.len()];
+                    let mut distinct: Vec<Option<f32>> = at.clone();
+                    distinct.sort_by(|a, b| a.map(f32::to_bits).cmp(&b.map(f32::to_bits)));
+                    distinct.dedup();
+                    for um in distinct {
+                        let idx: Vec<usize> = (0..xs.len()).filter(|&k| at[k] == um).collect();
+                        let sub: Vec<[f32; 3]> = idx.iter().map(|&k| xs[k]).collect();
+                        let got = link.eval_at(m as u8, Input::Angles, um, &sub).with_context(|| {
+                            format!(
+                                "material {m}: the {name} directions{}",
+                                um.map_or(String::new(), |w| format!(" at {w} µm"))
+                            )
+                        })?;
+                        for (&k, v) in idx.iter().zip(got) {
+                            dev[k] = v;
+                        }
+                    }
+                    let exact: Vec<f64> = xs
+                        .iter()
+                        .zip(&at)
+                        .map(|(x, um)| {
+                            let (ti, tr, phi) = (x[0].into(), x[1].into(), x[2].into());
+                            match (&banded, um) {
+                                (Some(plan), Some(um)) => plan.eval_angles(*um, ti, tr, phi),
+                                _ => match &fitted {
+                                    Some(f) => f.eval_angles(ti, tr, phi),
+                                    None => host.eval_angles(ti, tr, phi),
+                                },
+                            }
+                        })
+                        .collect();
+                    let limit = promise.map_or(-1.0, |p| p.1.to_radians() as f32);
+                    let inside = |x: &[f32; 3]| x[0] <= limit && x[1] <= limit;
+                    let split = |keep: bool| -> (Vec<f32>, Vec<f64>) {
+                        xs.iter()
+                            .zip(dev.iter().zip(&exact))
+                            .filter(|(x, _)| inside(x) == keep)
+                            .map(|(_, (d, e))| (*d, *e))
+                            .unzip()
+                    };
+                    let (d_in, e_in) = split(true);
+                    let (d_out, e_out) = split(false);
+                    if !d_in.is_empty() {
+                        results.push((
+                            label.clone(),
+                            d_in,
+                            e_in,
+                            promise.map(|p| p.0 + extra),
+                            asked.clone(),
+                        ));
+                    }
+                    if !d_out.is_empty() {
+                        let label = match promise {
+                            Some((_, z)) => format!("{label} (>{z} deg)"),
+                            None => format!("{label} (table size not measured)"),
+                        };
+                        results.push((label, d_out, e_out, None, asked));
+                    }
                 }
             }
             let max = results
                 .iter()
                 .flat_map(|r| r.2.iter().copied())
                 .fold(0.0, f64::max);
-            for (name, dev, exact, tolerance) in results {
+            for (name, dev, exact, tolerance, wavelengths) in results {
                 let a = compare_above(0..dev.len(), |k| dev[k], |k| exact[k], F32_FLOOR_OF_MAX * max);
                 table.push(Region {
                     material: m,
                     region: name,
                     tabulated: mat.table.map(|t| t.nodes),
+                    wavelengths,
                     n: dev.len(),
                     max_abs: a.max_abs,
                     mean_abs: a.mean_abs,
@@ -304,12 +449,12 @@ impl CheckCmd {
             println!("{}", serde_json::to_string_pretty(&table)?);
         } else {
             println!(
-                "{:>3} {:<30} {:>6} {:>11} {:>11} {:>11} {:>11} {:>10}",
+                "{:>3} {:<34} {:>6} {:>11} {:>11} {:>11} {:>11} {:>10}",
                 "mat", "region", "n", "max abs", "mean abs", "max rel", "mean rel", "tolerance"
             );
             for r in &table {
                 println!(
-                    "{:>3} {:<30} {:>6} {:>11.3e} {:>11.3e} {:>11.3e} {:>11.3e} {:>10}  {}",
+                    "{:>3} {:<34} {:>6} {:>11.3e} {:>11.3e} {:>11.3e} {:>11.3e} {:>10}  {}",
                     r.material,
                     match r.tabulated {
                         Some(n) => format!("{} [table {n}]", r.region),

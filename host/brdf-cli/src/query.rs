@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Result};
 use brdf_link::LinkError;
-use brdf_wire::frame::Input;
+use brdf_wire::frame::{ErrorCode, Input};
 use clap::Args;
 
 use crate::angles::{f32_text, parse_direction, radians, AngleReader, AngleWriter, Chunk};
@@ -24,6 +24,11 @@ pub struct QueryCmd {
     /// One direction: theta_i,theta_r,phi in degrees.
     #[arg(long, conflicts_with = "csv", allow_hyphen_values = true)]
     angles: Option<String>,
+    /// Wavelength in µm (EVAL_AT): a banded (spectral) material answers by its band there, or
+    /// the two bands around it blended; it refuses to answer without one. A material without
+    /// bands is the same at every wavelength.
+    #[arg(long, value_name = "UM", allow_hyphen_values = true)]
+    wavelength: Option<f64>,
     /// Name of the output column.
     #[arg(long, default_value = "brdf")]
     output_column: String,
@@ -32,15 +37,32 @@ pub struct QueryCmd {
     csv: Option<PathBuf>,
 }
 
-/// Asks the device for `xs` (radians); a refusal is reported at the line of the first
-/// direction the device refuses on its own (`line(i)` names row `i`).
-fn ask(link: &mut Device, material: u8, xs: &[[f32; 3]], at: impl Fn(usize) -> String) -> Result<Vec<f32>> {
-    match link.eval(material, Input::Angles, xs) {
+/// Asks the device for `xs` (radians) at `um` µm; a refusal is reported at the line of the
+/// first direction the device refuses on its own (`line(i)` names row `i`), or as the
+/// wavelength's when the device refuses it at normal incidence and viewing too.
+fn ask(
+    link: &mut Device,
+    material: u8,
+    um: Option<f32>,
+    xs: &[[f32; 3]],
+    at: impl Fn(usize) -> String,
+) -> Result<Vec<f32>> {
+    match link.eval_at(material, Input::Angles, um, xs) {
         Ok(v) => Ok(v),
+        Err(LinkError::Device(ErrorCode::NeedsWavelength)) => bail!(
+            "material {material} is spectral (banded): the device answers it at a wavelength; give --wavelength UM"
+        ),
         Err(LinkError::Device(code)) => {
+            if let Some(w) = um {
+                if let Err(LinkError::Device(ErrorCode::OutOfDomain)) =
+                    link.eval_at(material, Input::Angles, um, &[[0.0; 3]])
+                {
+                    bail!("--wavelength {w}: the device refused it for material {material} (outside its bands)");
+                }
+            }
             for (i, x) in xs.iter().enumerate() {
                 if let Err(LinkError::Device(code)) =
-                    link.eval(material, Input::Angles, std::slice::from_ref(x))
+                    link.eval_at(material, Input::Angles, um, std::slice::from_ref(x))
                 {
                     bail!("{}: the device refused this direction ({code:?})", at(i));
                 }
@@ -53,6 +75,15 @@ fn ask(link: &mut Device, material: u8, xs: &[[f32; 3]], at: impl Fn(usize) -> S
 
 impl QueryCmd {
     pub fn run(self) -> Result<()> {
+        let um = match self.wavelength {
+            Some(w)
+                if !brdf_fit::data::is_wavelength(w)
+                    || !brdf_fit::data::is_wavelength(f64::from(w as f32)) =>
+            {
+                bail!("--wavelength {w}: not a wavelength above 0 (µm)")
+            }
+            w => w.map(|w| w as f32),
+        };
         match (&self.angles, &self.csv) {
             (Some(a), None) => {
                 let texts: Vec<&str> = a.split(',').collect();
@@ -61,7 +92,7 @@ impl QueryCmd {
                 };
                 let deg = parse_direction("--angles", [ti, tr, phi])?;
                 let (mut link, _) = self.device.connect()?;
-                let v = ask(&mut link, self.material, &[radians::<f32>(deg)], |_| {
+                let v = ask(&mut link, self.material, um, &[radians::<f32>(deg)], |_| {
                     "--angles".into()
                 })?;
                 println!("{}", f32_text(v[0]));
@@ -77,7 +108,7 @@ impl QueryCmd {
                 while reader.next_chunk(&mut chunk)? > 0 {
                     let xs: Vec<[f32; 3]> = chunk.degrees().iter().map(|&d| radians::<f32>(d)).collect();
                     let file = reader.file();
-                    let values = ask(&mut link, self.material, &xs, |i| {
+                    let values = ask(&mut link, self.material, um, &xs, |i| {
                         format!("{file}: line {}", chunk.line(i))
                     })?;
                     writer.write_chunk(&chunk, values.into_iter().map(f32_text))?;

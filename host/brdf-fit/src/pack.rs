@@ -140,6 +140,14 @@ pub enum PackError {
         "the blob would be {0} bytes, more than a slot's {MAX_BLOB_LEN}: use fewer materials or fewer table nodes"
     )]
     TooLarge(usize),
+    /// The bands of one spectral measurement could not become one device material.
+    #[error("{origin}: {message}")]
+    Bands {
+        /// File and fit indices.
+        origin: String,
+        /// Why.
+        message: String,
+    },
     /// The blob could not be encoded.
     #[error("{0}")]
     Encode(BlobError),
@@ -261,6 +269,156 @@ fn fitted_f32_beyond_bound(m: &Material, bytes: &[u8]) -> Result<Option<String>,
     Ok(None)
 }
 
+/// Makes the bands of each spectral measurement one banded material (at the place of its
+/// first band): fits of one source whose datasets name one measurement at two or more
+/// wavelengths (`FILE[wavelength=0.55]`). A measurement's only band stays a material of its
+/// own, the same at every wavelength. Refused: bands with fitted tables (a device's banded
+/// material holds analytic bands; 31 fitted tables do not fit a slot), one band given twice,
+/// bands of different models, more than [`brdf_wire::blob::MAX_BANDS`].
+#[allow(clippy::type_complexity)]
+fn group_bands(
+    materials: Vec<Material>,
+    tables: Vec<Option<Vec<u8>>>,
+    origins: Vec<String>,
+    band_of: &[(usize, Option<(String, f64)>)],
+    say: &mut impl FnMut(Level, String),
+) -> Result<(Vec<Material>, Vec<Option<Vec<u8>>>, Vec<String>), PackError> {
+    use brdf_wire::blob::MAX_BANDS;
+    let text = crate::data::wavelength_text;
+    let same = |i: usize, j: usize| match (&band_of[i], &band_of[j]) {
+        ((si, Some((mi, _))), (sj, Some((mj, _)))) => si == sj && mi == mj,
+        _ => false,
+    };
+    let n = materials.len();
+    let mut taken = vec![false; n];
+    let (mut out_m, mut out_t, mut out_o) = (Vec::new(), Vec::new(), Vec::new());
+    for i in 0..n {
+        if taken[i] {
+            continue;
+        }
+        let members: Vec<usize> = (i..n).filter(|&j| same(i, j)).collect();
+        if members.len() < 2 {
+            if let (_, Some((measurement, um))) = &band_of[i] {
+                say(
+                    Level::Info,
+                    format!(
+                        "note: {}: the only band of {measurement} ({} µm): packed as a material \
+                         the same at every wavelength",
+                        origins[i],
+                        text(*um)
+                    ),
+                );
+            }
+            out_m.push(materials[i]);
+            out_t.push(tables[i].clone());
+            out_o.push(origins[i].clone());
+            continue;
+        }
+        let (file, measurement) = match &band_of[i] {
+            (_, Some((m, _))) => (origins[i].rsplit_once(": fit ").map_or("", |x| x.0), m.clone()),
+            _ => unreachable!("members of a measurement have a band"),
+        };
+        let indices: Vec<usize> = members
+            .iter()
+            .map(|&k| {
+                origins[k]
+                    .rsplit_once(": fit ")
+                    .and_then(|x| x.1.parse().ok())
+                    .unwrap_or(k)
+            })
+            .collect();
+        let origin = format!("{file}: fits {}", index_ranges(&indices));
+        let refuse = |message: String| PackError::Bands {
+            origin: origin.clone(),
+            message,
+        };
+        if let Some(&k) = members.iter().find(|&&k| tables[k].is_some()) {
+            return Err(refuse(format!(
+                "{} has a fitted table: a banded device material holds one analytic fit per band \
+                 (a fitted table per band would not fit a {MAX_BLOB_LEN}-byte slot); pack `brdf fit` \
+                 results of the bands, or one band's fit alone",
+                origins[k]
+            )));
+        }
+        if members.len() > MAX_BANDS {
+            return Err(refuse(format!(
+                "{} bands: a device material holds at most {MAX_BANDS}",
+                members.len()
+            )));
+        }
+        let mut bands: Vec<(f64, Material, usize)> = members
+            .iter()
+            .map(|&k| (band_of[k].1.as_ref().map_or(0.0, |b| b.1), materials[k], k))
+            .collect();
+        bands.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for w in bands.windows(2) {
+            if (w[1].0 as f32 - w[0].0 as f32) < brdf_core::bands::SAME_BAND_UM as f32 {
+                return Err(refuse(format!(
+                    "{} and {} are one band ({} µm): one fit per band",
+                    origins[w[0].2],
+                    origins[w[1].2],
+                    text(w[0].0)
+                )));
+            }
+            if w[0].1.kind != w[1].1.kind {
+                return Err(refuse(format!(
+                    "{} is {} and {} is {}: a banded material has one model in every band",
+                    origins[w[0].2],
+                    w[0].1.kind.name(),
+                    origins[w[1].2],
+                    w[1].1.kind.name()
+                )));
+            }
+        }
+        let pairs: Vec<(f64, Material)> = bands.iter().map(|b| (b.0, b.1)).collect();
+        let mut bytes = vec![0u8; MAX_BLOB_LEN];
+        let (m, len) = Material::banded(&pairs, &mut bytes).map_err(|e| refuse(e.to_string()))?;
+        bytes.truncate(len);
+        say(
+            Level::Info,
+            format!(
+                "material {}: {} bands of {measurement} ({}–{} µm, {}), from {origin}: the device \
+                 answers it at a wavelength (EVAL_AT): a band's fit at its centre, the two around \
+                 it blended between, nothing outside",
+                out_m.len(),
+                pairs.len(),
+                text(pairs[0].0),
+                text(pairs[pairs.len() - 1].0),
+                m.kind.name(),
+            ),
+        );
+        for &k in &members {
+            taken[k] = true;
+        }
+        out_m.push(m);
+        out_t.push(Some(bytes));
+        out_o.push(origin);
+    }
+    Ok((out_m, out_t, out_o))
+}
+
+/// `0–30` or `0, 2, 4–6`: ascending indices as runs.
+fn index_ranges(indices: &[usize]) -> String {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for &k in indices {
+        match runs.last_mut() {
+            Some(r) if r.1 + 1 == k => r.1 = k,
+            _ => runs.push((k, k)),
+        }
+    }
+    let text: Vec<String> = runs
+        .iter()
+        .map(|&(a, b)| {
+            if a == b {
+                a.to_string()
+            } else {
+                format!("{a}–{b}")
+            }
+        })
+        .collect();
+    text.join(", ")
+}
+
 /// Packs every fit of `sources`, in order (an array adds each of its fits), into one blob.
 /// Parameters outside a model's ranges are refused; a material without a proof of energy
 /// conservation (`kb + kd > 1`, or no bound), or whose f32 evaluation errs beyond
@@ -283,7 +441,9 @@ pub fn pack(
     let mut fitted_tables: Vec<Option<Vec<u8>>> = Vec::new();
     // Where each material came from, for messages.
     let mut origin_of: Vec<String> = Vec::new();
-    for source in sources {
+    // Per material: its source, and its measurement and band if its dataset names one.
+    let mut band_of: Vec<(usize, Option<(String, f64)>)> = Vec::new();
+    for (source_index, source) in sources.iter().enumerate() {
         let (file, fits) = match *source {
             FitSource::File(path) => {
                 let file = path.display().to_string();
@@ -312,9 +472,14 @@ pub fn pack(
                 origin: origin.clone(),
                 message,
             })?;
-            if materials.len() == MAX_MATERIALS {
-                return Err(PackError::TooManyMaterials);
-            }
+            let band = match r.dataset.as_deref() {
+                Some(d) => crate::data::band_of_name(d).map_err(|message| PackError::Bands {
+                    origin: origin.clone(),
+                    message: format!("dataset `{d}`: {message}"),
+                })?,
+                None => None,
+            };
+            band_of.push((source_index, band));
             if let Some(bytes) = fitted {
                 let m = m.with_fitted(&bytes).map_err(|e| PackError::FittedTable {
                     origin: origin.clone(),
@@ -357,11 +522,15 @@ pub fn pack(
             origin_of.push(origin);
         }
     }
-    let mut tables = fitted_tables;
+    let (mut materials, mut tables, origin_of) =
+        group_bands(materials, fitted_tables, origin_of, &band_of, &mut say)?;
+    if materials.len() > MAX_MATERIALS {
+        return Err(PackError::TooManyMaterials);
+    }
     let mut tabulated = 0;
     if let Some(nodes) = options.table_nodes {
         for (i, (m, t)) in materials.iter_mut().zip(&mut tables).enumerate() {
-            if m.six_params().is_none() || m.fitted.is_some() {
+            if m.six_params().is_none() || m.fitted.is_some() || m.bands.is_some() {
                 continue;
             }
             let mut bytes = vec![0u8; table_len(nodes)];
@@ -400,7 +569,7 @@ pub fn pack(
                 Level::Warning,
                 format!(
                     "note: --table-nodes {nodes}: no material took lookup tables (six-parameter \
-                     materials without a fitted table only)"
+                     materials without a fitted table or bands only)"
                 ),
             ),
             Some(e) => say(
@@ -543,6 +712,92 @@ mod tests {
                 .text
                 .starts_with("warning: results: fit 0 (six): energy bound"),
             "{notes:?}"
+        );
+    }
+}
+
+#[cfg(test)]
+mod band_tests {
+    use super::*;
+
+    /// A fit of `dataset` with the khaki shape and `kd`.
+    fn band(dataset: &str, kd: f64) -> String {
+        format!(
+            r#"{{"dataset": "{dataset}", "model": "six", "params": {{"kb": 0.2545, "kr": 21.8031,
+            "b": -27.5721, "a": 0.6705, "kd": {kd}, "c": 1.2}}}}"#
+        )
+    }
+
+    fn pack_text(json: &str) -> (Result<Packed, PackError>, Vec<Note>) {
+        let mut notes = Vec::new();
+        let sources = [FitSource::Text {
+            origin: "fits.json",
+            json,
+        }];
+        (pack(&sources, &PackOptions::default(), |n| notes.push(n)), notes)
+    }
+
+    #[test]
+    fn the_bands_of_a_measurement_become_one_material_beside_the_others() {
+        // Bands out of order, a grey fit between them, and a second measurement's only band.
+        let json = format!(
+            "[{}, {}, {}, {}, {}]",
+            band("paint.astm[wavelength=0.5]", 0.5),
+            band("plate", 0.3),
+            band("paint.astm[wavelength=0.4]", 0.4),
+            band("other.astm[wavelength=0.55]", 0.2),
+            band("paint.astm[wavelength=0.7]", 0.7),
+        );
+        let (packed, notes) = pack_text(&json);
+        let p = packed.unwrap();
+        assert_eq!(p.materials, 3);
+        let back = Blob::decode(&p.bytes).unwrap();
+        let m = back.materials[0];
+        assert_eq!(m.band_count(), 3);
+        let centres: Vec<f32> = (0..3).map(|k| m.band_centre(&p.bytes, k).unwrap()).collect();
+        assert_eq!(centres, [0.4, 0.5, 0.7]);
+        let kd: Vec<f32> = (0..3).map(|k| m.band_params(&p.bytes, k).unwrap()[4]).collect();
+        assert_eq!(kd, [0.4, 0.5, 0.7]);
+        assert_eq!(back.materials[1].params[4], 0.3);
+        assert_eq!(
+            (back.materials[1].band_count(), back.materials[2].band_count()),
+            (0, 0)
+        );
+        assert!(notes.iter().any(|n| n.text.starts_with(
+            "material 0: 3 bands of paint.astm (0.4–0.7 µm, six), from fits.json: fits 0, 2, 4"
+        )));
+        assert!(notes
+            .iter()
+            .any(|n| n.text.contains("fit 3: the only band of other.astm (0.55 µm)")));
+    }
+
+    #[test]
+    fn bands_that_cannot_be_one_material_are_refused_by_fit() {
+        let err = |json: String| pack_text(&json).0.unwrap_err().to_string();
+        let twice = err(format!(
+            "[{}, {}]",
+            band("p[wavelength=0.5]", 0.5),
+            band("p[wavelength=0.5000000001]", 0.4)
+        ));
+        assert!(
+            twice.contains("fit 0 and fits.json: fit 1 are one band (0.5 µm)"),
+            "{twice}"
+        );
+        let lambert = r#"{"dataset": "p[wavelength=0.6]", "model": "lambert", "params": {"rho0": 0.3}}"#;
+        let mixed = err(format!("[{}, {lambert}]", band("p[wavelength=0.5]", 0.5)));
+        assert!(mixed.contains("one model in every band"), "{mixed}");
+        let many: Vec<String> = (0..65)
+            .map(|k| band(&format!("p[wavelength={}]", 0.4 + 0.01 * k as f64), 0.5))
+            .collect();
+        let many = err(format!("[{}]", many.join(",")));
+        assert!(
+            many.contains("65 bands: a device material holds at most 64"),
+            "{many}"
+        );
+        let bad = err(format!("[{}]", band("p[wavelength=-1]", 0.5)));
+        assert!(
+            bad.starts_with("fits.json: fit 0: dataset `p[wavelength=-1]`"),
+            "{bad}"
         );
     }
 }

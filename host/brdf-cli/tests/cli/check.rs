@@ -172,6 +172,127 @@ fn check_qemu_passes_for_table1_and_a_fresh_fit() {
     assert!(worst > 1e-6, "a table this coarse cannot be exact: {worst:e}");
 }
 
+/// The 31 bands of a spectral measurement, fitted in one command, pack into one banded
+/// material that `brdf check --qemu` passes at every band centre and every midpoint; `brdf
+/// query --wavelength` answers it as `brdf eval --fit --wavelength --precision f32` does at
+/// a band, refuses without a wavelength and outside the bands by name.
+#[test]
+fn a_spectral_fit_packs_into_one_banded_material_the_device_passes_in_every_band() {
+    if brdf_tests::qemu::firmware().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let data = brdf_tests::measured("cornell-spectral/garnet_red.astm");
+    let fit = brdf(&["fit", "--format", "cornell", data.to_str().unwrap(), "--json"]);
+    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
+    let json = dir.path().join("bands.json");
+    std::fs::write(&json, &fit.stdout).unwrap();
+    let blob = dir.path().join("bands.bin");
+    let pack = brdf(&["pack", json.to_str().unwrap(), "-o", blob.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&pack.stderr);
+    assert!(pack.status.success(), "{err}");
+    assert!(err.contains("material 0: 31 bands of"), "{err}");
+    assert!(err.contains("fits 0–30"), "{err}");
+    let out = brdf(
+        &[
+            &["check", "--qemu", "--blob", blob.to_str().unwrap(), "--json"],
+            SAMPLE,
+        ]
+        .concat(),
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = v.as_array().unwrap();
+    // Five regions, each at the centres and at the midpoints.
+    assert_eq!(rows.len(), 10, "{rows:?}");
+    assert!(rows.iter().all(|r| r["within_tolerance"] == true), "{rows:?}");
+    let centres: Vec<&serde_json::Value> = rows
+        .iter()
+        .filter(|r| r["region"] == "hemisphere @ 31 bands")
+        .collect();
+    let mids: Vec<&serde_json::Value> = rows
+        .iter()
+        .filter(|r| r["region"] == "hemisphere @ 30 midpoints")
+        .collect();
+    assert_eq!(centres[0]["wavelengths"].as_array().unwrap().len(), 31);
+    assert_eq!(mids[0]["wavelengths"].as_array().unwrap().len(), 30);
+    assert!(mids[0]["tolerance"].as_f64().unwrap() > centres[0]["tolerance"].as_f64().unwrap());
+
+    let angles = dir.path().join("a.csv");
+    std::fs::write(&angles, "theta_i,theta_r,phi\n10,10,0\n30,45,180\n60,75,90\n").unwrap();
+    let query = |extra: &[&str]| {
+        brdf(
+            &[
+                &["query", "--qemu", "--blob", blob.to_str().unwrap()],
+                extra,
+                &[angles.to_str().unwrap()],
+            ]
+            .concat(),
+        )
+    };
+    let device = query(&["--wavelength", "0.55"]);
+    assert!(
+        device.status.success(),
+        "{}",
+        String::from_utf8_lossy(&device.stderr)
+    );
+    let host = brdf(&[
+        "eval",
+        "--fit",
+        json.to_str().unwrap(),
+        "--wavelength",
+        "0.55",
+        "--precision",
+        "f32",
+        angles.to_str().unwrap(),
+    ]);
+    assert!(host.status.success(), "{}", String::from_utf8_lossy(&host.stderr));
+    assert_eq!(
+        String::from_utf8_lossy(&device.stdout),
+        String::from_utf8_lossy(&host.stdout)
+    );
+    // Between two bands the answer lies between theirs.
+    let values = |o: &std::process::Output| -> Vec<f64> {
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .skip(1)
+            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+            .collect()
+    };
+    let (a, b, mid) = (
+        values(&query(&["--wavelength", "0.55"])),
+        values(&query(&["--wavelength", "0.56"])),
+        values(&query(&["--wavelength", "0.555"])),
+    );
+    for k in 0..3 {
+        assert!(
+            mid[k] >= a[k].min(b[k]) && mid[k] <= a[k].max(b[k]),
+            "{a:?} {b:?} {mid:?}"
+        );
+    }
+    let none = query(&[]);
+    assert!(!none.status.success());
+    let err = String::from_utf8_lossy(&none.stderr);
+    assert!(
+        err.contains("material 0 is spectral (banded)") && err.contains("--wavelength"),
+        "{err}"
+    );
+    let outside = query(&["--wavelength", "1.064"]);
+    let err = String::from_utf8_lossy(&outside.stderr);
+    assert!(
+        !outside.status.success() && err.contains("--wavelength 1.064: the device refused it"),
+        "{err}"
+    );
+    for bad in ["-0.5", "0", "nan", "1e-50"] {
+        let o = query(&["--wavelength", bad]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.contains("not a wavelength above 0"),
+            "{bad}: {err}"
+        );
+    }
+}
+
 #[test]
 fn flash_reads_slot_addresses_from_the_elf_and_needs_a_probe() {
     let Some(elf) = brdf_tests::qemu::firmware() else {
