@@ -91,41 +91,66 @@ impl Active {
         Active::from_bytes(&buf[..n])
     }
 
-    /// Evaluates material `id`: through its lookup tables if it has them, as its base model
-    /// times its correction if it has a fitted table, by its band at `wavelength` (or the two
-    /// around it blended) if it is banded, else the exact model. A banded material needs a
-    /// wavelength; any other is the same at every wavelength. Out-of-domain inputs
-    /// (wavelengths outside the bands included) are refused, never clamped.
-    fn eval(&self, id: u8, input: Input, wavelength: Option<f32>, x: [f32; 3]) -> Result<f32, ErrorCode> {
+    /// What answers for material `id` at `wavelength`, resolved once per request: its lookup
+    /// tables if it has them, its base model times its correction if it has a fitted table,
+    /// its band at `wavelength` (or the two around it, blended) if it is banded, else the
+    /// exact model. A banded material needs a wavelength; any other is the same at every
+    /// wavelength. A wavelength outside the bands is refused, never clamped.
+    fn resolve(&self, id: u8, wavelength: Option<f32>) -> Result<Answer<'_>, ErrorCode> {
         let i = usize::from(id);
-        let (Some(model), Some(table), Some(fitted)) =
-            (self.models.get(i), self.tables.get(i), self.fitted.get(i))
-        else {
+        let (Some(model), Some(table), Some(fitted), Some(m)) = (
+            self.models.get(i),
+            self.tables.get(i),
+            self.fitted.get(i),
+            self.blob.materials.get(i),
+        ) else {
             return Err(ErrorCode::UnknownMaterial);
         };
+        let blob = &self.bytes[..self.len];
+        if m.bands.is_some() {
+            let um = wavelength.ok_or(ErrorCode::NeedsWavelength)?;
+            // Decoded and checked at LOAD: a band that does not build is not served.
+            let band = |k: usize| m.band_model(blob, k).ok_or(ErrorCode::OutOfDomain);
+            return match m.locate(blob, um).map_err(|_| ErrorCode::OutOfDomain)? {
+                Located::Band(k) => Ok(Answer::Exact(band(k)?)),
+                Located::Between { lower, weight } => Ok(Answer::Blend(band(lower)?, band(lower + 1)?, weight)),
+            };
+        }
+        let table = table.and_then(|(r, c)| SixTable::from_parts(c, r.bytes(blob)?));
+        let fitted = fitted.and_then(|(r, c)| FittedTable::from_parts(c, r.bytes(blob)?));
+        Ok(match (table, fitted) {
+            (Some(t), _) => Answer::Table(t),
+            (None, Some(table)) => Answer::Fitted(Corrected { base: *model, table }),
+            (None, None) => Answer::Exact(*model),
+        })
+    }
+}
+
+/// One material at one wavelength, ready to evaluate ([`Active::resolve`]).
+enum Answer<'b> {
+    /// The exact model (a material without tables, or one band).
+    Exact(AnyModel<f32>),
+    /// Lookup tables.
+    Table(SixTable<'b>),
+    /// A base model times its fitted table.
+    Fitted(Corrected<'b, AnyModel<f32>>),
+    /// Two bands and the upper one's weight.
+    Blend(AnyModel<f32>, AnyModel<f32>, f32),
+}
+
+impl Answer<'_> {
+    /// f_r at one input. Out-of-domain inputs are refused, never clamped.
+    fn eval(&self, input: Input, x: [f32; 3]) -> Result<f32, ErrorCode> {
         let g = match input {
             Input::Angles => Geometry::try_from_angles(x[0], x[1], x[2]),
             Input::Cosines => Geometry::try_from_cosines(x[0], x[1], x[2]),
         }
         .map_err(|_| ErrorCode::OutOfDomain)?;
-        let blob = &self.bytes[..self.len];
-        if let Some(m) = self.blob.materials.get(i).filter(|m| m.bands.is_some()) {
-            let um = wavelength.ok_or(ErrorCode::NeedsWavelength)?;
-            let band = |k: usize| m.band_model(blob, k).ok_or(ErrorCode::OutOfDomain);
-            let f = match m.locate(blob, um).map_err(|_| ErrorCode::OutOfDomain)? {
-                Located::Band(k) => band(k)?.eval(&g),
-                Located::Between { lower, weight } => {
-                    blend(band(lower)?.eval(&g), band(lower + 1)?.eval(&g), weight)
-                }
-            };
-            return if f.is_finite() { Ok(f) } else { Err(ErrorCode::OutOfDomain) };
-        }
-        let table = table.and_then(|(r, c)| SixTable::from_parts(c, r.bytes(blob)?));
-        let fitted = fitted.and_then(|(r, c)| FittedTable::from_parts(c, r.bytes(blob)?));
-        let f = match (table, fitted) {
-            (Some(t), _) => t.eval(&g),
-            (None, Some(table)) => Corrected { base: *model, table }.eval(&g),
-            (None, None) => model.eval(&g),
+        let f = match self {
+            Answer::Exact(m) => m.eval(&g),
+            Answer::Table(t) => t.eval(&g),
+            Answer::Fitted(c) => c.eval(&g),
+            Answer::Blend(lower, upper, w) => blend(lower.eval(&g), upper.eval(&g), *w),
         };
         if f.is_finite() {
             Ok(f)
@@ -227,7 +252,7 @@ fn handle<'v, F: Flash>(
             active_crc: active.crc,
             materials: active.blob.materials.len() as u8,
         },
-        Request::Eval { material, input, x } => match active.eval(material, input, None, x) {
+        Request::Eval { material, input, x } => match active.resolve(material, None).and_then(|a| a.eval(input, x)) {
             Ok(f) => Response::Value(f),
             Err(e) => Response::Error(e),
         },
@@ -271,16 +296,19 @@ fn eval_batch<'v>(
     points: &[u8],
     values: &'v mut [u8; 4 * MAX_BATCH],
 ) -> Response<'v> {
+    // The material at the wavelength once per request (a banded one's bands are found and
+    // built here), then every point.
+    let answer = match active.resolve(material, wavelength) {
+        Ok(a) => a,
+        Err(e) => return Response::Error(e),
+    };
     let mut n = 0;
     for x in brdf_wire::frame::points(points) {
-        match active.eval(material, input, wavelength, x) {
+        match answer.eval(input, x) {
             Ok(f) => values[4 * n..4 * n + 4].copy_from_slice(&f.to_le_bytes()),
             Err(e) => return Response::Error(e),
         }
         n += 1;
-    }
-    if n == 0 && usize::from(material) >= active.blob.materials.len() {
-        return Response::Error(ErrorCode::UnknownMaterial);
     }
     Response::Values(&values[..4 * n])
 }

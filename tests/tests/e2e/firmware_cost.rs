@@ -56,7 +56,8 @@ fn device_cost_constants_match_a_fresh_count() {
 /// The same cost program on the Cortex-M33 and the Cortex-M0+ (`bench/firmware_cost.sh`
 /// prints these figures for the docs). The M33's FPU runs the same single-precision
 /// instructions as the M4F's, so every path costs within [`COST_DRIFT`] of the M4F figure; the
-/// M0+ has no FPU, so every path that does floating-point work costs many times more.
+/// M0+ has no FPU, so every path that does floating-point work costs many times more (a
+/// banded material's per-request set-up, mostly integer work, at least twice).
 #[test]
 fn other_cores_count_every_path() {
     use brdf_link::firmware::Core;
@@ -86,6 +87,13 @@ fn other_cores_count_every_path() {
             (n33 - n4).abs() <= COST_DRIFT * n4,
             "{name}: M33 {n33} against M4F {n4}"
         );
-        assert!(n0 >= 10.0 * n4, "{name}: M0+ {n0} against M4F {n4}");
+        // Finding a wavelength's bands and building their models is mostly integer work
+        // (reading the blob, range checks): slower on the M0+, not by an FPU's factor.
+        let floor = if name.contains("found and built") {
+            2.0
+        } else {
+            10.0
+        };
+        assert!(n0 >= floor * n4, "{name}: M0+ {n0} against M4F {n4}");
     }
 }

@@ -225,5 +225,62 @@ fn main() -> ! {
     );
     measure(21, "ggx exact from cosines", &ticks, |x| cosines(&ggx, x));
     measure(22, "ggx exact from angles", &ticks, |x| angles(&ggx, x));
+    banded(&ticks);
     exit(true)
+}
+
+/// A banded material of 31 six-parameter bands (a spectral fit of 400-700 nm at 10 nm) as
+/// the firmware serves EVAL_AT: once per request its two bands around the wavelength are
+/// found and built from the blob's bytes (path 23), then every direction evaluates both and
+/// blends them (path 24).
+fn banded(ticks: &Ticks) {
+    use brdf_core::bands::{blend, Located};
+    use brdf_wire::blob::{table1_blob, Blob, Material};
+    let khaki = table1_blob().materials[0];
+    let mut pairs = [(0.0f64, khaki); 31];
+    for (k, p) in pairs.iter_mut().enumerate() {
+        let mut q = brdf_core::TABLE1[0].1;
+        q[4] = 0.1 + 0.02 * k as f64;
+        let Ok(m) = Material::from_params(brdf_core::ModelKind::Six, &q) else {
+            exit(false)
+        };
+        *p = (0.4 + 0.01 * k as f64, m);
+    }
+    let mut extra = [0u8; 1024];
+    let Ok((material, len)) = Material::banded(&pairs, &mut extra) else {
+        exit(false)
+    };
+    let mut blob = table1_blob();
+    blob.materials[0] = material;
+    let mut bytes = [0u8; 2048];
+    let Ok(n) = blob.encode_with_tables(&[Some(&extra[..len])], &mut bytes) else {
+        exit(false)
+    };
+    let bytes = &bytes[..n];
+    let Ok(decoded) = Blob::decode(bytes) else {
+        exit(false)
+    };
+    let m = decoded.materials[0];
+    let resolve = |um: f32| match m.locate(bytes, um) {
+        Ok(Located::Between { lower, weight }) => {
+            match (m.band_model(bytes, lower), m.band_model(bytes, lower + 1)) {
+                (Some(a), Some(b)) => Some((a, b, weight)),
+                _ => None,
+            }
+        }
+        _ => None,
+    };
+    measure(
+        23,
+        "six banded (31 bands), two bands found and built at a wavelength",
+        ticks,
+        |x| resolve(black_box(0.555)).map_or(f32::NAN, |(_, _, w)| w + x),
+    );
+    let Some((a, b, w)) = resolve(0.555) else {
+        exit(false)
+    };
+    measure(24, "six banded, two bands blended from cosines", ticks, |x| {
+        let g = brdf_core::Geometry::from_cosines(black_box(0.9 - x), black_box(0.7 + x), black_box(-0.3 + x));
+        blend(a.eval(&g), b.eval(&g), black_box(w))
+    });
 }
