@@ -699,11 +699,14 @@ fn check_bands(m: &Material, count: u8, bytes: &[u8]) -> Result<(), BandError> {
         ..*m
     };
     let n = usize::from(count);
+    if !(2..=MAX_BANDS).contains(&n) {
+        return Err(BandError::Malformed);
+    }
     let mut centres = [0.0f32; MAX_BANDS];
     for (i, c) in centres.iter_mut().enumerate().take(n) {
         *c = probe.band_centre(bytes, i).ok_or(BandError::Malformed)?;
     }
-    if n < 2 || n > MAX_BANDS || !brdf_core::bands::valid(&centres[..n]) {
+    if !brdf_core::bands::valid(&centres[..n]) {
         return Err(BandError::Malformed);
     }
     for i in 1..n {

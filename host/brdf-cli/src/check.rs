@@ -199,15 +199,24 @@ fn band_plan(mat: &Material, blob: &[u8], m: usize, blob_name: &str) -> Result<O
     }))
 }
 
+/// Directions of a region asked and judged together.
+struct Part {
+    /// The region's row label.
+    label: String,
+    /// The directions.
+    xs: Vec<[f32; 3]>,
+    /// The wavelength each is asked at (`None`: plain EVAL_BATCH).
+    at: Vec<Option<f32>>,
+    /// Tolerance on top of the material's.
+    extra: f64,
+    /// The wavelengths asked at, for the report.
+    asked: Option<Vec<f32>>,
+}
+
 impl BandPlan {
     /// The region's directions as two parts, at the centres and between the bands; direction
     /// `k` is asked at the `k`-th wavelength of the `2 m - 1`, in turn.
-    #[allow(clippy::type_complexity)]
-    fn split(
-        &self,
-        name: &str,
-        xs: &[[f32; 3]],
-    ) -> Vec<(String, Vec<[f32; 3]>, Vec<Option<f32>>, f64, Option<Vec<f32>>)> {
+    fn split(&self, name: &str, xs: &[[f32; 3]]) -> Vec<Part> {
         let all: Vec<(f32, bool)> = self
             .centres
             .iter()
@@ -223,20 +232,20 @@ impl BandPlan {
             part.1.push(Some(um));
         }
         vec![
-            (
-                format!("{name} @ {} bands", self.centres.len()),
-                centre.0,
-                centre.1,
-                0.0,
-                Some(self.centres.clone()),
-            ),
-            (
-                format!("{name} @ {} midpoints", self.midpoints.len()),
-                between.0,
-                between.1,
-                BAND_BLEND_MAX_REL,
-                Some(self.midpoints.clone()),
-            ),
+            Part {
+                label: format!("{name} @ {} bands", self.centres.len()),
+                xs: centre.0,
+                at: centre.1,
+                extra: 0.0,
+                asked: Some(self.centres.clone()),
+            },
+            Part {
+                label: format!("{name} @ {} midpoints", self.midpoints.len()),
+                xs: between.0,
+                at: between.1,
+                extra: BAND_BLEND_MAX_REL,
+                asked: Some(self.midpoints.clone()),
+            },
         ]
     }
 
@@ -353,14 +362,24 @@ impl CheckCmd {
             let banded = band_plan(mat, &blob_bytes, m, &self.device.blob_name())?;
             let mut results = Vec::new();
             for (name, xs) in dirs.iter().filter(|d| !d.1.is_empty()) {
-                // Parts of this region: (label, directions, wavelength of each, extra
-                // tolerance, wavelengths asked at).
-                let parts: Vec<(String, Vec<[f32; 3]>, Vec<Option<f32>>, f64, Option<Vec<f32>>)> =
-                    match &banded {
-                        None => vec![(name.to_string(), xs.clone(), vec![None; xs.len()], 0.0, None)],
-                        Some(plan) => plan.split(name, xs),
-                    };
-                for (label, xs, at, extra, asked) in parts {
+                let parts: Vec<Part> = match &banded {
+                    None => vec![Part {
+                        label: name.to_string(),
+                        xs: xs.clone(),
+                        at: vec![None; xs.len()],
+                        extra: 0.0,
+                        asked: None,
+                    }],
+                    Some(plan) => plan.split(name, xs),
+                };
+                for Part {
+                    label,
+                    xs,
+                    at,
+                    extra,
+                    asked,
+                } in parts
+                {
                     if xs.is_empty() {
                         continue;
                     }

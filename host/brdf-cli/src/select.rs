@@ -271,13 +271,15 @@ impl SelectCmd {
     /// The bands of one spectral measurement (datasets that differ only in `wavelength`): each
     /// band selected on its own, one line per band; `--chosen` writes every band's chosen fit
     /// (an array in band order, which `brdf eval --fit`, scenes and `brdf.eval_fit` take at a
-    /// wavelength). A blob holds one set per material, so `-o` is refused.
+    /// wavelength). A device's banded material holds one analytic fit per band, and the
+    /// chosen fitted tables of 31 bands do not fit a slot, so `-o` is refused.
     fn run_bands(&self, bands: &[brdf_fit::Dataset]) -> Result<()> {
         if let Some(o) = &self.output {
             bail!(
-                "-o {}: a parameter blob holds one representation per material, not {} bands; \
-                 write the bands with --chosen, or select one band (--band with --format cornell \
-                 or nist; for a CSV, a file of that band's rows)",
+                "-o {}: a device's banded material holds one analytic fit per band, and {} bands' \
+                 fitted tables do not fit a slot; write the bands with --chosen, `brdf pack` the \
+                 bands of `brdf fit --json` for the device, or select one band (--band with \
+                 --format cornell or nist; for a CSV, a file of that band's rows)",
                 o.display(),
                 bands.len()
             );

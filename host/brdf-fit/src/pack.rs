@@ -786,13 +786,50 @@ mod band_tests {
         let lambert = r#"{"dataset": "p[wavelength=0.6]", "model": "lambert", "params": {"rho0": 0.3}}"#;
         let mixed = err(format!("[{}, {lambert}]", band("p[wavelength=0.5]", 0.5)));
         assert!(mixed.contains("one model in every band"), "{mixed}");
+        // (Lambertian bands: each fit's f32 accuracy is measured before the bands are grouped.)
         let many: Vec<String> = (0..65)
-            .map(|k| band(&format!("p[wavelength={}]", 0.4 + 0.01 * k as f64), 0.5))
+            .map(|k| {
+                let um = 0.4 + 0.01 * k as f64;
+                format!(
+                    r#"{{"dataset": "p[wavelength={um}]", "model": "lambert", "params": {{"rho0": 0.3}}}}"#
+                )
+            })
             .collect();
         let many = err(format!("[{}]", many.join(",")));
         assert!(
             many.contains("65 bands: a device material holds at most 64"),
             "{many}"
+        );
+        // Bands with fitted tables (what `brdf select --chosen` writes of a spectral file).
+        let shape = brdf_core::fitted::FittedShape {
+            theta_h: 4,
+            theta_d: 4,
+            phi_d: 2,
+        };
+        let mut bytes = vec![0u8; shape.encoded_len()];
+        let cells = shape.cells();
+        brdf_core::fitted::encode_fitted(shape, &vec![0.1; cells], &vec![true; cells], &mut bytes).unwrap();
+        let base = [0.2, 0.3, 0.04, 0.8];
+        let check = crate::fitted_table::TableRecord::check_of(brdf_core::ModelKind::Ggx, &base, &bytes);
+        let tabled = |um: f64| {
+            format!(
+                r#"{{"dataset": "p[wavelength={um}]", "model": "ggx", "params": {{"kd": 0.8,
+                "ks": 0.2, "f0": 0.04, "alpha": 0.3}}, "fitted_table": {{"nodes": [4, 4, 2],
+                "smoothness": 1.0, "coverage": 1.0, "bytes": "{}", "check": "{check}"}}}}"#,
+                hex::encode(&bytes)
+            )
+        };
+        // One band alone packs (a material the same at every wavelength); two are refused.
+        assert!(
+            pack_text(&tabled(0.5)).0.is_ok(),
+            "{:?}",
+            pack_text(&tabled(0.5)).0
+        );
+        let tables = err(format!("[{}, {}]", tabled(0.5), tabled(0.6)));
+        assert!(
+            tables.contains("fits.json: fits 0–1: fits.json: fit 0 has a fitted table")
+                && tables.contains("one analytic fit per band"),
+            "{tables}"
         );
         let bad = err(format!("[{}]", band("p[wavelength=-1]", 0.5)));
         assert!(
