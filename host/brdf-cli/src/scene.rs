@@ -21,7 +21,8 @@ pub struct SceneCmd {
 enum SceneSub {
     /// Laser radar cross-section per aspect: sigma = sum over facets seen by source and
     /// receiver of 4 pi f_r cos(theta_i) cos(theta_r) A (m^2), as CSV
-    /// `azimuth,elevation,lrcs`.
+    /// `azimuth,elevation,lrcs` (with a list of wavelengths, `[sensor] wavelength_um = [0.45,
+    /// 0.55]`, one column per wavelength: `azimuth,elevation,lrcs_0.45um,lrcs_0.55um`).
     Lrcs(LrcsCmd),
     /// The (theta_i, theta_r, phi) queries the scene makes, one row per aspect and facet
     /// seen, with the weight each carries in sigma (m^2 sr).
@@ -133,25 +134,48 @@ impl LrcsCmd {
         if self.json {
             let j = LrcsReport::new(self.scene.display().to_string(), &scene, &result);
             writeln!(out, "{}", serde_json::to_string_pretty(&j)?)?;
-        } else {
+        } else if scene.spectrum.is_empty() {
             writeln!(out, "azimuth,elevation,lrcs")?;
             for a in &result.aspects {
                 writeln!(out, "{},{},{}", a.azimuth, a.elevation, a.lrcs)?;
             }
+        } else {
+            // One column per wavelength of the list: `lrcs_0.55um`.
+            let columns: Vec<String> = scene
+                .spectrum
+                .iter()
+                .map(|(um, _)| format!("lrcs_{}um", brdf_fit::data::wavelength_text(*um)))
+                .collect();
+            writeln!(out, "azimuth,elevation,{}", columns.join(","))?;
+            for a in &result.aspects {
+                let values: Vec<String> = a.by_wavelength.iter().map(f64::to_string).collect();
+                writeln!(out, "{},{},{}", a.azimuth, a.elevation, values.join(","))?;
+            }
         }
         out.flush().context("cannot write the output")?;
         if let Some(plot) = &self.plot {
+            // One curve per elevation, and per wavelength of a list.
+            let columns: Vec<Option<(usize, f64)>> = match scene.spectrum.len() {
+                0 => vec![None],
+                _ => scene.spectrum.iter().map(|w| w.0).enumerate().map(Some).collect(),
+            };
             let curves: Vec<brdf_plot::PolarCurve> = scene
                 .sensor
                 .elevation_deg
                 .iter()
-                .map(|&el| brdf_plot::PolarCurve {
-                    label: format!("elevation {el}°"),
+                .flat_map(|&el| columns.iter().map(move |c| (el, *c)))
+                .map(|(el, column)| brdf_plot::PolarCurve {
+                    label: match column {
+                        None => format!("elevation {el}°"),
+                        Some((_, um)) => {
+                            format!("elevation {el}°, {} µm", brdf_fit::data::wavelength_text(um))
+                        }
+                    },
                     points: result
                         .aspects
                         .iter()
                         .filter(|a| a.elevation == el)
-                        .map(|a| (a.azimuth, a.lrcs))
+                        .map(|a| (a.azimuth, column.map_or(a.lrcs, |(k, _)| a.by_wavelength[k])))
                         .collect(),
                 })
                 .collect();

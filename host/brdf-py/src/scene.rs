@@ -97,6 +97,7 @@ pub(crate) fn select_scene<'py>(
     use brdf_scene::select::{select, SelectOptions};
     check_budget(budget).map_err(PyValueError::new_err)?;
     let scene = scene_at(&path)?;
+    scene.one_wavelength().map_err(PyValueError::new_err)?;
     let opts = SelectOptions {
         budget,
         fit: FitOptions {

@@ -137,3 +137,32 @@ def test_ctrl_c_interrupts_a_long_sweep(root, tmp_path):
     assert child.returncode != 0 and "KeyboardInterrupt" in err, (out, err)
     assert "finished" not in out
     assert took < 5.0, f"{took:.1f} s after Ctrl-C"
+
+
+def test_a_list_of_wavelengths_gives_sigma_at_each(cli, root, tmp_path):
+    # Lambertian bands at 0.5 and 0.7 um on every part of the bundled target.
+    fits = [
+        {"dataset": "p.csv[wavelength=0.5]", "model": "lambert", "params": {"rho0": 0.2}},
+        {"dataset": "p.csv[wavelength=0.7]", "model": "lambert", "params": {"rho0": 0.6}},
+    ]
+    (tmp_path / "fits.json").write_text(json.dumps(fits))
+    (tmp_path / "target.obj").write_bytes((root / "data/scenes/target.obj").read_bytes())
+    scene = tmp_path / "s.toml"
+    scene.write_text(
+        'mesh = "target.obj"\n[[material]]\npart = "*"\nfit = "fits.json"\n[sensor]\nmode = "monostatic"\n'
+        "wavelength_um = [0.5, 0.6, 0.7]\nazimuth_deg = [0, 360, 45]\nelevation_deg = [0, 31, 30]\n"
+    )
+    got = brdf.scene_lrcs(scene)
+    assert got.wavelengths.tolist() == [0.5, 0.6, 0.7]
+    assert got.by_wavelength.shape == (16, 3)
+    assert got.by_wavelength[:, 0].tolist() == got.lrcs.tolist()
+    # sigma is linear in rho: 0.4 at 0.6 um, 0.6 at 0.7 um.
+    np.testing.assert_allclose(got.by_wavelength[:, 1], 2 * got.lrcs, rtol=1e-12)
+    np.testing.assert_allclose(got.by_wavelength[:, 2], 3 * got.lrcs, rtol=1e-12)
+    rows = list(csv.reader(io.StringIO(cli("scene", "lrcs", scene).stdout)))
+    assert rows[0] == ["azimuth", "elevation", "lrcs_0.5um", "lrcs_0.6um", "lrcs_0.7um"]
+    assert [[float(x) for x in r[2:]] for r in rows[1:]] == got.by_wavelength.tolist()
+    one = brdf.scene_lrcs(root / SCENE)
+    assert one.wavelengths is None and one.by_wavelength is None
+    with pytest.raises(ValueError, match="lists 3 wavelengths"):
+        brdf.select_scene(scene)

@@ -42,6 +42,9 @@ pub struct LrcsReport<'a> {
     /// are taken.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wavelength_um: Option<f64>,
+    /// A list of wavelengths (µm), σ at each in every aspect's `by_wavelength`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wavelengths_um: Option<Vec<f64>>,
     /// The materials in scene order.
     pub materials: Vec<LrcsMaterial>,
     /// Wall time of the sweep, s.
@@ -66,6 +69,9 @@ pub struct LrcsMaterial {
     /// band below's).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub band: Option<String>,
+    /// With a list of wavelengths: the band or bands used at each, as `band`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bands_by_wavelength: Option<Vec<Option<String>>>,
     /// With a fitted table: the share of the material's σ, summed over the sweep, that comes
     /// from lookups outside the table's coverage (where it holds the smoothness term's
     /// extrapolation, not a measurement).
@@ -87,6 +93,8 @@ impl<'a> LrcsReport<'a> {
             mode,
             separation_deg,
             wavelength_um: scene.wavelength_um,
+            wavelengths_um: (!scene.spectrum.is_empty())
+                .then(|| scene.spectrum.iter().map(|w| w.0).collect()),
             materials: scene
                 .materials
                 .iter()
@@ -97,6 +105,13 @@ impl<'a> LrcsReport<'a> {
                     params: m.model.to_params()[..m.model.kind().param_count()].to_vec(),
                     fitted_table: m.table.is_some(),
                     band: scene.band_used(k),
+                    bands_by_wavelength: (!scene.spectrum.is_empty()).then(|| {
+                        scene
+                            .spectrum
+                            .iter()
+                            .map(|(um, mats)| mats[k].band_used(Some(*um)))
+                            .collect()
+                    }),
                     outside_coverage: m.table.as_ref().map(|_| result.outside_coverage(k)),
                 })
                 .collect(),
@@ -128,6 +143,9 @@ pub struct AspectSigma {
     pub by_material: Vec<f64>,
     /// Facets seen by both source and receiver.
     pub facets_seen: usize,
+    /// σ at each wavelength of the scene's list (`Scene::spectrum`), m²; empty without one.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub by_wavelength: Vec<f64>,
     /// Each material's share of σ from lookups outside its fitted table's coverage, m² (0
     /// for materials without one).
     #[serde(skip)]
@@ -153,27 +171,44 @@ impl Lrcs {
 
 /// σ at every aspect with each material's exact model (f64), in parallel over aspects;
 /// `progress` is called once per aspect done.
+/// With a list of wavelengths, σ at each too (`AspectSigma::by_wavelength`, the visibility
+/// traced once).
 pub fn lrcs(scene: &Scene, progress: &(dyn Fn() + Sync)) -> Lrcs {
     let models: Vec<Evaluator> = scene.materials.iter().map(|m| m.evaluator()).collect();
-    lrcs_with(scene, &models, progress)
+    lrcs_with_until(scene, &models, &spectral_models(scene), progress, &Stop::new())
+}
+
+/// The evaluators of every wavelength of the scene's list.
+fn spectral_models(scene: &Scene) -> Vec<Vec<Evaluator>> {
+    scene
+        .spectrum
+        .iter()
+        .map(|(_, mats)| mats.iter().map(|m| m.evaluator()).collect())
+        .collect()
 }
 
 /// σ at every aspect with the given representation of each material (scene order).
 pub fn lrcs_with(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + Sync)) -> Lrcs {
-    lrcs_with_until(scene, models, progress, &Stop::new())
+    lrcs_with_until(scene, models, &[], progress, &Stop::new())
 }
 
 /// [`lrcs`] that ends within one aspect's work once `stop` is requested (the Python package's
 /// Ctrl-C): `None` then, and the sweep's threads are free.
 pub fn lrcs_until(scene: &Scene, progress: &(dyn Fn() + Sync), stop: &Stop) -> Option<Lrcs> {
     let models: Vec<Evaluator> = scene.materials.iter().map(|m| m.evaluator()).collect();
-    let result = lrcs_with_until(scene, &models, progress, stop);
+    let result = lrcs_with_until(scene, &models, &spectral_models(scene), progress, stop);
     (!stop.requested()).then_some(result)
 }
 
 /// [`lrcs_with`], each aspect skipped once `stop` is requested (the result is then partial,
 /// its skipped aspects zero, and meant to be dropped: [`lrcs_until`]).
-fn lrcs_with_until(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + Sync), stop: &Stop) -> Lrcs {
+fn lrcs_with_until(
+    scene: &Scene,
+    models: &[Evaluator],
+    spectral: &[Vec<Evaluator>],
+    progress: &(dyn Fn() + Sync),
+    stop: &Stop,
+) -> Lrcs {
     let started = Instant::now();
     let aspects: Vec<AspectSigma> = scene
         .aspects()
@@ -188,6 +223,7 @@ fn lrcs_with_until(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + S
                         lrcs: 0.0,
                         by_material: Vec::new(),
                         facets_seen: 0,
+                        by_wavelength: Vec::new(),
                         outside_coverage: Vec::new(),
                     };
                 }
@@ -202,6 +238,16 @@ fn lrcs_with_until(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + S
                         (sigma, outside)
                     })
                     .unzip();
+                let by_wavelength: Vec<f64> = spectral
+                    .iter()
+                    .map(|ms| {
+                        batches
+                            .iter()
+                            .zip(ms)
+                            .map(|(b, m)| b.sigma(m, scratch))
+                            .fold(0.0, |s, x| s + x)
+                    })
+                    .collect();
                 progress();
                 AspectSigma {
                     azimuth: a.azimuth_deg,
@@ -209,6 +255,7 @@ fn lrcs_with_until(scene: &Scene, models: &[Evaluator], progress: &(dyn Fn() + S
                     lrcs: by_material.iter().fold(0.0, |s, m| s + m), // from +0, as `QueryBatch::sigma`
                     by_material,
                     facets_seen: batches.iter().map(QueryBatch::len).sum(),
+                    by_wavelength,
                     outside_coverage,
                 }
             },

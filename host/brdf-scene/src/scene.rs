@@ -14,7 +14,8 @@
 //! [sensor]
 //! mode = "monostatic"            # or "bistatic" with separation_deg
 //! wavelength_um = 0.55           # optional: each spectral fit's band there, or the two bands
-//!                                # around it interpolated linearly (never extrapolated)
+//!                                # around it interpolated linearly (never extrapolated); or a
+//!                                # list, [0.45, 0.55, 0.65]: sigma at each (one column each)
 //! azimuth_deg = [0, 360, 5]      # start, stop (exclusive), step
 //! elevation_deg = [0, 31, 15]
 //! ```
@@ -130,11 +131,23 @@ struct MaterialEntry {
 #[serde(deny_unknown_fields)]
 struct SensorEntry {
     mode: Spanned<String>,
-    wavelength_um: Option<Spanned<f64>>,
+    wavelength_um: Option<Spanned<Wavelengths>>,
     separation_deg: Option<Spanned<f64>>,
     azimuth_deg: Spanned<Vec<f64>>,
     elevation_deg: Spanned<Vec<f64>>,
 }
+
+/// `wavelength_um = 0.55` or `wavelength_um = [0.45, 0.55]`.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum Wavelengths {
+    One(f64),
+    Many(Vec<f64>),
+}
+
+/// Most wavelengths one scene lists (`[sensor] wavelength_um = [...]`): the bands of a
+/// spectral fit on a device ([`brdf_core::bands::MAX_BANDS`]).
+pub const MAX_WAVELENGTHS: usize = brdf_core::bands::MAX_BANDS;
 
 /// Where a material's parameters came from.
 #[derive(Clone, Debug, PartialEq)]
@@ -307,8 +320,12 @@ pub struct Scene {
     /// The BVH for occlusion rays.
     pub occluder: Occluder,
     /// The sensor's wavelength, µm (`[sensor] wavelength_um`): the band of each spectral
-    /// material used.
+    /// material used (the first of a list).
     pub wavelength_um: Option<f64>,
+    /// With a list of wavelengths (`wavelength_um = [0.45, 0.55]`): every one with the
+    /// materials there, in scene order (the first's are `materials`); empty otherwise.
+    /// [`crate::lrcs::lrcs`] gives σ at each (`AspectSigma::by_wavelength`).
+    pub spectrum: Vec<(f64, Vec<SceneMaterial>)>,
 }
 
 impl std::fmt::Debug for Scene {
@@ -407,6 +424,7 @@ impl Scene {
             sensor,
             occluder,
             wavelength_um: None,
+            spectrum: Vec::new(),
         })
     }
 
@@ -438,32 +456,64 @@ impl Scene {
             field,
             message,
         };
-        let wavelength = match &parsed.sensor.get_ref().wavelength_um {
-            None => None,
-            Some(w) if brdf_fit::data::is_wavelength(*w.get_ref()) => Some((*w.get_ref(), w.span())),
+        let wavelengths: Vec<(f64, Range<usize>)> = match &parsed.sensor.get_ref().wavelength_um {
+            None => Vec::new(),
             Some(w) => {
-                return Err(field(
-                    w.span(),
-                    "wavelength_um",
-                    format!("{} is not a wavelength above 0 (µm)", w.get_ref()),
-                ))
+                let list = match w.get_ref() {
+                    Wavelengths::One(x) => vec![*x],
+                    Wavelengths::Many(v) => v.clone(),
+                };
+                let bad = |message: String| field(w.span(), "wavelength_um", message);
+                if list.is_empty() || list.len() > MAX_WAVELENGTHS {
+                    return Err(bad(format!(
+                        "{} wavelengths: give 1 to {MAX_WAVELENGTHS}",
+                        list.len()
+                    )));
+                }
+                if let Some(x) = list.iter().find(|x| !brdf_fit::data::is_wavelength(**x)) {
+                    return Err(bad(format!("{x} is not a wavelength above 0 (µm)")));
+                }
+                for (k, a) in list.iter().enumerate() {
+                    if let Some(b) = list[..k]
+                        .iter()
+                        .find(|b| (*b - a).abs() < brdf_core::bands::SAME_BAND_UM)
+                    {
+                        return Err(bad(format!("{b} and {a} µm are one wavelength: each once")));
+                    }
+                }
+                list.into_iter().map(|x| (x, w.span())).collect()
             }
         };
-        let mut materials = Vec::new();
-        for entry in &parsed.materials {
-            let e = entry.get_ref();
-            let line = line_of(&text, e.part.span().start);
-            let (model, source, table, upper, banded) = resolve_material(e, dir, wavelength.clone(), &field)?;
-            materials.push(SceneMaterial {
-                part: e.part.get_ref().clone(),
-                model,
-                table,
-                source,
-                line,
-                upper,
-                banded,
-            });
+        // The materials at each wavelength (once without one).
+        let mut spectrum: Vec<(f64, Vec<SceneMaterial>)> = Vec::new();
+        let runs: Vec<Option<(f64, Range<usize>)>> = match wavelengths.len() {
+            0 => vec![None],
+            _ => wavelengths.iter().cloned().map(Some).collect(),
+        };
+        for wavelength in runs {
+            let mut at = Vec::new();
+            for entry in &parsed.materials {
+                let e = entry.get_ref();
+                let line = line_of(&text, e.part.span().start);
+                let (model, source, table, upper, banded) =
+                    resolve_material(e, dir, wavelength.clone(), &field)?;
+                at.push(SceneMaterial {
+                    part: e.part.get_ref().clone(),
+                    model,
+                    table,
+                    source,
+                    line,
+                    upper,
+                    banded,
+                });
+            }
+            spectrum.push((wavelength.map_or(0.0, |w| w.0), at));
         }
+        let materials = spectrum[0].1.clone();
+        if spectrum.len() < 2 {
+            spectrum.clear();
+        }
+        let wavelength = wavelengths.first().cloned();
         if materials.is_empty() {
             return Err(SceneError::Field {
                 file,
@@ -546,6 +596,7 @@ impl Scene {
             },
         )?;
         scene.wavelength_um = wavelength.map(|w| w.0);
+        scene.spectrum = spectrum;
         Ok(scene)
     }
 
@@ -561,6 +612,19 @@ impl Scene {
         files
     }
 
+    /// For what works at one wavelength (`brdf select --scene`: a blob holds one choice per
+    /// material): refused, naming the list, when the scene lists several.
+    pub fn one_wavelength(&self) -> Result<(), String> {
+        match self.spectrum.len() {
+            0 => Ok(()),
+            n => Err(format!(
+                "{}: [sensor] wavelength_um lists {n} wavelengths; selecting works at one (a \
+                 blob holds one representation per material): give one wavelength",
+                self.file.display()
+            )),
+        }
+    }
+
     /// Every aspect of the sweep.
     pub fn aspects(&self) -> Vec<Aspect> {
         self.sensor.aspects()
@@ -569,7 +633,29 @@ impl Scene {
     /// What material `m` is: its model (`six`, `six + table`), or between two bands at the
     /// scene's wavelength each with its weight (`six (fit 15) x 0.25 + six (fit 16) x 0.75`).
     pub fn material_description(&self, m: usize) -> String {
-        let mat = &self.materials[m];
+        self.materials[m].description()
+    }
+
+    /// For a material taken from a spectral fit at the scene's wavelength: the band used, or
+    /// the two blended ([`Scene::material_description`] with the fit's index); `None` for a
+    /// scene without a wavelength or a material without bands.
+    pub fn band_used(&self, m: usize) -> Option<String> {
+        self.materials[m].band_used(self.wavelength_um)
+    }
+
+    /// A short name for material `m`: its part (`*` reads "other parts").
+    pub fn material_label(&self, m: usize) -> String {
+        match self.materials[m].part.as_str() {
+            "*" => "* (other parts)".into(),
+            p => p.to_owned(),
+        }
+    }
+}
+
+impl SceneMaterial {
+    /// What the material is ([`Scene::material_description`]).
+    pub fn description(&self) -> String {
+        let mat = self;
         let one = |model: &AnyModel<f64>, table: bool| match table {
             true => format!("{} + table", model.kind().name()),
             false => model.kind().name().to_owned(),
@@ -589,25 +675,15 @@ impl Scene {
         }
     }
 
-    /// For a material taken from a spectral fit at the scene's wavelength: the band used, or
-    /// the two blended ([`Scene::material_description`] with the fit's index); `None` for a
-    /// scene without a wavelength or a material without bands.
-    pub fn band_used(&self, m: usize) -> Option<String> {
-        let mat = &self.materials[m];
-        match (&mat.source, &mat.upper, self.wavelength_um) {
-            (_, Some(_), Some(_)) => Some(self.material_description(m)),
-            (Source::Fit(_, k), None, Some(_)) if mat.banded => {
-                Some(format!("{} (fit {k})", self.material_description(m)))
+    /// At `wavelength`, for a material taken from a spectral fit: the band used, or the two
+    /// blended ([`Scene::band_used`]).
+    pub fn band_used(&self, wavelength: Option<f64>) -> Option<String> {
+        match (&self.source, &self.upper, wavelength) {
+            (_, Some(_), Some(_)) => Some(self.description()),
+            (Source::Fit(_, k), None, Some(_)) if self.banded => {
+                Some(format!("{} (fit {k})", self.description()))
             }
             _ => None,
-        }
-    }
-
-    /// A short name for material `m`: its part (`*` reads "other parts").
-    pub fn material_label(&self, m: usize) -> String {
-        match self.materials[m].part.as_str() {
-            "*" => "* (other parts)".into(),
-            p => p.to_owned(),
         }
     }
 }

@@ -295,3 +295,75 @@ fn lrcs_that_sees_no_facet_at_any_aspect_says_so() {
     ok(&above);
     assert!(!String::from_utf8_lossy(&above.stderr).contains("no facet faces"));
 }
+
+/// The bundled target's hull painted with the 31 bands of Garnet Red (one `brdf fit` of the
+/// spectral file), seen at one wavelength and at a list: one σ column per wavelength, the
+/// column between two bands the mean of theirs, the JSON naming each wavelength's bands, and
+/// `brdf select --scene` refusing the list.
+#[test]
+fn a_scene_takes_a_spectral_fit_at_one_wavelength_or_a_list() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = brdf_tests::measured("cornell-spectral/garnet_red.astm");
+    let fits = dir.path().join("garnet.json");
+    std::fs::write(
+        &fits,
+        ok(&brdf(&[
+            "fit",
+            "--format",
+            "cornell",
+            data.to_str().unwrap(),
+            "--json",
+        ])),
+    )
+    .unwrap();
+    let target = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/target.obj");
+    std::fs::copy(&target, dir.path().join("target.obj")).unwrap();
+    let write = |name: &str, wavelength: &str| {
+        let toml = format!(
+            "mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nfit = \"garnet.json\"\n[sensor]\n\
+             mode = \"monostatic\"\nwavelength_um = {wavelength}\nazimuth_deg = [0, 360, 30]\n\
+             elevation_deg = [0, 31, 30]\n"
+        );
+        let p = dir.path().join(name);
+        std::fs::write(&p, toml).unwrap();
+        p.to_str().unwrap().to_owned()
+    };
+    let one = write("one.toml", "0.55");
+    let list = write("list.toml", "[0.55, 0.555, 0.56]");
+    let column = |csv: &str, k: usize| -> Vec<f64> {
+        csv.lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
+            .collect()
+    };
+    let at_055 = ok(&brdf(&["scene", "lrcs", &one]));
+    assert!(at_055.starts_with("azimuth,elevation,lrcs\n"), "{at_055}");
+    let spectral = ok(&brdf(&["scene", "lrcs", &list]));
+    assert!(
+        spectral.starts_with("azimuth,elevation,lrcs_0.55um,lrcs_0.555um,lrcs_0.56um\n"),
+        "{spectral}"
+    );
+    assert_eq!(column(&spectral, 2), column(&at_055, 2));
+    let (a, mid, b) = (column(&spectral, 2), column(&spectral, 3), column(&spectral, 4));
+    assert_eq!(a.len(), 24);
+    for k in 0..a.len() {
+        assert!(
+            (mid[k] - 0.5 * (a[k] + b[k])).abs() <= 1e-12 * a[k].max(b[k]),
+            "{k}"
+        );
+    }
+    assert!(a.iter().zip(&b).any(|(x, y)| x != y), "two bands that differ");
+    let json: serde_json::Value =
+        serde_json::from_str(&ok(&brdf(&["scene", "lrcs", &list, "--json"]))).unwrap();
+    assert_eq!(json["wavelengths_um"], serde_json::json!([0.55, 0.555, 0.56]));
+    let bands = json["materials"][0]["bands_by_wavelength"].as_array().unwrap();
+    assert_eq!(bands.len(), 3);
+    assert!(bands[1].as_str().unwrap().contains(" x 0.5 + "), "{bands:?}");
+    assert_eq!(json["aspects"][0]["by_wavelength"].as_array().unwrap().len(), 3);
+    let refused = brdf(&["select", "--scene", &list]);
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && err.contains("lists 3 wavelengths"),
+        "{err}"
+    );
+}

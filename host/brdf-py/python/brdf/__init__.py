@@ -746,7 +746,10 @@ class SceneLrcs:
     scene order, named by ``parts``) and ``facets_seen`` (facets seen by both source and
     receiver), all numpy arrays in sweep order; ``seconds`` (the sweep's wall time) and
     ``report`` (the whole JSON as a dict). ``to_json()`` is the text ``brdf scene lrcs
-    --json`` prints for the same scene (its ``seconds`` is this run's).
+    --json`` prints for the same scene (its ``seconds`` is this run's). For a scene that lists
+    wavelengths (``[sensor] wavelength_um = [0.45, 0.55]``), ``wavelengths`` (µm) and
+    ``by_wavelength`` (sigma at each: shape (aspects, wavelengths); ``lrcs`` is its first
+    column); both None otherwise.
     """
 
     def __init__(self, text, azimuth, elevation, lrcs, by_material, facets_seen, parts):
@@ -759,6 +762,15 @@ class SceneLrcs:
         self.facets_seen = np.array(facets_seen, dtype=np.int64)
         self.parts: List[str] = list(parts)
         self.seconds: float = self.report["seconds"]
+        w = self.report.get("wavelengths_um")
+        self.wavelengths: Optional[np.ndarray] = None if w is None else np.array(w, dtype=np.float64)
+        self.by_wavelength: Optional[np.ndarray] = (
+            None
+            if w is None
+            else np.array([a["by_wavelength"] for a in self.report["aspects"]], dtype=np.float64).reshape(
+                len(self.lrcs), len(w)
+            )
+        )
 
     def to_json(self) -> str:
         """The sweep exactly as ``brdf scene lrcs --json`` prints it (without its final newline)."""

@@ -363,6 +363,40 @@ fn spectral_materials_are_taken_at_the_sensors_wavelength() {
             "{bad}: {e}"
         );
     }
+    // A list: sigma at each wavelength from one sweep, the first also as `lrcs`; each
+    // wavelength's bands stated; a list entry outside the bands, repeated, or empty refused.
+    let (_d, list) = scene("wavelength_um = [0.5, 0.65, 0.7]\n", "index = 0\n");
+    let list = list.unwrap();
+    assert_eq!(list.wavelength_um, Some(0.5));
+    assert_eq!(list.spectrum.len(), 3);
+    let result = brdf_scene::lrcs::lrcs(&list, &|| {});
+    for ((a, b05), b065) in result.aspects.iter().zip(sigma(&at_05)).zip(sigma(&at_065)) {
+        assert_eq!(a.by_wavelength.len(), 3);
+        assert_eq!((a.lrcs, a.by_wavelength[0]), (b05, b05));
+        assert!((a.by_wavelength[1] - b065).abs() <= 1e-15 * b065, "{a:?} {b065}");
+        // rho 0.6 at 0.7 µm: three times 0.2's sigma.
+        assert!((a.by_wavelength[2] / b05 - 3.0).abs() < 1e-12, "{a:?}");
+    }
+    let report = brdf_scene::lrcs::LrcsReport::new("s".into(), &list, &result);
+    assert_eq!(report.wavelengths_um.as_deref(), Some(&[0.5, 0.65, 0.7][..]));
+    let bands = report.materials[0].bands_by_wavelength.clone().unwrap();
+    assert_eq!(bands[0].as_deref(), Some("lambert (fit 1)"));
+    assert_eq!(bands[2].as_deref(), Some("lambert (fit 0)"));
+    assert!(list.one_wavelength().unwrap_err().contains("lists 3 wavelengths"));
+    assert!(at_05.one_wavelength().is_ok());
+    for (bad, says) in [
+        ("[0.5, 0.8]", "span 0.5–0.7 µm"),
+        ("[0.5, 0.6, 0.5]", "0.5 and 0.5 µm are one wavelength"),
+        ("[]", "0 wavelengths"),
+        ("[0.5, -1]", "-1 is not a wavelength"),
+    ] {
+        let (_d, e) = scene(&format!("wavelength_um = {bad}\n"), "index = 0\n");
+        let e = e.unwrap_err().to_string();
+        assert!(
+            e.contains("line 8: wavelength_um") && e.contains(says),
+            "{bad}: {e}"
+        );
+    }
     // The second measurement has one band: only its own wavelength.
     let (_d, e) = scene("wavelength_um = 0.6\n", "index = 2\n");
     assert!(e.unwrap_err().to_string().contains("only band is 0.5 µm"));
