@@ -102,12 +102,18 @@ impl FitCmd {
         let stdout = std::io::stdout();
         let many = datasets.len() > 1;
         let mut failure: Option<anyhow::Error> = None;
+        // In text, the bands of a spectral measurement are tabulated against wavelength after
+        // their reports.
+        let mut written: Vec<FitReport> = Vec::new();
         let mut write_one = |i: usize, r: &Result<FitReport, FitError>| -> Result<()> {
             bar.inc(1);
             let r = match r {
                 Ok(r) => r,
                 Err(e) => bail!("{e}"),
             };
+            if !self.json && brdf_fit::data::split_wavelength(&r.dataset).is_some() {
+                written.push(r.clone());
+            }
             if let Some(note) = r.noise_floor.as_ref().and_then(|f| f.note.as_ref()) {
                 eprintln!("warning: {}: {note}", r.dataset);
             }
@@ -143,8 +149,41 @@ impl FitCmd {
         if self.json && many {
             writeln!(stdout.lock(), "\n]")?;
         }
+        for s in brdf_fit::spectral::spectra(&written) {
+            write_spectrum(&mut stdout.lock(), &s)?;
+        }
         Ok(())
     }
+}
+
+/// A spectral measurement's bands against wavelength: every parameter (the weights, which
+/// carry the colour, marked), the albedo at normal incidence and the RMS relative error.
+pub fn write_spectrum(out: &mut impl Write, s: &brdf_fit::spectral::Spectrum) -> Result<()> {
+    let names = s.model.param_names();
+    let weights = s.weight_indices();
+    writeln!(
+        out,
+        "{}: {} bands, {} ({} the weights, per band; the rest the shape)",
+        s.measurement,
+        s.bands.len(),
+        s.model.name(),
+        weights.iter().map(|&i| names[i]).collect::<Vec<_>>().join(", ")
+    )?;
+    write!(out, "  {:>9}", "um")?;
+    for (i, n) in names.iter().enumerate() {
+        let mark = if weights.contains(&i) { "*" } else { "" };
+        write!(out, " {:>11}", format!("{n}{mark}"))?;
+    }
+    writeln!(out, " {:>11} {:>9}", "albedo 0deg", "rms rel")?;
+    for b in &s.bands {
+        write!(out, "  {:>9}", brdf_fit::data::wavelength_text(b.wavelength_um))?;
+        for v in &b.params {
+            write!(out, " {:>11.5}", v)?;
+        }
+        let albedo = b.albedo_normal.map_or("-".to_owned(), |a| format!("{a:.5}"));
+        writeln!(out, " {albedo:>11} {:>8.3}%", 100.0 * b.rms_rel)?;
+    }
+    Ok(())
 }
 
 /// `-o results.csv`: one row per dataset, written as each fit finishes.
@@ -307,11 +346,16 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
     let m = r.metrics;
     writeln!(
         out,
-        "  rmse {:.4e} 1/sr, rms relative {:.3}%, max relative {:.3}%, rmse of ln f {:.4}",
+        "  rmse {:.4e} 1/sr, rms relative {:.3}%, max relative {:.3}%, rmse of ln f {}",
         m.rmse,
         100.0 * m.rms_rel,
         100.0 * m.max_rel,
-        m.log_rmse
+        if m.log_rmse.is_nan() {
+            // ln of a reading at or below zero (`Metrics::log_rmse`).
+            "undefined (readings at or below 0)".to_owned()
+        } else {
+            format!("{:.4}", m.log_rmse)
+        }
     )?;
     for pi in &r.per_incidence {
         writeln!(

@@ -22,6 +22,9 @@ pub enum PlotKind {
     Map,
     /// Relative residuals of the first model against angle.
     Residuals,
+    /// The first model fitted to every band of a spectral file: its weights, the albedo at
+    /// normal incidence and the RMS relative error against wavelength.
+    Spectrum,
 }
 
 /// Fit one or more models to a dataset and plot them (SVG or PNG, by the extension of -o).
@@ -70,7 +73,12 @@ pub fn fit_models(
 
 impl PlotCmd {
     pub fn run(self) -> Result<()> {
+        crate::common::not_an_input("-o", &self.output, [self.data.as_path()])?;
+        brdf_plot::check_path(&self.output)?;
         let mut datasets = self.engine.load(std::slice::from_ref(&self.data))?;
+        if self.kind == PlotKind::Spectrum {
+            return self.spectrum(datasets);
+        }
         if let Some(g) = &self.group {
             let tag = format!("[{g}]");
             datasets.retain(|d| d.name.ends_with(&tag));
@@ -103,7 +111,54 @@ impl PlotCmd {
                 self.theta_i.to_radians(),
             )?,
             PlotKind::Residuals => brdf_plot::residuals(&self.output, &title, data, &curves[0])?,
+            PlotKind::Spectrum => unreachable!("drawn by `spectrum` above"),
         }
+        eprintln!("wrote {}", self.output.display());
+        Ok(())
+    }
+
+    /// `spectrum`: every band of the file's one spectral measurement, fitted with the first
+    /// model (in parallel, as `brdf fit`), drawn against wavelength.
+    fn spectrum(&self, datasets: Vec<Dataset>) -> Result<()> {
+        if self.group.is_some() {
+            bail!("--group picks one dataset; spectrum draws every band of the file");
+        }
+        let Some(&model) = self.models.first() else {
+            bail!("--models: name a model");
+        };
+        if self.models.len() > 1 {
+            eprintln!(
+                "note: spectrum draws the first model, {}; the others are not fitted",
+                model.name()
+            );
+        }
+        let settings = self.engine.settings(model)?;
+        let (datasets, skipped) = brdf_fit::fittable(&settings, datasets, self.engine.skip_invalid)?;
+        for s in &skipped {
+            eprintln!("{s}");
+        }
+        let reports = brdf_fit::fit_all(&settings, &datasets)?;
+        let spectra = brdf_fit::spectral::spectra(&reports);
+        let s = match &spectra[..] {
+            [one] => one,
+            [] => bail!(
+                "{}: no spectral measurement with two or more bands (datasets named FILE[wavelength=...]: \
+                 a spectral --format cornell or nist file, or a CSV with a wavelength column)",
+                self.data.display()
+            ),
+            many => bail!(
+                "{}: holds {} spectral measurements ({}); give a file of one",
+                self.data.display(),
+                many.len(),
+                many.iter()
+                    .map(|s| s.measurement.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        };
+        let title = self.title.clone().unwrap_or_else(|| s.measurement.clone());
+        brdf_plot::spectrum(&self.output, &title, s)?;
+        crate::fit::write_spectrum(&mut std::io::stdout().lock(), s)?;
         eprintln!("wrote {}", self.output.display());
         Ok(())
     }

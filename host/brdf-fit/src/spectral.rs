@@ -576,3 +576,82 @@ mod tests {
         assert!(x[0] == 0.0 && (x[1] - 0.5).abs() < 1e-5, "{x:?}");
     }
 }
+
+/// One band of a measurement's [`Spectrum`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpectrumBand {
+    /// Centre, µm.
+    pub wavelength_um: f64,
+    /// Index of the band's report among those given to [`spectra`].
+    pub fit: usize,
+    /// Parameters in paper order.
+    pub params: Vec<f64>,
+    /// Directional-hemispherical reflectance at normal incidence (the report's energy check),
+    /// if the report has it.
+    pub albedo_normal: Option<f64>,
+    /// RMS relative error over the band's readings (floored as the fit weighed them).
+    pub rms_rel: f64,
+}
+
+/// A spectral measurement's fits against wavelength: what `brdf fit` tabulates after the
+/// bands' reports and `brdf plot spectrum` draws.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spectrum {
+    /// The measurement (dataset name without its wavelength group).
+    pub measurement: String,
+    /// The model of every band.
+    pub model: ModelKind,
+    /// The bands, ascending in wavelength.
+    pub bands: Vec<SpectrumBand>,
+}
+
+impl Spectrum {
+    /// Indices of the parameters the model is linear in (the weights: `kb`, `kd`; `rho0`),
+    /// which carry a surface's colour; the others are its shape.
+    pub fn weight_indices(&self) -> Vec<usize> {
+        let shape = nonlinear_indices(self.model);
+        (0..self.model.param_count())
+            .filter(|i| !shape.contains(i))
+            .collect()
+    }
+}
+
+/// The spectra among `reports`: every measurement with at least two bands (datasets named
+/// `FILE[wavelength=...]`) fitted with one model, in order of first appearance. Bands of a
+/// measurement fitted with different models make no spectrum.
+pub fn spectra(reports: &[FitReport]) -> Vec<Spectrum> {
+    let mut out: Vec<Spectrum> = Vec::new();
+    let mut mixed: Vec<String> = Vec::new();
+    for (k, r) in reports.iter().enumerate() {
+        let Some((measurement, um)) = crate::data::split_wavelength(&r.dataset) else {
+            continue;
+        };
+        let band = SpectrumBand {
+            wavelength_um: um,
+            fit: k,
+            params: r.params.0.iter().map(|(_, v)| *v).collect(),
+            albedo_normal: r
+                .energy
+                .albedo
+                .iter()
+                .find(|a| a.theta_i == 0.0)
+                .map(|a| a.albedo),
+            rms_rel: r.metrics.rms_rel,
+        };
+        match out.iter_mut().find(|s| s.measurement == measurement) {
+            Some(s) if s.model == r.model => s.bands.push(band),
+            Some(_) => mixed.push(measurement),
+            None => out.push(Spectrum {
+                measurement,
+                model: r.model,
+                bands: vec![band],
+            }),
+        }
+    }
+    out.retain(|s| s.bands.len() >= 2 && !mixed.contains(&s.measurement));
+    for s in &mut out {
+        s.bands
+            .sort_by(|a, b| a.wavelength_um.total_cmp(&b.wavelength_um));
+    }
+    out
+}

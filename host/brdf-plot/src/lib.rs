@@ -18,8 +18,8 @@
 //! ```
 //!
 //! One file per chart: `in_plane.rs` ([`in_plane`]), `map.rs` ([`hemisphere_map`]),
-//! `residuals.rs` ([`residuals`]), `tradeoff.rs` ([`tradeoff`], [`pareto_front`]) and
-//! `polar.rs` ([`polar`]); `common.rs` holds what they share (font, palette, the SVG/PNG
+//! `residuals.rs` ([`residuals`]), `tradeoff.rs` ([`tradeoff`], [`pareto_front`]),
+//! `polar.rs` ([`polar`]) and `spectrum.rs` ([`spectrum`]: a spectral fit against wavelength); `common.rs` holds what they share (font, palette, the SVG/PNG
 //! backend choice, log ranges).
 
 use brdf_core::AnyModel;
@@ -29,6 +29,7 @@ mod in_plane;
 mod map;
 mod polar;
 mod residuals;
+mod spectrum;
 mod tradeoff;
 
 pub use common::check_path;
@@ -36,6 +37,7 @@ pub use in_plane::in_plane;
 pub use map::hemisphere_map;
 pub use polar::{polar, PolarCurve, POLAR_RANGE_DB};
 pub use residuals::residuals;
+pub use spectrum::spectrum;
 pub use tradeoff::{pareto_front, tradeoff, TradePoint, SAME_ERROR};
 
 /// Why a plot could not be written.

@@ -874,3 +874,56 @@ fn synth_refuses_more_points_than_it_holds() {
         1 + 90 * 181
     );
 }
+
+/// The bands of a spectral file against wavelength: `brdf fit` tabulates them after their
+/// reports (one row per band, the weights marked), `brdf plot spectrum` draws them and prints
+/// the same table; a file without bands, or one band, is refused by name.
+#[test]
+fn the_bands_of_a_spectral_file_are_tabulated_and_drawn_against_wavelength() {
+    let data = brdf_tests::measured("cornell-spectral/krylon_blue.astm");
+    let data = data.to_str().unwrap();
+    let fit = brdf(&["fit", "--format", "cornell", data]);
+    assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
+    let text = String::from_utf8_lossy(&fit.stdout);
+    let head = format!("{data}: 31 bands, six (kb, kd the weights, per band; the rest the shape)");
+    let at = text.find(&head).unwrap_or_else(|| panic!("{text}"));
+    let table: Vec<&str> = text[at..].lines().skip(2).take(31).collect();
+    assert!(table[0].trim_start().starts_with("0.4 ") && table[30].trim_start().starts_with("0.7 "));
+    // Each row: wavelength, six parameters, albedo, error; the reports' own values.
+    let row: Vec<&str> = table[5].split_whitespace().collect();
+    assert_eq!(row.len(), 9, "{row:?}");
+    assert!(text.contains("[wavelength=0.45]: model six"));
+    // Dark readings make ln f undefined: said in words, not NaN.
+    assert!(!text.contains("NaN"), "{text}");
+
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("s.png");
+    let plot = brdf(&[
+        "plot",
+        "spectrum",
+        "--format",
+        "cornell",
+        data,
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert!(plot.status.success(), "{}", String::from_utf8_lossy(&plot.stderr));
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
+    assert_eq!(String::from_utf8_lossy(&plot.stdout), text[at..]);
+    let one = brdf(&[
+        "plot",
+        "spectrum",
+        "--format",
+        "cornell",
+        "--band",
+        "0.55",
+        data,
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&one.stderr);
+    assert!(
+        !one.status.success() && err.contains("no spectral measurement with two or more bands"),
+        "{err}"
+    );
+}
