@@ -13,7 +13,7 @@
 //! | 8 | 4 | sequence number (newer blobs have larger numbers) |
 //! | 12 | 2 | material count (1 to [`MAX_MATERIALS`]) |
 //! | 14 | 2 | reserved (0; readers reject anything else) |
-//! | 16 | 4 + 4 n + ... | per material: model id, parameter count n, table word w (u16), n f32 parameters, then: for w = 0 nothing; for w in 2..=4096, w x 3 f32 lookup-table nodes ([`brdf_core::table`]; six-parameter model only); for w = [`FITTED_WORD`] (version 3), a fitted table ([`brdf_core::fitted`]: the model is its base, its length follows from its header); for w = [`BANDED_WORD`] + m with m in 2..=[`MAX_BANDS`] (version 4), a spectral material of m bands: the n parameters above are band 0's, then m f32 band centres in µm (ascending, [`brdf_core::bands::valid`]), then n f32 parameters for each of bands 1 to m - 1 |
+//! | 16 | 4 + 4 n + ... | per material: model id, parameter count n, table word w (u16), n f32 parameters, then: for w = 0 nothing; for w in 2..=4096, w x 3 f32 lookup-table nodes ([`brdf_core::table`]; six-parameter model only); for w = [`FITTED_WORD`] (version 3), a fitted table ([`brdf_core::fitted`]: the model is its base, its length follows from its header); for w = [`BANDED_WORD`] + m with m in 1..=[`MAX_BANDS`] (version 4), a spectral material of m bands: the n parameters above are band 0's, then m f32 band centres in µm (ascending, [`brdf_core::bands::valid`]), then n f32 parameters for each of bands 1 to m - 1 |
 //! | end - 4 | 4 | CRC-32 (ISO-HDLC) of every byte before it |
 //!
 //! A reader rejects a wrong magic, a version or flag it does not know, a non-zero reserved
@@ -135,7 +135,7 @@ pub struct Material {
 /// A banded material's band centres and other bands' parameters inside an encoded blob.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BandsRef {
-    /// Bands (2 to [`MAX_BANDS`]).
+    /// Bands (1 to [`MAX_BANDS`]).
     pub count: u8,
     /// Byte offset of the first band centre in the encoded blob (set by [`Blob::decode`];
     /// ignored by [`Blob::encode_with_tables`]).
@@ -224,10 +224,10 @@ impl Material {
 
     /// A spectral material of `bands` (centre in µm, that band's material: one model, no
     /// tables), ascending at least [`brdf_core::bands::SAME_BAND_UM`] apart once rounded to
-    /// f32, 2 to [`MAX_BANDS`] of them. Writes its band bytes into `out` and returns the
+    /// f32, 1 to [`MAX_BANDS`] of them (one band answers at its own wavelength only). Writes its band bytes into `out` and returns the
     /// material and their length; pass them with it to [`Blob::encode_with_tables`].
     pub fn banded(bands: &[(f64, Material)], out: &mut [u8]) -> Result<(Material, usize), BandError> {
-        let (Some((_, first)), true) = (bands.first(), (2..=MAX_BANDS).contains(&bands.len())) else {
+        let (Some((_, first)), true) = (bands.first(), (1..=MAX_BANDS).contains(&bands.len())) else {
             return Err(BandError::Malformed);
         };
         let k = first.kind.param_count();
@@ -308,6 +308,10 @@ impl Material {
     /// centres in `blob`); [`BandError::Malformed`] for a material without bands.
     pub fn locate(&self, blob: &[u8], um: f32) -> Result<Located<f32>, BandError> {
         let m = self.band_count();
+        if m > MAX_BANDS {
+            // Never from `Blob::decode`; a hand-built reference.
+            return Err(BandError::Malformed);
+        }
         let mut centres = [0.0f32; MAX_BANDS];
         for (i, c) in centres.iter_mut().enumerate().take(m) {
             *c = self.band_centre(blob, i).ok_or(BandError::Malformed)?;
@@ -411,7 +415,7 @@ pub enum BlobError {
     /// A table that is malformed, on a model without tables, in a version-1 blob, or not
     /// matching the material's parameters (material index).
     Table(u8),
-    /// Bands that are too few or too many, not ascending, in a blob older than version 4, or
+    /// Bands that are none or too many, not ascending, in a blob older than version 4, or
     /// a band's parameters out of range (material index).
     Bands(u8),
     /// The output buffer is too small to encode into.
@@ -517,7 +521,7 @@ impl Blob {
             let word = match (m.table, m.fitted, m.bands) {
                 (Some(t), None, None) => t.nodes,
                 (None, Some(_), None) => FITTED_WORD,
-                (None, None, Some(b)) if (2..=MAX_BANDS).contains(&usize::from(b.count)) => {
+                (None, None, Some(b)) if (1..=MAX_BANDS).contains(&usize::from(b.count)) => {
                     BANDED_WORD + u16::from(b.count)
                 }
                 (None, None, Some(_)) => return Err(BlobError::Bands(i as u8)),
@@ -621,7 +625,7 @@ impl Blob {
             m.model().map_err(|_| BlobError::Params(i))?;
             if nodes & !(MAX_BANDS as u16 * 2 - 1) == BANDED_WORD {
                 let count = nodes - BANDED_WORD;
-                if version < 4 || !(2..=MAX_BANDS).contains(&usize::from(count)) {
+                if version < 4 || !(1..=MAX_BANDS).contains(&usize::from(count)) {
                     return Err(BlobError::Bands(i));
                 }
                 let r = BandsRef {
@@ -699,7 +703,7 @@ fn check_bands(m: &Material, count: u8, bytes: &[u8]) -> Result<(), BandError> {
         ..*m
     };
     let n = usize::from(count);
-    if !(2..=MAX_BANDS).contains(&n) {
+    if !(1..=MAX_BANDS).contains(&n) {
         return Err(BandError::Malformed);
     }
     let mut centres = [0.0f32; MAX_BANDS];
@@ -1038,8 +1042,10 @@ mod band_tests {
     fn malformed_bands_are_refused() {
         let mut out = [0u8; MAX_BLOB_LEN];
         let b = bands();
-        // Fewer than two, not ascending, two centres within a picometre once in f32.
-        assert!(Material::banded(&b[..1], &mut out).is_err());
+        // None, not ascending, two centres within a picometre once in f32; one is a material
+        // of one band.
+        assert!(Material::banded(&[], &mut out).is_err());
+        assert_eq!(Material::banded(&b[..1], &mut out).unwrap().0.band_count(), 1);
         let mut swapped = b.clone();
         swapped.swap(0, 1);
         assert!(Material::banded(&swapped, &mut out).is_err());
@@ -1091,9 +1097,9 @@ mod band_tests {
             refused(&|c| c[band2..band2 + 4].copy_from_slice(&(-1.0f32).to_le_bytes())),
             BlobError::Bands(1)
         );
-        // A band count of 1, of 65, or bands in a version-3 blob.
+        // A band count of 0, of 65, or bands in a version-3 blob.
         assert_eq!(
-            refused(&|c| c[word..word + 2].copy_from_slice(&(BANDED_WORD + 1).to_le_bytes())),
+            refused(&|c| c[word..word + 2].copy_from_slice(&BANDED_WORD.to_le_bytes())),
             BlobError::Bands(1)
         );
         assert_eq!(

@@ -32,9 +32,10 @@
 //!
 //! EVAL_AT is EVAL_BATCH at a wavelength, answered with VALUES: a banded material
 //! (`brdf_wire::blob`, version 4) answers by its band there, or the two bands around it
-//! blended ([`brdf_core::bands`]); outside its bands, or at a wavelength that is not finite
-//! and above 0, with `OutOfDomain`. A material without bands is the same at every wavelength.
-//! EVAL and EVAL_BATCH of a banded material are refused with `NeedsWavelength`.
+//! blended ([`brdf_core::bands`]); outside its bands with `OutOfDomain`. A material without
+//! bands is the same at every wavelength. A wavelength that is not finite and above 0 is
+//! refused with `OutOfDomain` for any material. EVAL and EVAL_BATCH of a material of several
+//! bands are refused with `NeedsWavelength` (one of one band answers with it).
 
 use brdf_core::{ModelKind, MAX_PARAMS};
 
@@ -92,7 +93,8 @@ pub enum ErrorCode {
     StaleSequence = 11,
     /// Writing or verifying a flash slot failed; the active parameters are unchanged.
     FlashFailed = 12,
-    /// EVAL or EVAL_BATCH of a banded material: it answers only at a wavelength (EVAL_AT).
+    /// EVAL or EVAL_BATCH of a material of several bands: it answers only at a wavelength
+    /// (EVAL_AT).
     NeedsWavelength = 13,
 }
 

@@ -94,8 +94,9 @@ impl Active {
     /// What answers for material `id` at `wavelength`, resolved once per request: its lookup
     /// tables if it has them, its base model times its correction if it has a fitted table,
     /// its band at `wavelength` (or the two around it, blended) if it is banded, else the
-    /// exact model. A banded material needs a wavelength; any other is the same at every
-    /// wavelength. A wavelength outside the bands is refused, never clamped.
+    /// exact model. A material of several bands needs a wavelength (one of one band answers
+    /// with it without); any other is the same at every wavelength. A wavelength outside the
+    /// bands, or not finite and above 0, is refused, never clamped.
     fn resolve(&self, id: u8, wavelength: Option<f32>) -> Result<Answer<'_>, ErrorCode> {
         let i = usize::from(id);
         let (Some(model), Some(table), Some(fitted), Some(m)) = (
@@ -107,10 +108,19 @@ impl Active {
             return Err(ErrorCode::UnknownMaterial);
         };
         let blob = &self.bytes[..self.len];
+        // A wavelength, for any material, is a finite number above 0.
+        if wavelength.is_some_and(|um| !(um.is_finite() && um > 0.0)) {
+            return Err(ErrorCode::OutOfDomain);
+        }
         if m.bands.is_some() {
-            let um = wavelength.ok_or(ErrorCode::NeedsWavelength)?;
             // Decoded and checked at LOAD: a band that does not build is not served.
             let band = |k: usize| m.band_model(blob, k).ok_or(ErrorCode::OutOfDomain);
+            let um = match wavelength {
+                Some(um) => um,
+                // A material of one band answers with it, as the host's fit of one band.
+                None if m.band_count() == 1 => return Ok(Answer::Exact(band(0)?)),
+                None => return Err(ErrorCode::NeedsWavelength),
+            };
             return match m.locate(blob, um).map_err(|_| ErrorCode::OutOfDomain)? {
                 Located::Band(k) => Ok(Answer::Exact(band(k)?)),
                 Located::Between { lower, weight } => Ok(Answer::Blend(band(lower)?, band(lower + 1)?, weight)),

@@ -215,13 +215,16 @@ struct Part {
 
 impl BandPlan {
     /// The region's directions as two parts, at the centres and between the bands; direction
-    /// `k` is asked at the `k`-th wavelength of the `2 m - 1`, in turn.
+    /// `k` is asked at the `k`-th of the `2 m - 1` wavelengths (centres and midpoints in
+    /// wavelength order), in turn.
     fn split(&self, name: &str, xs: &[[f32; 3]]) -> Vec<Part> {
+        // Centre 0, midpoint 0, centre 1, ...: in wavelength order, so a small sample reaches
+        // both kinds.
         let all: Vec<(f32, bool)> = self
             .centres
             .iter()
-            .map(|&c| (c, true))
-            .chain(self.midpoints.iter().map(|&c| (c, false)))
+            .enumerate()
+            .flat_map(|(k, &c)| std::iter::once((c, true)).chain(self.midpoints.get(k).map(|&m| (m, false))))
             .collect();
         let mut centre = (Vec::new(), Vec::new());
         let mut between = (Vec::new(), Vec::new());
@@ -231,20 +234,29 @@ impl BandPlan {
             part.0.push(*x);
             part.1.push(Some(um));
         }
+        // The wavelengths a part's directions were asked at (a sample smaller than 2 m - 1
+        // reaches only some of them: the report says which).
+        let asked = |at: &[Option<f32>]| -> Vec<f32> {
+            let mut w: Vec<f32> = at.iter().flatten().copied().collect();
+            w.sort_by(f32::total_cmp);
+            w.dedup();
+            w
+        };
+        let (c, b) = (asked(&centre.1), asked(&between.1));
         vec![
             Part {
-                label: format!("{name} @ {} bands", self.centres.len()),
+                label: format!("{name} @ {} of {} bands", c.len(), self.centres.len()),
                 xs: centre.0,
                 at: centre.1,
                 extra: 0.0,
-                asked: Some(self.centres.clone()),
+                asked: Some(c),
             },
             Part {
-                label: format!("{name} @ {} midpoints", self.midpoints.len()),
+                label: format!("{name} @ {} of {} midpoints", b.len(), self.midpoints.len()),
                 xs: between.0,
                 at: between.1,
                 extra: BAND_BLEND_MAX_REL,
-                asked: Some(self.midpoints.clone()),
+                asked: Some(b),
             },
         ]
     }
@@ -468,12 +480,12 @@ impl CheckCmd {
             println!("{}", serde_json::to_string_pretty(&table)?);
         } else {
             println!(
-                "{:>3} {:<34} {:>6} {:>11} {:>11} {:>11} {:>11} {:>10}",
+                "{:>3} {:<40} {:>6} {:>11} {:>11} {:>11} {:>11} {:>10}",
                 "mat", "region", "n", "max abs", "mean abs", "max rel", "mean rel", "tolerance"
             );
             for r in &table {
                 println!(
-                    "{:>3} {:<34} {:>6} {:>11.3e} {:>11.3e} {:>11.3e} {:>11.3e} {:>10}  {}",
+                    "{:>3} {:<40} {:>6} {:>11.3e} {:>11.3e} {:>11.3e} {:>11.3e} {:>10}  {}",
                     r.material,
                     match r.tabulated {
                         Some(n) => format!("{} [table {n}]", r.region),

@@ -11,7 +11,8 @@ use clap::{Args, ValueEnum};
 
 use crate::angles::{f32_text, f64_text, radians, AngleReader, AngleWriter, Chunk, CHUNK_ROWS};
 use crate::params::{build, parse_kind, parse_params};
-use brdf_fit::spectral::{AtWavelength, BandFits};
+use brdf_core::bands::Located;
+use brdf_fit::spectral::BandFits;
 
 /// Evaluate a model at every row of a CSV with columns `theta_i,theta_r,phi` (degrees,
 /// canonical convention: phi = 180 is the mirror direction). Writes the input columns plus
@@ -64,7 +65,7 @@ type Parts<'a, T> = Vec<(T, AnyModel<T>, Option<FittedTable<'a>>)>;
 /// One band of a spectral fit as a weighted part.
 fn band_part<T: Float>(
     fit: &brdf_fit::report::OneFit,
-    w: f64,
+    w: T,
 ) -> Result<(T, AnyModel<T>, Option<FittedTable<'_>>), String> {
     let at = |e: String| format!("fit {}: {e}", fit.index);
     // The ranges hold for the parameters as given (before any rounding to f32).
@@ -74,15 +75,29 @@ fn band_part<T: Float>(
         Some(bytes) => Some(FittedTable::new(bytes).map_err(|e| at(format!("fitted table: {e}")))?),
         None => None,
     };
-    Ok((T::from_f64(w), model, table))
+    Ok((w, model, table))
 }
 
-/// A spectral fit at `um` µm: one band, or the two around it with their weights.
+/// A spectral fit at `um` µm: one band, or the two around it with their weights, decided
+/// and weighed in `T` from the band centres and the wavelength rounded to `T`
+/// (`brdf_core::bands`): in f32 exactly as a device that holds these bands answers EVAL_AT
+/// (the same band or blend, the same weight, the same bits), in f64 as [`BandFits::at`].
 fn material_at<T: Float>(bands: &BandFits, um: f64) -> Result<Parts<'_, T>, String> {
-    Ok(match bands.at(um)? {
-        AtWavelength::Band(f) => vec![band_part(f, 1.0)?],
-        AtWavelength::Between { lower, upper, weight } => {
-            vec![band_part(lower, 1.0 - weight)?, band_part(upper, weight)?]
+    // The host's rule and its message first (not a wavelength, outside the bands).
+    bands.at(um)?;
+    let centres: Vec<T> = bands.bands.iter().map(|b| T::from_f64(b.0)).collect();
+    let fit = |k: usize| &bands.bands[k].1;
+    Ok(match brdf_core::bands::locate(&centres, T::from_f64(um)) {
+        Ok(Located::Band(k)) => vec![band_part(fit(k), T::ONE)?],
+        Ok(Located::Between { lower, weight }) => vec![
+            band_part(fit(lower), T::ONE - weight)?,
+            band_part(fit(lower + 1), weight)?,
+        ],
+        Err(e) => {
+            return Err(format!(
+                "{} µm, rounded to the evaluation's precision: {e}",
+                brdf_fit::data::wavelength_text(um)
+            ))
         }
     })
 }
@@ -134,6 +149,9 @@ impl EvalCmd {
                     brdf_fit::data::read_input(path).with_context(|| format!("cannot read {shown}"))?;
                 if let Some(bands) = BandFits::read(&text, &shown, self.index).map_err(|e| anyhow!(e))? {
                     return self.eval_bands(&shown, &bands);
+                }
+                if let Some(um) = self.wavelength.filter(|um| !brdf_fit::data::is_wavelength(*um)) {
+                    bail!("--wavelength {um}: not a wavelength above 0 (µm)");
                 }
                 if self.wavelength.is_some() {
                     // As a scene takes a grey material at its wavelength.

@@ -44,6 +44,7 @@ fn ask(
     link: &mut Device,
     material: u8,
     um: Option<f32>,
+    typed: Option<f64>,
     xs: &[[f32; 3]],
     at: impl Fn(usize) -> String,
 ) -> Result<Vec<f32>> {
@@ -53,11 +54,12 @@ fn ask(
             "material {material} is spectral (banded): the device answers it at a wavelength; give --wavelength UM"
         ),
         Err(LinkError::Device(code)) => {
-            if let Some(w) = um {
+            if let Some((w, typed)) = um.zip(typed) {
+                // Refused at normal incidence and viewing too: the wavelength, not a direction.
                 if let Err(LinkError::Device(ErrorCode::OutOfDomain)) =
-                    link.eval_at(material, Input::Angles, um, &[[0.0; 3]])
+                    link.eval_at(material, Input::Angles, Some(w), &[[0.0; 3]])
                 {
-                    bail!("--wavelength {w}: the device refused it for material {material} (outside its bands)");
+                    bail!("--wavelength {typed:?}: the device refused it for material {material} (outside its bands)");
                 }
             }
             for (i, x) in xs.iter().enumerate() {
@@ -76,11 +78,12 @@ fn ask(
 impl QueryCmd {
     pub fn run(self) -> Result<()> {
         let um = match self.wavelength {
-            Some(w)
-                if !brdf_fit::data::is_wavelength(w)
-                    || !brdf_fit::data::is_wavelength(f64::from(w as f32)) =>
-            {
-                bail!("--wavelength {w}: not a wavelength above 0 (µm)")
+            Some(w) if !brdf_fit::data::is_wavelength(w) => {
+                bail!("--wavelength {w:?}: not a wavelength above 0 (µm)")
+            }
+            // The device holds wavelengths in f32.
+            Some(w) if !brdf_fit::data::is_wavelength(f64::from(w as f32)) => {
+                bail!("--wavelength {w:?}: beyond what a device holds (an f32 above 0)")
             }
             w => w.map(|w| w as f32),
         };
@@ -92,9 +95,14 @@ impl QueryCmd {
                 };
                 let deg = parse_direction("--angles", [ti, tr, phi])?;
                 let (mut link, _) = self.device.connect()?;
-                let v = ask(&mut link, self.material, um, &[radians::<f32>(deg)], |_| {
-                    "--angles".into()
-                })?;
+                let v = ask(
+                    &mut link,
+                    self.material,
+                    um,
+                    self.wavelength,
+                    &[radians::<f32>(deg)],
+                    |_| "--angles".into(),
+                )?;
                 println!("{}", f32_text(v[0]));
                 Ok(())
             }
@@ -108,7 +116,7 @@ impl QueryCmd {
                 while reader.next_chunk(&mut chunk)? > 0 {
                     let xs: Vec<[f32; 3]> = chunk.degrees().iter().map(|&d| radians::<f32>(d)).collect();
                     let file = reader.file();
-                    let values = ask(&mut link, self.material, um, &xs, |i| {
+                    let values = ask(&mut link, self.material, um, self.wavelength, &xs, |i| {
                         format!("{file}: line {}", chunk.line(i))
                     })?;
                     writer.write_chunk(&chunk, values.into_iter().map(f32_text))?;

@@ -270,11 +270,14 @@ fn fitted_f32_beyond_bound(m: &Material, bytes: &[u8]) -> Result<Option<String>,
 }
 
 /// Makes the bands of each spectral measurement one banded material (at the place of its
-/// first band): fits of one source whose datasets name one measurement at two or more
-/// wavelengths (`FILE[wavelength=0.55]`). A measurement's only band stays a material of its
-/// own, the same at every wavelength. Refused: bands with fitted tables (a device's banded
-/// material holds analytic bands; 31 fitted tables do not fit a slot), one band given twice,
-/// bands of different models, more than [`brdf_wire::blob::MAX_BANDS`].
+/// first band): fits, in any of the sources, whose datasets name one measurement at a
+/// wavelength (`FILE[wavelength=0.55]`); a measurement's only band too, which then answers at
+/// its own wavelength (and without one) only, as the host's fit of one band does. Once a
+/// banded material is made, every material's origin is noted (indices move). Refused: bands
+/// with fitted tables (a device's banded material holds analytic bands; 31 fitted tables do
+/// not fit a slot), one band given twice (within [`brdf_core::bands::SAME_BAND_UM`], or
+/// closer than that once rounded to f32 as the device holds them), a wavelength f32 cannot
+/// hold, bands of different models, more than [`brdf_wire::blob::MAX_BANDS`].
 #[allow(clippy::type_complexity)]
 fn group_bands(
     materials: Vec<Material>,
@@ -283,51 +286,68 @@ fn group_bands(
     band_of: &[(usize, Option<(String, f64)>)],
     say: &mut impl FnMut(Level, String),
 ) -> Result<(Vec<Material>, Vec<Option<Vec<u8>>>, Vec<String>), PackError> {
+    use brdf_core::bands::SAME_BAND_UM;
     use brdf_wire::blob::MAX_BANDS;
     let text = crate::data::wavelength_text;
-    let same = |i: usize, j: usize| match (&band_of[i], &band_of[j]) {
-        ((si, Some((mi, _))), (sj, Some((mj, _)))) => si == sj && mi == mj,
+    let same = |i: usize, j: usize| match (&band_of[i].1, &band_of[j].1) {
+        (Some((mi, _)), Some((mj, _))) => mi == mj,
         _ => false,
     };
     let n = materials.len();
     let mut taken = vec![false; n];
     let (mut out_m, mut out_t, mut out_o) = (Vec::new(), Vec::new(), Vec::new());
+    // Per material made: whether it is banded.
+    let mut banded: Vec<bool> = Vec::new();
     for i in 0..n {
         if taken[i] {
             continue;
         }
-        let members: Vec<usize> = (i..n).filter(|&j| same(i, j)).collect();
-        if members.len() < 2 {
-            if let (_, Some((measurement, um))) = &band_of[i] {
-                say(
-                    Level::Info,
-                    format!(
-                        "note: {}: the only band of {measurement} ({} µm): packed as a material \
-                         the same at every wavelength",
-                        origins[i],
-                        text(*um)
-                    ),
-                );
-            }
+        let Some((measurement, _)) = &band_of[i].1 else {
             out_m.push(materials[i]);
             out_t.push(tables[i].clone());
             out_o.push(origins[i].clone());
+            banded.push(false);
+            continue;
+        };
+        let members: Vec<usize> = (i..n).filter(|&j| same(i, j)).collect();
+        if members.len() == 1 && tables[i].is_some() {
+            // A banded material holds analytic bands: one band's fitted table stays a
+            // material of its own, which a device answers at every wavelength.
+            say(
+                Level::Warning,
+                format!(
+                    "note: {}: the only band of {measurement} ({} µm) with a fitted table: packed \
+                     as a material the device answers at every wavelength (the host at {} µm only)",
+                    origins[i],
+                    text(band_of[i].1.as_ref().map_or(0.0, |b| b.1)),
+                    text(band_of[i].1.as_ref().map_or(0.0, |b| b.1)),
+                ),
+            );
+            out_m.push(materials[i]);
+            out_t.push(tables[i].clone());
+            out_o.push(origins[i].clone());
+            banded.push(false);
             continue;
         }
-        let (file, measurement) = match &band_of[i] {
-            (_, Some((m, _))) => (origins[i].rsplit_once(": fit ").map_or("", |x| x.0), m.clone()),
-            _ => unreachable!("members of a measurement have a band"),
-        };
-        let indices: Vec<usize> = members
+        // `FILE: fits 0–30` (and `, OTHER: fits 0–4` for bands in several files).
+        let mut by_file: Vec<(&str, Vec<usize>)> = Vec::new();
+        for &k in &members {
+            let (file, index) = origins[k]
+                .rsplit_once(": fit ")
+                .map_or((origins[k].as_str(), k), |(f, x)| (f, x.parse().unwrap_or(k)));
+            match by_file.iter_mut().find(|(f, _)| *f == file) {
+                Some((_, v)) => v.push(index),
+                None => by_file.push((file, vec![index])),
+            }
+        }
+        let origin = by_file
             .iter()
-            .map(|&k| {
-                origins[k]
-                    .rsplit_once(": fit ")
-                    .and_then(|x| x.1.parse().ok())
-                    .unwrap_or(k)
+            .map(|(file, v)| match v.len() {
+                1 => format!("{file}: fit {}", v[0]),
+                _ => format!("{file}: fits {}", index_ranges(v)),
             })
-            .collect();
-        let origin = format!("{file}: fits {}", index_ranges(&indices));
+            .collect::<Vec<_>>()
+            .join(", ");
         let refuse = |message: String| PackError::Bands {
             origin: origin.clone(),
             message,
@@ -351,13 +371,31 @@ fn group_bands(
             .map(|&k| (band_of[k].1.as_ref().map_or(0.0, |b| b.1), materials[k], k))
             .collect();
         bands.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((um, _, k)) = bands
+            .iter()
+            .find(|(um, _, _)| !crate::data::is_wavelength(f64::from(*um as f32)))
+        {
+            return Err(refuse(format!(
+                "{}: {um:e} µm is not a wavelength a device holds (an f32 above 0)",
+                origins[*k]
+            )));
+        }
         for w in bands.windows(2) {
-            if (w[1].0 as f32 - w[0].0 as f32) < brdf_core::bands::SAME_BAND_UM as f32 {
+            let (a, b) = (w[0].0, w[1].0);
+            let in_f32 = f64::from(b as f32) - f64::from(a as f32);
+            if b - a < SAME_BAND_UM || !brdf_core::bands::valid(&[a as f32, b as f32]) {
                 return Err(refuse(format!(
-                    "{} and {} are one band ({} µm): one fit per band",
+                    "{} ({} µm) and {} ({} µm) are one band: closer than {SAME_BAND_UM:e} µm{}; one \
+                     fit per band",
                     origins[w[0].2],
+                    text(a),
                     origins[w[1].2],
-                    text(w[0].0)
+                    text(b),
+                    if b - a >= SAME_BAND_UM {
+                        format!(" once rounded to f32 as a device holds them ({in_f32:e} µm apart)")
+                    } else {
+                        String::new()
+                    }
                 )));
             }
             if w[0].1.kind != w[1].1.kind {
@@ -374,17 +412,27 @@ fn group_bands(
         let mut bytes = vec![0u8; MAX_BLOB_LEN];
         let (m, len) = Material::banded(&pairs, &mut bytes).map_err(|e| refuse(e.to_string()))?;
         bytes.truncate(len);
+        let span = match pairs.len() {
+            1 => format!("1 band of {measurement} ({} µm", text(pairs[0].0)),
+            k => format!(
+                "{k} bands of {measurement} ({}–{} µm",
+                text(pairs[0].0),
+                text(pairs[k - 1].0)
+            ),
+        };
         say(
             Level::Info,
             format!(
-                "material {}: {} bands of {measurement} ({}–{} µm, {}), from {origin}: the device \
-                 answers it at a wavelength (EVAL_AT): a band's fit at its centre, the two around \
-                 it blended between, nothing outside",
+                "material {}: {span}, {}), from {origin}: the device answers it at a wavelength \
+                 (EVAL_AT): a band's fit at its centre, the two around it blended between, \
+                 nothing outside{}",
                 out_m.len(),
-                pairs.len(),
-                text(pairs[0].0),
-                text(pairs[pairs.len() - 1].0),
                 m.kind.name(),
+                if pairs.len() == 1 {
+                    "; plain EVAL with its one band"
+                } else {
+                    ""
+                },
             ),
         );
         for &k in &members {
@@ -393,6 +441,16 @@ fn group_bands(
         out_m.push(m);
         out_t.push(Some(bytes));
         out_o.push(origin);
+        banded.push(true);
+    }
+    // Bands grouped: indices no longer follow the fits, so every other material says where
+    // it came from too.
+    if banded.iter().any(|b| *b) {
+        for (i, (m, origin)) in out_m.iter().zip(&out_o).enumerate() {
+            if !banded[i] {
+                say(Level::Info, format!("material {i}: {origin} ({})", m.kind.name()));
+            }
+        }
     }
     Ok((out_m, out_t, out_o))
 }
@@ -759,16 +817,62 @@ mod band_tests {
         let kd: Vec<f32> = (0..3).map(|k| m.band_params(&p.bytes, k).unwrap()[4]).collect();
         assert_eq!(kd, [0.4, 0.5, 0.7]);
         assert_eq!(back.materials[1].params[4], 0.3);
+        // The second measurement's only band is a material of one band.
         assert_eq!(
             (back.materials[1].band_count(), back.materials[2].band_count()),
-            (0, 0)
+            (0, 1)
         );
-        assert!(notes.iter().any(|n| n.text.starts_with(
-            "material 0: 3 bands of paint.astm (0.4–0.7 µm, six), from fits.json: fits 0, 2, 4"
-        )));
-        assert!(notes
-            .iter()
-            .any(|n| n.text.contains("fit 3: the only band of other.astm (0.55 µm)")));
+        let says = |start: &str| {
+            assert!(
+                notes.iter().any(|n| n.text.starts_with(start)),
+                "{start}: {notes:?}"
+            )
+        };
+        says("material 0: 3 bands of paint.astm (0.4–0.7 µm, six), from fits.json: fits 0, 2, 4");
+        says("material 2: 1 band of other.astm (0.55 µm, six), from fits.json: fit 3");
+        // Indices moved: the grey fit says which material it became.
+        says("material 1: fits.json: fit 1 (six)");
+
+        // Bands split over several sources (files, or Python's one FitResult each) are one
+        // material; a band given in two of them is refused.
+        let mut notes = Vec::new();
+        let (a, b) = (
+            band("paint.astm[wavelength=0.5]", 0.5),
+            band("paint.astm[wavelength=0.4]", 0.4),
+        );
+        let two = [
+            FitSource::Text {
+                origin: "a.json",
+                json: &a,
+            },
+            FitSource::Text {
+                origin: "b.json",
+                json: &b,
+            },
+        ];
+        let p = pack(&two, &PackOptions::default(), |n| notes.push(n)).unwrap();
+        assert_eq!(p.materials, 1);
+        assert_eq!(Blob::decode(&p.bytes).unwrap().materials[0].band_count(), 2);
+        assert!(
+            notes
+                .iter()
+                .any(|n| n.text.contains("from a.json: fit 0, b.json: fit 0")),
+            "{notes:?}"
+        );
+        let again = [
+            FitSource::Text {
+                origin: "a.json",
+                json: &a,
+            },
+            FitSource::Text {
+                origin: "c.json",
+                json: &a,
+            },
+        ];
+        let e = pack(&again, &PackOptions::default(), |_| {})
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("are one band"), "{e}");
     }
 
     #[test]
@@ -780,8 +884,24 @@ mod band_tests {
             band("p[wavelength=0.5000000001]", 0.4)
         ));
         assert!(
-            twice.contains("fit 0 and fits.json: fit 1 are one band (0.5 µm)"),
+            twice.contains("fit 0 (0.5 µm) and fits.json: fit 1 (0.5 µm) are one band: closer than 1e-6 µm;"),
             "{twice}"
+        );
+        // Apart in f64 but not once the device rounds them to f32.
+        let close = err(format!(
+            "[{}, {}]",
+            band("p[wavelength=0.3]", 0.5),
+            band("p[wavelength=0.30000101]", 0.4)
+        ));
+        assert!(close.contains("once rounded to f32"), "{close}");
+        let tiny = err(format!(
+            "[{}, {}]",
+            band("p[wavelength=1e-310]", 0.5),
+            band("p[wavelength=0.5]", 0.4)
+        ));
+        assert!(
+            tiny.contains("fit 0: 1e-310 µm is not a wavelength a device holds"),
+            "{tiny}"
         );
         let lambert = r#"{"dataset": "p[wavelength=0.6]", "model": "lambert", "params": {"rho0": 0.3}}"#;
         let mixed = err(format!("[{}, {lambert}]", band("p[wavelength=0.5]", 0.5)));

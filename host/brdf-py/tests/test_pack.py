@@ -115,3 +115,19 @@ def test_missing_file_and_wrong_types(cli, tmp_path):
         brdf.pack([])
     with pytest.raises(ValueError, match="table nodes: outside"):
         brdf.pack(missing, table_nodes=100_000)
+
+
+def test_the_bands_of_a_spectral_fit_are_one_material(cli, root, tmp_path):
+    """`brdf.pack(brdf.fit(spectral file))` (one FitResult per band) makes the same single
+    banded material as `brdf pack` of the CLI's fit file."""
+    data = root / "data/measured/cornell-spectral/garnet_red.astm"
+    fits = brdf.fit(str(data), format="cornell", model="ggx")
+    assert len(fits) == 31
+    got = brdf.pack(fits)
+    path = tmp_path / "fits.json"
+    path.write_text(cli("fit", "--json", "--format", "cornell", "--model", "ggx", data).stdout)
+    want, err = cli_pack(cli, tmp_path, path)
+    assert "material 0: 31 bands of" in err
+    assert got == want
+    # A 31-band blob in one slot: 872 bytes of bands (header, 4 + 16 + 31 x 4 + 30 x 16).
+    assert len(got) == 16 + 4 + 16 + 31 * 4 + 30 * 16 + 4

@@ -10,7 +10,8 @@
 //! #     table included; index = k for the k-th of a batch; the bands of a spectral fit at
 //! #     [sensor] wavelength_um, index = any fit of the measurement when it holds several)
 //! # ... or blob = "params.bin" with index = 0 (a parameter blob's material: its fitted table is
-//! #     used, its six-parameter lookup tables are not: sigma is computed in f64)
+//! #     used, its six-parameter lookup tables are not: sigma is computed in f64; a banded
+//! #     material's band at [sensor] wavelength_um, or the two around it blended)
 //! [sensor]
 //! mode = "monostatic"            # or "bistatic" with separation_deg
 //! wavelength_um = 0.55           # optional: each spectral fit's band there, or the two bands
@@ -28,6 +29,7 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
+use brdf_core::bands::Located;
 use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
 use brdf_fit::report::FittedModel;
 use brdf_fit::spectral::{AtWavelength, BandFits};
@@ -664,6 +666,14 @@ impl SceneMaterial {
         // Weights to nine decimals (0.75, not 0.7500000000000003).
         let w = |x: f64| brdf_core::Compact((x * 1e9).round() / 1e9);
         match (&mat.upper, &mat.source) {
+            (Some(u), Source::Blob(_, k)) => format!(
+                "{own} (band {}) x {} + {} (band {}) x {} of blob material {k}",
+                u.index - 1,
+                w(1.0 - u.weight),
+                one(&u.model, u.table.is_some()),
+                u.index,
+                w(u.weight)
+            ),
             (Some(u), Source::Fit(_, k)) => format!(
                 "{own} (fit {k}) x {} + {} (fit {}) x {}",
                 w(1.0 - u.weight),
@@ -682,6 +692,9 @@ impl SceneMaterial {
             (_, Some(_), Some(_)) => Some(self.description()),
             (Source::Fit(_, k), None, Some(_)) if self.banded => {
                 Some(format!("{} (fit {k})", self.description()))
+            }
+            (Source::Blob(_, k), None, _) if self.banded => {
+                Some(format!("{} (a band of blob material {k})", self.description()))
             }
             _ => None,
         }
@@ -872,15 +885,78 @@ fn resolve_material(
     };
     // Blob::decode checked the table.
     let table = m.fitted.and_then(|f| f.bytes(&bytes)).map(<[u8]>::to_vec);
-    let mut p = [0.0; MAX_PARAMS];
-    for (dst, src) in p.iter_mut().zip(m.params) {
-        *dst = f64::from(src);
+    let widen = |params: [f32; MAX_PARAMS]| {
+        let mut p = [0.0; MAX_PARAMS];
+        for (dst, src) in p.iter_mut().zip(params) {
+            *dst = f64::from(src);
+        }
+        p
+    };
+    let count = m.band_count();
+    if count == 0 {
+        return Ok((
+            build(m.kind, &widen(m.params), blob.span(), "blob")?,
+            Source::Blob(path, k),
+            table,
+            None,
+            false,
+        ));
     }
-    Ok((
-        build(m.kind, &p, blob.span(), "blob")?,
-        Source::Blob(path, k),
-        table,
-        None,
-        false,
-    ))
+    // A banded (spectral) material: its band at the scene's wavelength, or the two around it
+    // blended, as the device answers EVAL_AT (its centres in f32, widened).
+    let centres: Vec<f64> = (0..count)
+        .filter_map(|b| m.band_centre(&bytes, b).map(f64::from))
+        .collect();
+    let band = |b: usize| -> Result<AnyModel<f64>, SceneError> {
+        let p = m.band_params(&bytes, b).ok_or_else(|| {
+            field(
+                blob.span(),
+                "blob",
+                format!("{shown}: material {k}: band {b} missing"),
+            )
+        })?;
+        build(m.kind, &widen(p), blob.span(), "blob")
+    };
+    let text = brdf_fit::data::wavelength_text;
+    // The centres as the blob holds them (f32, shortest form).
+    let range = format!(
+        "{count} band{} at {}–{} µm",
+        if count == 1 { "" } else { "s" },
+        centres[0] as f32,
+        centres[centres.len() - 1] as f32
+    );
+    let Some((um, span)) = wavelength else {
+        if count == 1 {
+            return Ok((band(0)?, Source::Blob(path, k), None, None, true));
+        }
+        return Err(field(
+            blob.span(),
+            "blob",
+            format!("{shown}: material {k} is spectral ({range}): give [sensor] wavelength_um"),
+        ));
+    };
+    match brdf_core::bands::locate(&centres, um) {
+        Ok(Located::Band(b)) => Ok((band(b)?, Source::Blob(path, k), None, None, true)),
+        Ok(Located::Between { lower, weight }) => Ok((
+            band(lower)?,
+            Source::Blob(path, k),
+            None,
+            Some(Upper {
+                model: band(lower + 1)?,
+                table: None,
+                index: lower + 1,
+                weight,
+            }),
+            true,
+        )),
+        Err(_) => Err(field(
+            span,
+            "wavelength_um",
+            format!(
+                "{} µm is outside the bands of material {k} of {shown} ({range}; a BRDF is not \
+                 extrapolated in wavelength)",
+                text(um)
+            ),
+        )),
+    }
 }

@@ -455,6 +455,33 @@ fn firmware_serves_a_banded_material_like_the_host() {
         dev.eval_at(0, Input::Angles, Some(1.064), &angles).unwrap(),
         plain
     );
+    // A wavelength that is none is refused for a material without bands too.
+    for um in [0.0f32, -1.0, f32::NAN, f32::INFINITY] {
+        assert_eq!(
+            refused(dev.eval_at(0, Input::Angles, Some(um), &angles[..3])),
+            ErrorCode::OutOfDomain,
+            "{um}"
+        );
+    }
     let (_, _, active, materials) = dev.info().unwrap();
     assert_eq!((active, materials), (crc, 2));
+
+    // A material of one band answers plain EVAL with it, and EVAL_AT at its wavelength only.
+    let (one, len) = Material::banded(&bands[7..8], &mut extra).unwrap();
+    let mut blob = table1_blob();
+    blob.materials.truncate(0);
+    blob.materials.push(one).unwrap();
+    blob.sequence = 12;
+    let n = blob.encode_with_tables(&[Some(&extra[..len])], &mut buf).unwrap();
+    dev.load(&buf[..n]).unwrap();
+    let want: Vec<f32> = angles
+        .iter()
+        .map(|x| bands[7].1.model().unwrap().eval_angles(x[0], x[1], x[2]))
+        .collect();
+    assert_eq!(dev.eval(0, Input::Angles, &angles).unwrap(), want);
+    assert_eq!(dev.eval_at(0, Input::Angles, Some(0.47), &angles).unwrap(), want);
+    assert_eq!(
+        refused(dev.eval_at(0, Input::Angles, Some(0.48), &angles[..3])),
+        ErrorCode::OutOfDomain
+    );
 }

@@ -183,7 +183,17 @@ fn a_spectral_fit_packs_into_one_banded_material_the_device_passes_in_every_band
     }
     let dir = tempfile::tempdir().unwrap();
     let data = brdf_tests::measured("cornell-spectral/garnet_red.astm");
-    let fit = brdf(&["fit", "--format", "cornell", data.to_str().unwrap(), "--json"]);
+    // The microfacet model: its parameters on these bands lie where the f32 promise holds
+    // (the six-parameter fits of three dark bands do not: below).
+    let fit = brdf(&[
+        "fit",
+        "--format",
+        "cornell",
+        "--model",
+        "ggx",
+        data.to_str().unwrap(),
+        "--json",
+    ]);
     assert!(fit.status.success(), "{}", String::from_utf8_lossy(&fit.stderr));
     let json = dir.path().join("bands.json");
     std::fs::write(&json, &fit.stdout).unwrap();
@@ -193,6 +203,21 @@ fn a_spectral_fit_packs_into_one_banded_material_the_device_passes_in_every_band
     assert!(pack.status.success(), "{err}");
     assert!(err.contains("material 0: 31 bands of"), "{err}");
     assert!(err.contains("fits 0–30"), "{err}");
+    assert!(!err.contains("warning"), "{err}");
+    // Six-parameter fits of the same bands: pack warns of each band whose parameters leave
+    // the f32 promise (its device error measured), so a check failing there is foretold.
+    let six = brdf(&["fit", "--format", "cornell", data.to_str().unwrap(), "--json"]);
+    let six_json = dir.path().join("six.json");
+    std::fs::write(&six_json, &six.stdout).unwrap();
+    let six_pack = brdf(&[
+        "pack",
+        six_json.to_str().unwrap(),
+        "-o",
+        dir.path().join("six.bin").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&six_pack.stderr);
+    assert!(six_pack.status.success(), "{err}");
+    assert!(err.contains("the device's f32 evaluation errs by up to"), "{err}");
     let out = brdf(
         &[
             &["check", "--qemu", "--blob", blob.to_str().unwrap(), "--json"],
@@ -208,11 +233,11 @@ fn a_spectral_fit_packs_into_one_banded_material_the_device_passes_in_every_band
     assert!(rows.iter().all(|r| r["within_tolerance"] == true), "{rows:?}");
     let centres: Vec<&serde_json::Value> = rows
         .iter()
-        .filter(|r| r["region"] == "hemisphere @ 31 bands")
+        .filter(|r| r["region"] == "hemisphere @ 31 of 31 bands")
         .collect();
     let mids: Vec<&serde_json::Value> = rows
         .iter()
-        .filter(|r| r["region"] == "hemisphere @ 30 midpoints")
+        .filter(|r| r["region"] == "hemisphere @ 30 of 30 midpoints")
         .collect();
     assert_eq!(centres[0]["wavelengths"].as_array().unwrap().len(), 31);
     assert_eq!(mids[0]["wavelengths"].as_array().unwrap().len(), 30);
@@ -283,13 +308,59 @@ fn a_spectral_fit_packs_into_one_banded_material_the_device_passes_in_every_band
         !outside.status.success() && err.contains("--wavelength 1.064: the device refused it"),
         "{err}"
     );
-    for bad in ["-0.5", "0", "nan", "1e-50"] {
+    // Between bands and near their edges the device and `brdf eval --precision f32` decide
+    // and weigh alike (both in f32), so they print the same bytes; near an edge both refuse.
+    for um in ["0.4321", "0.400001002", "0.410000995"] {
+        let host = brdf(&[
+            "eval",
+            "--fit",
+            json.to_str().unwrap(),
+            "--wavelength",
+            um,
+            "--precision",
+            "f32",
+            angles.to_str().unwrap(),
+        ]);
+        let device = query(&["--wavelength", um]);
+        assert_eq!(
+            String::from_utf8_lossy(&device.stdout),
+            String::from_utf8_lossy(&host.stdout),
+            "{um}: {}",
+            String::from_utf8_lossy(&device.stderr)
+        );
+    }
+    let edge = query(&["--wavelength", "0.399999005"]);
+    let err = String::from_utf8_lossy(&edge.stderr);
+    assert!(
+        err.contains("--wavelength 0.399999005: the device refused it"),
+        "{err}"
+    );
+    // A small sample reaches some of the wavelengths only, and the report says which.
+    let few = brdf(&[
+        "check",
+        "--qemu",
+        "--blob",
+        blob.to_str().unwrap(),
+        "--json",
+        "--directions",
+        "3",
+        "--edge",
+        "0",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&few.stdout).unwrap();
+    assert_eq!(v[0]["region"], "hemisphere @ 2 of 31 bands", "{v}");
+    assert_eq!(v[0]["wavelengths"], serde_json::json!([0.4, 0.41]));
+    assert_eq!(v[1]["region"], "hemisphere @ 1 of 30 midpoints", "{v}");
+    for (bad, says) in [
+        ("-0.5", "--wavelength -0.5: not a wavelength above 0"),
+        ("0", "--wavelength 0.0: not a wavelength above 0"),
+        ("nan", "--wavelength NaN: not a wavelength above 0"),
+        ("1e-50", "--wavelength 1e-50: beyond what a device holds"),
+        ("1e39", "--wavelength 1e39: beyond what a device holds"),
+    ] {
         let o = query(&["--wavelength", bad]);
         let err = String::from_utf8_lossy(&o.stderr);
-        assert!(
-            !o.status.success() && err.contains("not a wavelength above 0"),
-            "{bad}: {err}"
-        );
+        assert!(!o.status.success() && err.contains(says), "{bad}: {err}");
     }
 }
 

@@ -693,7 +693,9 @@ def pack(results, table_nodes: Optional[int] = None, *, sequence: int = 1) -> by
 
     ``results`` is a :class:`FitResult`, a path to a ``brdf fit --json`` file (one report or
     an array; hand-written ``{"model": ..., "params": {...}}`` too), or a list of either:
-    one material per fit, in order. ``table_nodes`` adds lookup tables of that many nodes to
+    one material per fit, in order, except that the bands of one spectral measurement (fits
+    of ``FILE[wavelength=...]``, in any of them) become one banded material the device
+    answers at a wavelength (an INFO record names each material's fits). ``table_nodes`` adds lookup tables of that many nodes to
     every six-parameter material (the device's fast path; 256 nodes = 3,072 bytes per
     material); ``sequence`` is the blob's sequence number (a device keeps the newer blob).
 

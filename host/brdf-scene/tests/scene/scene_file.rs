@@ -397,6 +397,50 @@ fn spectral_materials_are_taken_at_the_sensors_wavelength() {
             "{bad}: {e}"
         );
     }
+    // The same bands packed as one banded blob material: taken at the wavelength as the fit
+    // file's (their parameters rounded to f32), refused without one or outside the bands.
+    let mut extra = vec![0u8; 4096];
+    let lambert =
+        |rho: f64| brdf_wire::blob::Material::from_params(brdf_core::ModelKind::Lambert, &[rho]).unwrap();
+    let (m, len) =
+        brdf_wire::blob::Material::banded(&[(0.5, lambert(0.2)), (0.7, lambert(0.6))], &mut extra).unwrap();
+    let mut blob = brdf_wire::blob::table1_blob();
+    blob.materials.truncate(0);
+    blob.materials.push(m).unwrap();
+    let mut bytes = vec![0u8; 4096];
+    let n = blob
+        .encode_with_tables(&[Some(&extra[..len])], &mut bytes)
+        .unwrap();
+    let from_blob = |wavelength: &str| {
+        let (dir, p) = scene_with(&format!(
+            "mesh = \"target.obj\"\n[[material]]\npart = \"*\"\nblob = \"b.bin\"\n[sensor]\n\
+             mode = \"monostatic\"\n{wavelength}azimuth_deg = [0, 360, 90]\nelevation_deg = [0, 31, 30]\n"
+        ));
+        std::fs::write(dir.path().join("b.bin"), &bytes[..n]).unwrap();
+        (dir, Scene::load(&p))
+    };
+    let (_d, b065) = from_blob("wavelength_um = 0.65\n");
+    let b065 = b065.unwrap();
+    // (The device's centres are f32: 0.65 lies a quarter of the way up to within 5e-8.)
+    assert_eq!(
+        b065.band_used(0).as_deref(),
+        Some("lambert (band 0) x 0.249999955 + lambert (band 1) x 0.750000045 of blob material 0")
+    );
+    for (a, b) in sigma(&b065).iter().zip(sigma(&at_065)) {
+        assert!((a / b - 1.0).abs() < 1e-6, "{a} {b}");
+    }
+    let (_d, e) = from_blob("");
+    let e = e.unwrap_err().to_string();
+    assert!(
+        e.contains("material 0 is spectral (2 bands at 0.5–0.7 µm)"),
+        "{e}"
+    );
+    let (_d, e) = from_blob("wavelength_um = 0.8\n");
+    let e = e.unwrap_err().to_string();
+    assert!(
+        e.contains("line 7: wavelength_um") && e.contains("outside the bands of material 0"),
+        "{e}"
+    );
     // The second measurement has one band: only its own wavelength.
     let (_d, e) = scene("wavelength_um = 0.6\n", "index = 2\n");
     assert!(e.unwrap_err().to_string().contains("only band is 0.5 µm"));
