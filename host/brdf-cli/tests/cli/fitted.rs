@@ -625,5 +625,5 @@ fn select_takes_every_band_of_a_spectral_file() {
     // -o refused (before any fit).
     let blob = dir.path().join("b.bin");
     let e = fails(&["select", d, "-o", blob.to_str().unwrap()]);
-    assert!(e.contains("one representation per material, not 2 bands"), "{e}");
+    assert!(e.contains("2 bands' fitted tables do not fit a slot"), "{e}");
 }
