@@ -13,8 +13,8 @@ use crate::common::{err, log_range, render, Res, FONT, PALETTE};
 use crate::PlotError;
 
 /// Draws `s` (at least two bands) in three panels sharing the wavelength axis: each weight
-/// (log axis when all are above 0, else linear), the albedo at normal incidence, the RMS
-/// relative error in percent.
+/// (log axis; a weight at 0 is a gap, counted in the legend), the albedo at normal
+/// incidence, the RMS relative error in percent.
 pub fn spectrum(path: &Path, title: &str, s: &Spectrum) -> Result<(), PlotError> {
     let empty = |why: &str| PlotError::Empty {
         file: path.display().to_string(),
@@ -58,75 +58,76 @@ pub fn spectrum(path: &Path, title: &str, s: &Spectrum) -> Result<(), PlotError>
         head.draw(&Text::new(subtitle.to_owned(), (16, 8), (FONT, 20).into_font()))
             .map_err(err)?;
         let panels = body.split_evenly((3, 1));
-        // Weights: log axis when every value is above 0 (they span decades across bands).
-        let all: Vec<f64> = weights.iter().flat_map(|w| w.1.iter().map(|p| p.1)).collect();
-        let positive = all.iter().all(|v| *v > 0.0 && v.is_finite());
-        let lo = all.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = all.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        if positive {
-            let (a, b) = log_range(lo, hi);
-            let mut chart = ChartBuilder::on(&panels[0])
-                .margin(10)
-                .x_label_area_size(30)
-                .y_label_area_size(70)
-                .build_cartesian_2d(x.clone(), (a..b).log_scale())
-                .map_err(err)?;
-            chart
-                .configure_mesh()
-                .y_desc("weight")
-                .label_style((FONT, 13))
-                .axis_desc_style((FONT, 14))
-                .draw()
-                .map_err(err)?;
-            for (k, (name, pts)) in weights.iter().enumerate() {
-                let c = PALETTE[k % PALETTE.len()];
+        // Weights on a log axis (they span decades across bands); a weight at 0 in a band is
+        // a gap in its line, and its legend says in how many.
+        let positive: Vec<f64> = weights
+            .iter()
+            .flat_map(|w| w.1.iter().map(|p| p.1))
+            .filter(|v| *v > 0.0 && v.is_finite())
+            .collect();
+        let lo = positive.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = positive.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let (a, b) = if positive.is_empty() {
+            (1e-3, 1.0)
+        } else {
+            log_range(lo, hi)
+        };
+        let mut chart = ChartBuilder::on(&panels[0])
+            .margin(10)
+            .x_label_area_size(30)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x.clone(), (a..b).log_scale())
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .y_desc("weight")
+            .label_style((FONT, 13))
+            .axis_desc_style((FONT, 14))
+            .draw()
+            .map_err(err)?;
+        for (k, (name, pts)) in weights.iter().enumerate() {
+            let c = PALETTE[k % PALETTE.len()];
+            let drawn = |v: f64| v > 0.0 && v.is_finite();
+            let zero = pts.iter().filter(|p| !drawn(p.1)).count();
+            let label = match zero {
+                0 => name.clone(),
+                n => format!(
+                    "{name} (0 in {n} band{}, not drawn)",
+                    if n == 1 { "" } else { "s" }
+                ),
+            };
+            // Runs of positive values, each its own line.
+            let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+            for &p in pts {
+                if drawn(p.1) {
+                    if let Some(r) = runs.last_mut() {
+                        r.push(p);
+                    }
+                } else if runs.last().is_some_and(|r| !r.is_empty()) {
+                    runs.push(Vec::new());
+                }
+            }
+            for (j, run) in runs.iter().enumerate() {
+                let series = chart
+                    .draw_series(LineSeries::new(run.iter().copied(), c.stroke_width(2)))
+                    .map_err(err)?;
+                if j == 0 {
+                    series
+                        .label(label.clone())
+                        .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], c.stroke_width(2)));
+                }
                 chart
-                    .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
-                    .map_err(err)?
-                    .label(name.clone())
-                    .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], c.stroke_width(2)));
-                chart
-                    .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled())))
+                    .draw_series(run.iter().map(|&p| Circle::new(p, 3, c.filled())))
                     .map_err(err)?;
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .label_font((FONT, 14))
-                .draw()
-                .map_err(err)?;
-        } else {
-            let span = (hi - lo).abs().max(1e-12);
-            let mut chart = ChartBuilder::on(&panels[0])
-                .margin(10)
-                .x_label_area_size(30)
-                .y_label_area_size(70)
-                .build_cartesian_2d(x.clone(), (lo - 0.05 * span)..(hi + 0.05 * span))
-                .map_err(err)?;
-            chart
-                .configure_mesh()
-                .y_desc("weight")
-                .label_style((FONT, 13))
-                .axis_desc_style((FONT, 14))
-                .draw()
-                .map_err(err)?;
-            for (k, (name, pts)) in weights.iter().enumerate() {
-                let c = PALETTE[k % PALETTE.len()];
-                chart
-                    .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
-                    .map_err(err)?
-                    .label(name.clone())
-                    .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], c.stroke_width(2)));
-            }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .label_font((FONT, 14))
-                .draw()
-                .map_err(err)?;
         }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font((FONT, 14))
+            .draw()
+            .map_err(err)?;
         for (panel, pts, desc, c, bottom) in [
             (&panels[1], albedo, "albedo at 0 deg", PALETTE[1], false),
             (&panels[2], error, "RMS relative error (%)", PALETTE[0], true),
@@ -198,10 +199,12 @@ mod tests {
         for text in ["3 bands, six", "kb", "kd", "albedo at 0 deg", "wavelength (µm)"] {
             assert!(svg.contains(text), "{text}");
         }
-        // A weight at 0 draws on a linear axis; one band is refused.
+        // A weight at 0 is a gap, counted in the legend; one band is refused.
         let mut zero = three();
-        zero.bands[0].params[0] = 0.0;
+        zero.bands[1].params[0] = 0.0;
         spectrum(&dir.path().join("z.svg"), "t", &zero).unwrap();
+        let svg = std::fs::read_to_string(dir.path().join("z.svg")).unwrap();
+        assert!(svg.contains("kb (0 in 1 band, not drawn)"));
         let mut one = three();
         one.bands.truncate(1);
         assert!(spectrum(&dir.path().join("o.svg"), "t", &one).is_err());
