@@ -27,6 +27,29 @@ enum SceneSub {
     /// The (theta_i, theta_r, phi) queries the scene makes, one row per aspect and facet
     /// seen, with the weight each carries in sigma (m^2 sr).
     Domain(DomainCmd),
+    /// Range profile per aspect: sigma per range bin along the line of sight (each facet's
+    /// sigma split over the bins by the share of its area in each), as CSV
+    /// `azimuth,elevation,range_m,lrcs`; each aspect's bins sum to its sigma. range_m is the
+    /// bin's centre beyond the plane through the mesh origin across the line of sight
+    /// (bistatic: half the extra path); bins are fixed, [k b, (k + 1) b).
+    Profile(ProfileCmd),
+}
+
+/// `brdf scene profile`.
+#[derive(Debug, Args)]
+pub struct ProfileCmd {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Bin width along the line of sight, m.
+    #[arg(long, value_name = "M", allow_hyphen_values = true)]
+    bin_m: f64,
+    /// Spread each bin by a Gaussian pulse of this full width at half maximum, m (the sum is
+    /// kept).
+    #[arg(long, value_name = "M", allow_hyphen_values = true)]
+    pulse_m: Option<f64>,
+    /// Write the CSV here instead of standard output.
+    #[arg(short = 'o', long)]
+    output: Option<PathBuf>,
 }
 
 /// `brdf scene lrcs`.
@@ -74,6 +97,7 @@ impl SceneCmd {
         match self.command {
             SceneSub::Lrcs(c) => c.run(),
             SceneSub::Domain(c) => c.run(),
+            SceneSub::Profile(c) => c.run(),
         }
     }
 }
@@ -187,6 +211,47 @@ impl LrcsCmd {
             brdf_plot::polar(plot, &title, "sigma / m^2", &curves)?;
             eprintln!("wrote {}", plot.display());
         }
+        Ok(())
+    }
+}
+
+impl ProfileCmd {
+    fn run(self) -> Result<()> {
+        use brdf_scene::profile::{check, profile, ProfileOptions};
+        let scene = load(&self.scene)?;
+        if let Some(out) = &self.output {
+            crate::common::not_an_input("-o", out, scene.files())?;
+        }
+        let options = ProfileOptions {
+            bin_m: self.bin_m,
+            pulse_m: self.pulse_m,
+        };
+        // Refused before the sweep: a bin that is no length, or too many bins.
+        check(&scene, &options)?;
+        let n = scene.aspects().len();
+        let bar = progress::bar(n, "aspects");
+        let started = std::time::Instant::now();
+        let profiles = profile(&scene, &options, &|| bar.inc(1))?;
+        bar.finish_and_clear();
+        let rows: usize = profiles.iter().map(|p| p.sigma.len()).sum();
+        eprintln!(
+            "{}: {} facets, {n} aspects, {rows} range bins of {} m{} in {:.2} s",
+            self.scene.display(),
+            scene.mesh.facets.len(),
+            self.bin_m,
+            self.pulse_m.map_or(String::new(), |w| format!(" (pulse {w} m)")),
+            started.elapsed().as_secs_f64()
+        );
+        let mut out = sink(&self.output)?;
+        writeln!(out, "azimuth,elevation,range_m,lrcs")?;
+        for p in &profiles {
+            for (j, v) in p.sigma.iter().enumerate() {
+                // The centre to a nanometre (-1.95, not -1.9500000000000002).
+                let range = brdf_core::Compact((p.range_m(j, self.bin_m) * 1e9).round() / 1e9);
+                writeln!(out, "{},{},{range},{v}", p.azimuth, p.elevation)?;
+            }
+        }
+        out.flush().context("cannot write the output")?;
         Ok(())
     }
 }

@@ -23,6 +23,7 @@ pub mod ladder;
 pub mod lrcs;
 pub mod mesh;
 pub mod occlusion;
+pub mod profile;
 pub mod queries;
 pub mod represent;
 pub mod scene;

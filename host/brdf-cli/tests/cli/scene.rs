@@ -367,3 +367,61 @@ fn a_scene_takes_a_spectral_fit_at_one_wavelength_or_a_list() {
         "{err}"
     );
 }
+
+/// `brdf scene profile`: each aspect's bins sum to its σ of `brdf scene lrcs`, with and
+/// without a pulse; bin widths that are no length, or too fine for the target, are refused
+/// before the sweep.
+#[test]
+fn profile_bins_sum_to_each_aspects_sigma() {
+    let lrcs = ok(&brdf(&["scene", "lrcs", &scene()]));
+    let sigma: Vec<(String, f64)> = lrcs
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let (key, v) = l.rsplit_once(',').unwrap();
+            (key.to_owned(), v.parse().unwrap())
+        })
+        .collect();
+    for extra in [&[][..], &["--pulse-m", "0.3"][..]] {
+        let csv = ok(&brdf(
+            &[&["scene", "profile", &scene(), "--bin-m", "0.1"], extra].concat(),
+        ));
+        let mut lines = csv.lines();
+        assert_eq!(lines.next(), Some("azimuth,elevation,range_m,lrcs"));
+        let mut sums: Vec<(String, f64)> = Vec::new();
+        for l in lines {
+            let f: Vec<&str> = l.split(',').collect();
+            let key = format!("{},{}", f[0], f[1]);
+            let v: f64 = f[3].parse().unwrap();
+            // Bin centres on the 0.1 m grid: k/10 + 0.05.
+            let r: f64 = f[2].parse().unwrap();
+            assert!(
+                ((r - 0.05) * 10.0 - ((r - 0.05) * 10.0).round()).abs() < 1e-6,
+                "{l}"
+            );
+            match sums.last_mut() {
+                Some((k, s)) if *k == key => *s += v,
+                _ => sums.push((key, v)),
+            }
+        }
+        assert_eq!(sums.len(), sigma.len());
+        for ((k, s), (k2, want)) in sums.iter().zip(&sigma) {
+            assert_eq!(k, k2);
+            assert!(
+                (s - want).abs() <= 1e-9 * want,
+                "{k}: {s} against {want} {extra:?}"
+            );
+        }
+    }
+    for (bin, says) in [
+        ("0", "not a length above 0"),
+        ("nan", "not a length above 0"),
+        ("1e-6", "more than 100000"),
+    ] {
+        let out = brdf(&["scene", "profile", &scene(), "--bin-m", bin]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(says), "{bin}: {err}");
+    }
+    let out = brdf(&["scene", "profile", &scene(), "--bin-m", "0.1", "--pulse-m", "-1"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--pulse-m -1.0: not a length above 0"));
+}
