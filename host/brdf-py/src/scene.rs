@@ -81,6 +81,40 @@ pub(crate) fn scene_domain(py: Python<'_>, path: String) -> PyResult<SceneDomain
     })
 }
 
+/// A scene's range profiles, as `brdf scene profile` writes them: azimuth, elevation,
+/// range_m, lrcs per row.
+pub(crate) type SceneProfile = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+
+/// `brdf scene profile` through the same library call (`brdf_scene::profile::profile`): its
+/// columns, in its row order.
+#[pyfunction]
+#[pyo3(signature = (path, bin_m, pulse_m=None))]
+pub(crate) fn scene_profile(
+    py: Python<'_>,
+    path: String,
+    bin_m: f64,
+    pulse_m: Option<f64>,
+) -> PyResult<SceneProfile> {
+    use brdf_scene::profile::{check, profile, ProfileOptions};
+    let scene = scene_at(&path)?;
+    let options = ProfileOptions { bin_m, pulse_m };
+    check(&scene, &options).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    crate::fit::interruptible(py, move |_| -> Result<SceneProfile, String> {
+        let profiles = profile(&scene, &options, &|| {}).map_err(|e| e.to_string())?;
+        let mut c: SceneProfile = Default::default();
+        for p in &profiles {
+            for (j, v) in p.sigma.iter().enumerate() {
+                c.0.push(p.azimuth);
+                c.1.push(p.elevation);
+                c.2.push(p.range_m(j, bin_m));
+                c.3.push(*v);
+            }
+        }
+        Ok(c)
+    })?
+    .map_err(PyValueError::new_err)
+}
+
 /// `brdf select --scene` through the same library calls (`brdf_scene::queries::collect_queries`,
 /// `brdf_scene::select::select`): the JSON `--json` prints, the blob `-o` writes (or None)
 /// and why there is none.

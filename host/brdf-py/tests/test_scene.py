@@ -166,3 +166,21 @@ def test_a_list_of_wavelengths_gives_sigma_at_each(cli, root, tmp_path):
     assert one.wavelengths is None and one.by_wavelength is None
     with pytest.raises(ValueError, match="lists 3 wavelengths"):
         brdf.select_scene(scene)
+
+
+def test_profile_is_the_cli_file(cli, root):
+    rows = list(csv.DictReader(io.StringIO(cli("scene", "profile", root / SCENE, "--bin-m", "0.1", "--pulse-m", "0.2").stdout)))
+    got = brdf.scene_profile(root / SCENE, 0.1, pulse_m=0.2)
+    assert len(rows) == len(got["lrcs"]) > 216
+    for key in ("azimuth", "elevation", "lrcs"):
+        assert got[key].tolist() == [float(r[key]) for r in rows], key
+    np.testing.assert_allclose(got["range_m"], [float(r["range_m"]) for r in rows], atol=1e-9)
+    # Each aspect's bins sum to its sigma.
+    lr = brdf.scene_lrcs(root / SCENE)
+    for a, e, s in zip(lr.azimuth, lr.elevation, lr.lrcs):
+        sel = (got["azimuth"] == a) & (got["elevation"] == e)
+        np.testing.assert_allclose(got["lrcs"][sel].sum(), s, rtol=1e-9)
+    with pytest.raises(ValueError, match="not a length above 0"):
+        brdf.scene_profile(root / SCENE, 0.0)
+    with pytest.raises(TypeError, match="bin_m: str"):
+        brdf.scene_profile(root / SCENE, "0.1")

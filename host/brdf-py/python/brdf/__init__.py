@@ -37,6 +37,7 @@ __all__ = [
     "read",
     "scene_domain",
     "scene_lrcs",
+    "scene_profile",
     "select",
     "select_scene",
     "to_json",
@@ -816,6 +817,26 @@ def scene_domain(scene) -> Dict[str, Any]:
         "phi": f(phi),
         "weight": f(weight),
     }
+
+
+def scene_profile(scene, bin_m: float, pulse_m: Optional[float] = None) -> Dict[str, Any]:
+    """Range profiles of the scene file ``scene``, as ``brdf scene profile`` writes them:
+    sigma per range bin of ``bin_m`` metres along the line of sight at every aspect (each
+    facet's sigma split over the bins by the share of its area in each; each aspect's bins sum
+    to its sigma of :func:`scene_lrcs`), optionally spread by a Gaussian pulse of full width
+    at half maximum ``pulse_m``. A dict of numpy arrays, one element per (aspect, bin), in the
+    command's row order: ``azimuth``, ``elevation`` (degrees), ``range_m`` (the bin's centre
+    beyond the plane through the mesh origin across the line of sight; bistatic, half the
+    extra path) and ``lrcs`` (m^2). Raises ValueError with the command's message.
+    """
+    for name, v in (("bin_m", bin_m), ("pulse_m", pulse_m)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            raise TypeError(f"{name}: {type(v).__name__} is not a length in metres")
+    az, el, rng, lrcs = _brdf.scene_profile(
+        os.fspath(scene), float(bin_m), None if pulse_m is None else float(pulse_m)
+    )
+    f = lambda v: np.array(v, dtype=np.float64)  # noqa: E731
+    return {"azimuth": f(az), "elevation": f(el), "range_m": f(rng), "lrcs": f(lrcs)}
 
 
 class SceneSelection:
