@@ -33,6 +33,32 @@ enum SceneSub {
     /// bin's centre beyond the plane through the mesh origin across the line of sight
     /// (bistatic: half the extra path); bins are fixed, [k b, (k + 1) b).
     Profile(ProfileCmd),
+    /// Laser image of one aspect: sigma per pixel (m^2) with visibility by the part of each
+    /// facet seen (a depth buffer along the line of sight), and the range image beside it, as
+    /// a PNG or SVG (and, with --csv, the pixels as CSV `column,row,x_m,y_m,lrcs,range_m`).
+    Image(ImageCmd),
+}
+
+/// `brdf scene image`.
+#[derive(Debug, Args)]
+pub struct ImageCmd {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// The aspect: receiver azimuth and elevation in degrees (default: the sweep's first).
+    #[arg(long, value_name = "AZ,EL", allow_hyphen_values = true)]
+    aspect: Option<String>,
+    /// Pixels along the image's longer side (1 to 4096).
+    #[arg(long, default_value_t = 256)]
+    pixels: usize,
+    /// Depth-buffer samples per pixel along each side (1 to 16).
+    #[arg(long, default_value_t = 4)]
+    supersample: usize,
+    /// The picture (.png or .svg).
+    #[arg(short = 'o', long)]
+    output: PathBuf,
+    /// Also write the pixels as CSV.
+    #[arg(long)]
+    csv: Option<PathBuf>,
 }
 
 /// `brdf scene profile`.
@@ -98,6 +124,7 @@ impl SceneCmd {
             SceneSub::Lrcs(c) => c.run(),
             SceneSub::Domain(c) => c.run(),
             SceneSub::Profile(c) => c.run(),
+            SceneSub::Image(c) => c.run(),
         }
     }
 }
@@ -210,6 +237,108 @@ impl LrcsCmd {
             let title = format!("Laser radar cross-section of {} ({mode})", self.scene.display());
             brdf_plot::polar(plot, &title, "sigma / m^2", &curves)?;
             eprintln!("wrote {}", plot.display());
+        }
+        Ok(())
+    }
+}
+
+impl ImageCmd {
+    fn run(self) -> Result<()> {
+        use brdf_scene::image::{image, ImageOptions};
+        use brdf_scene::scene::Aspect;
+        brdf_plot::check_path(&self.output)?;
+        let scene = load(&self.scene)?;
+        for (flag, out) in [("-o", Some(&self.output)), ("--csv", self.csv.as_ref())] {
+            if let Some(out) = out {
+                crate::common::not_an_input(flag, out, scene.files())?;
+            }
+        }
+        if let Some(csv) = &self.csv {
+            if crate::common::same_file(csv, &self.output) {
+                anyhow::bail!("-o and --csv name the same file {}", csv.display());
+            }
+        }
+        let aspect = match &self.aspect {
+            None => scene.aspects()[0],
+            Some(text) => {
+                let parts: Vec<&str> = text.split(',').collect();
+                let [az, el] = parts[..] else {
+                    anyhow::bail!("--aspect `{text}`: need AZ,EL in degrees");
+                };
+                let number = |t: &str, what: &str, lo: f64, hi: f64| -> Result<f64> {
+                    match t.trim().parse::<f64>() {
+                        Ok(v) if v.is_finite() && (lo..=hi).contains(&v) => Ok(v),
+                        _ => anyhow::bail!(
+                            "--aspect `{text}`: {what} `{t}` is not a number of degrees in [{lo}, {hi}]"
+                        ),
+                    }
+                };
+                let turns = brdf_fit::data::PHI_LIMIT_DEG;
+                Aspect {
+                    azimuth_deg: number(az, "azimuth", -turns, turns)?,
+                    elevation_deg: number(el, "elevation", -90.0, 90.0)?,
+                }
+            }
+        };
+        let options = ImageOptions {
+            pixels: self.pixels,
+            supersample: self.supersample,
+        };
+        let started = std::time::Instant::now();
+        let img = image(&scene, &aspect, &options)?;
+        let seconds = started.elapsed().as_secs_f64();
+        // σ with visibility by centroid at the same aspect, for comparison.
+        let centroid: f64 = brdf_scene::queries::aspect_queries(&scene, &aspect, &mut Vec::new())
+            .iter()
+            .zip(&scene.materials)
+            .map(|(b, m)| b.sigma(&m.evaluator(), &mut Vec::new()))
+            .fold(0.0, |s, x| s + x);
+        eprintln!(
+            "{}: azimuth {}, elevation {}: {} x {} pixels of {:.4} m ({}x{} samples each) in {seconds:.2} s; \
+             sigma {:.6e} m^2 by the area seen (sampling bound {:.2e}), {centroid:.6e} by facet centroids",
+            self.scene.display(),
+            aspect.azimuth_deg,
+            aspect.elevation_deg,
+            img.width,
+            img.height,
+            img.pixel_m,
+            self.supersample,
+            self.supersample,
+            img.lrcs(),
+            img.sigma_bound(),
+        );
+        let title = format!(
+            "{}: azimuth {}°, elevation {}°, σ = {:.4e} m²",
+            self.scene.display(),
+            aspect.azimuth_deg,
+            aspect.elevation_deg,
+            img.lrcs()
+        );
+        let pixels = brdf_plot::Pixels {
+            width: img.width,
+            height: img.height,
+            pixel_m: img.pixel_m,
+            sigma: &img.sigma,
+            range: &img.range,
+        };
+        brdf_plot::laser_image(&self.output, &title, &pixels)?;
+        eprintln!("wrote {}", self.output.display());
+        if let Some(path) = &self.csv {
+            let mut out = sink(&Some(path.clone()))?;
+            writeln!(out, "column,row,x_m,y_m,lrcs,range_m")?;
+            for (k, (s, r)) in img.sigma.iter().zip(&img.range).enumerate() {
+                let (col, row) = (k % img.width, k / img.width);
+                let x = (col as f64 + 0.5) * img.pixel_m;
+                let y = (img.height - row) as f64 * img.pixel_m - 0.5 * img.pixel_m;
+                let r = if r.is_finite() {
+                    r.to_string()
+                } else {
+                    String::new()
+                };
+                writeln!(out, "{col},{row},{x},{y},{s},{r}")?;
+            }
+            out.flush().context("cannot write the CSV")?;
+            eprintln!("wrote {}", path.display());
         }
         Ok(())
     }

@@ -19,12 +19,14 @@
 //!
 //! One file per chart: `in_plane.rs` ([`in_plane`]), `map.rs` ([`hemisphere_map`]),
 //! `residuals.rs` ([`residuals`]), `tradeoff.rs` ([`tradeoff`], [`pareto_front`]),
-//! `polar.rs` ([`polar`]) and `spectrum.rs` ([`spectrum`]: a spectral fit against wavelength); `common.rs` holds what they share (font, palette, the SVG/PNG
+//! `polar.rs` ([`polar`]), `spectrum.rs` ([`spectrum`]: a spectral fit against wavelength) and
+//! `image.rs` ([`laser_image`]: σ per pixel and range); `common.rs` holds what they share (font, palette, the SVG/PNG
 //! backend choice, log ranges).
 
 use brdf_core::AnyModel;
 
 mod common;
+mod image;
 mod in_plane;
 mod map;
 mod polar;
@@ -33,6 +35,7 @@ mod spectrum;
 mod tradeoff;
 
 pub use common::check_path;
+pub use image::{laser_image, Pixels};
 pub use in_plane::in_plane;
 pub use map::hemisphere_map;
 pub use polar::{polar, PolarCurve, POLAR_RANGE_DB};

@@ -7,7 +7,7 @@ use plotters::prelude::*;
 
 use brdf_core::{AnyModel, Brdf};
 
-use crate::common::{circle, deg, err, render, Res, FONT};
+use crate::common::{circle, deg, err, render, viridis, Res, FONT};
 use crate::PlotError;
 
 /// (b) The BRDF over the viewing hemisphere for incidence `theta_i` (radians), as a
@@ -126,23 +126,6 @@ pub fn hemisphere_map(
     )
 }
 
-/// Five-stop viridis, `t` in [0, 1].
-fn viridis(t: f64) -> RGBColor {
-    const STOPS: [(f64, f64, f64); 5] = [
-        (68.0, 1.0, 84.0),
-        (59.0, 82.0, 139.0),
-        (33.0, 145.0, 140.0),
-        (94.0, 201.0, 98.0),
-        (253.0, 231.0, 37.0),
-    ];
-    let t = t.clamp(0.0, 1.0) * 4.0;
-    let k = (t.floor() as usize).min(3);
-    let f = t - k as f64;
-    let (a, b) = (STOPS[k], STOPS[k + 1]);
-    let mix = |x: f64, y: f64| (x + (y - x) * f).round() as u8;
-    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -156,12 +139,5 @@ mod tests {
             hemisphere_map(&b, "t", &model, 0.5).unwrap();
             assert!(std::fs::metadata(&b).unwrap().len() > 1000, "{}", b.display());
         }
-    }
-
-    #[test]
-    fn viridis_runs_from_purple_to_yellow() {
-        assert_eq!(viridis(0.0), RGBColor(68, 1, 84));
-        assert_eq!(viridis(1.0), RGBColor(253, 231, 37));
-        assert_eq!(viridis(-1.0), viridis(0.0));
     }
 }

@@ -7,7 +7,7 @@
 //! the Python half turns the flat index into the caller's array index.
 //!
 //! One module per part of the API: `eval` (`eval`, `albedo`), `fit` (`fit`, `read`, the
-//! settings), `select`, `blob` (`pack`), `scene` (`scene_lrcs`, `scene_domain`, `scene_profile`,
+//! settings), `select`, `blob` (`pack`), `scene` (`scene_lrcs`, `scene_domain`, `scene_profile`, `scene_image`,
 //! `select_scene`); this file holds what they share (the failure type, name parsing, model
 //! building) and the module's contents.
 
@@ -124,6 +124,7 @@ fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scene_lrcs, m)?)?;
     m.add_function(wrap_pyfunction!(scene_domain, m)?)?;
     m.add_function(wrap_pyfunction!(scene_profile, m)?)?;
+    m.add_function(wrap_pyfunction!(scene_image, m)?)?;
     m.add_function(wrap_pyfunction!(select_scene, m)?)?;
     Ok(())
 }

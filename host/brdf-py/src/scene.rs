@@ -115,6 +115,59 @@ pub(crate) fn scene_profile(
     .map_err(PyValueError::new_err)
 }
 
+/// A laser image: width, height, pixel side, σ and range per pixel (row by row from the
+/// top), the sampling bound.
+pub(crate) type SceneImage = (usize, usize, f64, Vec<f64>, Vec<f64>, f64);
+
+/// `brdf scene image` through the same library call (`brdf_scene::image::image`), at the
+/// aspect given or the sweep's first.
+#[pyfunction]
+#[pyo3(signature = (path, azimuth=None, elevation=None, pixels=256, supersample=4))]
+pub(crate) fn scene_image(
+    py: Python<'_>,
+    path: String,
+    azimuth: Option<f64>,
+    elevation: Option<f64>,
+    pixels: usize,
+    supersample: usize,
+) -> PyResult<SceneImage> {
+    use brdf_scene::image::{image, ImageOptions};
+    use brdf_scene::scene::Aspect;
+    let scene = scene_at(&path)?;
+    let aspect = match (azimuth, elevation) {
+        (None, None) => scene.aspects()[0],
+        (Some(az), Some(el)) => {
+            let turns = brdf_fit::data::PHI_LIMIT_DEG;
+            if !(az.is_finite() && az.abs() <= turns) {
+                return Err(PyValueError::new_err(format!(
+                    "azimuth {az}: not in [-{turns}, {turns}] degrees"
+                )));
+            }
+            if !(el.is_finite() && el.abs() <= 90.0) {
+                return Err(PyValueError::new_err(format!(
+                    "elevation {el}: not in [-90, 90] degrees"
+                )));
+            }
+            Aspect {
+                azimuth_deg: az,
+                elevation_deg: el,
+            }
+        }
+        _ => {
+            return Err(PyValueError::new_err(
+                "give azimuth and elevation together, or neither",
+            ))
+        }
+    };
+    let options = ImageOptions { pixels, supersample };
+    crate::fit::interruptible(py, move |_| -> Result<SceneImage, String> {
+        let img = image(&scene, &aspect, &options).map_err(|e| e.to_string())?;
+        let bound = img.sigma_bound();
+        Ok((img.width, img.height, img.pixel_m, img.sigma, img.range, bound))
+    })?
+    .map_err(PyValueError::new_err)
+}
+
 /// `brdf select --scene` through the same library calls (`brdf_scene::queries::collect_queries`,
 /// `brdf_scene::select::select`): the JSON `--json` prints, the blob `-o` writes (or None)
 /// and why there is none.

@@ -184,3 +184,22 @@ def test_profile_is_the_cli_file(cli, root):
         brdf.scene_profile(root / SCENE, 0.0)
     with pytest.raises(TypeError, match="bin_m: str"):
         brdf.scene_profile(root / SCENE, "0.1")
+
+
+def test_image_is_the_cli_csv(cli, root, tmp_path):
+    out = tmp_path / "i.csv"
+    cli("scene", "image", root / SCENE, "--aspect", "30,20", "--pixels", "64", "-o", tmp_path / "i.png", "--csv", out)
+    rows = list(csv.DictReader(io.StringIO(out.read_text())))
+    got = brdf.scene_image(root / SCENE, 30, 20, pixels=64)
+    h, w = got["sigma"].shape
+    assert len(rows) == h * w
+    assert got["sigma"].ravel().tolist() == [float(r["lrcs"]) for r in rows]
+    rng = [float(r["range_m"]) if r["range_m"] else np.nan for r in rows]
+    np.testing.assert_array_equal(got["range_m"].ravel(), rng)
+    assert got["lrcs"] > 0 and got["bound"] < got["lrcs"]
+    with pytest.raises(ValueError, match="azimuth and elevation together"):
+        brdf.scene_image(root / SCENE, 30)
+    with pytest.raises(ValueError, match="--pixels 5000"):
+        brdf.scene_image(root / SCENE, pixels=5000)
+    with pytest.raises(TypeError, match="pixels: float"):
+        brdf.scene_image(root / SCENE, pixels=64.5)

@@ -19,6 +19,7 @@
 //! ```
 
 pub mod eval;
+pub mod image;
 pub mod ladder;
 pub mod lrcs;
 pub mod mesh;

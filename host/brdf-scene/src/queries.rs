@@ -84,6 +84,21 @@ impl QueryBatch {
 /// The queries of one aspect, one [`QueryBatch`] per material (scene order). `stack` is scratch
 /// space for the occlusion rays.
 pub fn aspect_queries(scene: &Scene, aspect: &Aspect, stack: &mut Vec<usize>) -> Vec<QueryBatch> {
+    let (v, s) = (aspect.receiver(), aspect.source(scene.sensor.mode));
+    let mono = scene.sensor.mode == Mode::Monostatic;
+    facing_queries(scene, aspect, |k, f| {
+        !(scene.occluder.blocked(f.centroid, v, k, stack)
+            || !mono && scene.occluder.blocked(f.centroid, s, k, stack))
+    })
+}
+
+/// The queries of one aspect's facets that face both source and receiver and that `keep`
+/// (facet index, facet) keeps: one [`QueryBatch`] per material, scene order.
+pub fn facing_queries(
+    scene: &Scene,
+    aspect: &Aspect,
+    mut keep: impl FnMut(usize, &crate::mesh::Facet) -> bool,
+) -> Vec<QueryBatch> {
     let v = aspect.receiver();
     let s = aspect.source(scene.sensor.mode);
     let mono = scene.sensor.mode == Mode::Monostatic;
@@ -94,10 +109,7 @@ pub fn aspect_queries(scene: &Scene, aspect: &Aspect, stack: &mut Vec<usize>) ->
         if !(mu_i > 0.0 && mu_r > 0.0) {
             continue;
         }
-        if scene.occluder.blocked(f.centroid, v, k, stack) {
-            continue;
-        }
-        if !mono && scene.occluder.blocked(f.centroid, s, k, stack) {
+        if !keep(k, f) {
             continue;
         }
         let cos_phi = if mono { 1.0 } else { cos_phi(n, s, v, mu_i, mu_r) };

@@ -425,3 +425,78 @@ fn profile_bins_sum_to_each_aspects_sigma() {
     let out = brdf(&["scene", "profile", &scene(), "--bin-m", "0.1", "--pulse-m", "-1"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("--pulse-m -1.0: not a length above 0"));
 }
+
+/// `brdf scene image`: the picture, and the pixels as CSV summing to the σ it states (by the
+/// area seen, within its sampling bound of the facet-centroid σ on the bundled target, whose
+/// facets are small); bad aspects and sizes refused by name.
+#[test]
+fn image_draws_sigma_and_range_and_its_pixels_sum_to_sigma() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("i.png");
+    let csv = dir.path().join("i.csv");
+    let out = brdf(&[
+        "scene",
+        "image",
+        &scene(),
+        "--aspect",
+        "30,20",
+        "--pixels",
+        "200",
+        "-o",
+        png.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
+    let stated = |key: &str| -> f64 {
+        let at = err.find(key).unwrap_or_else(|| panic!("{key}: {err}"));
+        err[..at].rsplit(' ').nth(1).unwrap().parse().unwrap()
+    };
+    let (area, bound, centroid) = (
+        stated("m^2 by the area seen"),
+        err.split("sampling bound ")
+            .nth(1)
+            .unwrap()
+            .split(')')
+            .next()
+            .unwrap()
+            .parse::<f64>()
+            .unwrap(),
+        stated("by facet centroids"),
+    );
+    assert!((area - centroid).abs() <= bound, "{err}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("column,row,x_m,y_m,lrcs,range_m"));
+    let (mut sum, mut seen) = (0.0, 0);
+    for l in lines {
+        let f: Vec<&str> = l.split(',').collect();
+        sum += f[4].parse::<f64>().unwrap();
+        if !f[5].is_empty() {
+            seen += 1;
+        }
+    }
+    assert!((sum - area).abs() <= 1e-6 * area, "{sum} {area}");
+    assert!(seen > 1000);
+    for (args, says) in [
+        (&["--aspect", "30"][..], "need AZ,EL"),
+        (&["--aspect", "30,95"][..], "elevation `95`"),
+        (&["--aspect", "nan,10"][..], "azimuth `nan`"),
+        (&["--pixels", "0"][..], "--pixels 0"),
+        (&["--supersample", "17"][..], "--supersample 17"),
+    ] {
+        let o = brdf(&[&["scene", "image", &scene(), "-o", png.to_str().unwrap()], args].concat());
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && e.contains(says), "{args:?}: {e}");
+    }
+    let o = brdf(&[
+        "scene",
+        "image",
+        &scene(),
+        "-o",
+        dir.path().join("x.jpg").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+}

@@ -36,6 +36,7 @@ __all__ = [
     "pack",
     "read",
     "scene_domain",
+    "scene_image",
     "scene_lrcs",
     "scene_profile",
     "select",
@@ -837,6 +838,43 @@ def scene_profile(scene, bin_m: float, pulse_m: Optional[float] = None) -> Dict[
     )
     f = lambda v: np.array(v, dtype=np.float64)  # noqa: E731
     return {"azimuth": f(az), "elevation": f(el), "range_m": f(rng), "lrcs": f(lrcs)}
+
+
+def scene_image(
+    scene, azimuth: Optional[float] = None, elevation: Optional[float] = None, *, pixels: int = 256, supersample: int = 4
+) -> Dict[str, Any]:
+    """The laser image of the scene file ``scene`` at one aspect (``azimuth`` and
+    ``elevation`` in degrees, or the sweep's first), as ``brdf scene image`` draws it: sigma
+    per pixel with visibility by the part of each facet seen (a depth buffer of
+    ``supersample`` x ``supersample`` samples per pixel along the line of sight), and the
+    range of the surface each pixel sees. A dict: ``sigma`` and ``range_m`` (numpy arrays of
+    shape (height, width), the top row first; range NaN where nothing is seen),
+    ``pixel_m`` (the pixel side), ``lrcs`` (sigma's sum, m^2) and ``bound`` (the sampling
+    bound on it). Raises ValueError with the command's message.
+    """
+    for name, v in (("pixels", pixels), ("supersample", supersample)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+            raise TypeError(f"{name}: {type(v).__name__} is not a whole number")
+    for name, v in (("azimuth", azimuth), ("elevation", elevation)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            raise TypeError(f"{name}: {type(v).__name__} is not a number of degrees")
+    if int(pixels) < 1 or int(supersample) < 1:
+        raise ValueError(f"pixels {pixels}, supersample {supersample}: each at least 1")
+    w, h, pixel, sigma, rng, bound = _brdf.scene_image(
+        os.fspath(scene),
+        None if azimuth is None else float(azimuth),
+        None if elevation is None else float(elevation),
+        int(pixels),
+        int(supersample),
+    )
+    s = np.array(sigma, dtype=np.float64).reshape(h, w)
+    return {
+        "sigma": s,
+        "range_m": np.array(rng, dtype=np.float64).reshape(h, w),
+        "pixel_m": pixel,
+        "lrcs": float(s.sum()),
+        "bound": bound,
+    }
 
 
 class SceneSelection:

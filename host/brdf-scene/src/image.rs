@@ -1,0 +1,352 @@
+//! Laser images: σ per pixel of one aspect, and the range of the surface each pixel sees.
+//!
+//! The far-field view is an orthographic projection along the line of sight, so the image is
+//! a depth buffer: every facet is rasterised onto a grid of samples (`supersample` ×
+//! `supersample` per pixel, at their centres; a sample on an edge shared by two facets belongs
+//! to exactly one), the nearest surface kept. A sample that sees a facet facing the receiver
+//! and the source (and, bistatic, lit: the source's own depth buffer sees the same facet
+//! there, or a surface within [`SHADOW_SLACK_SAMPLES`] samples' width of it) adds
+//! `4 pi f_r cos(theta_i) dA` to its pixel, `dA` the sample's area in the image plane (a facet
+//! of area `A` covers `A cos(theta_r)` of it, so summed over a facet this is its
+//! `4 pi f_r cos(theta_i) cos(theta_r) A`). Visibility is thus by the part seen, not by the
+//! centroid: the image's σ converges to the exact single-bounce σ as the samples shrink, with
+//! an error bounded by the σ of the samples along the outlines, each of which decides for its
+//! whole area whether the surface covers it (what [`LaserImage::sigma_bound`] reports).
+//!
+//! Memory: 12 bytes per sample (its depth and facet), at most [`MAX_SAMPLES`], and 16 bytes
+//! per pixel.
+
+use std::f64::consts::PI;
+
+use crate::eval::eval_batch;
+use crate::mesh::v3;
+use crate::queries::facing_queries;
+use crate::scene::{Aspect, Mode, Scene};
+
+/// Most pixels along an image's longer side.
+pub const MAX_PIXELS: usize = 4096;
+
+/// Most samples per pixel along each side.
+pub const MAX_SUPERSAMPLE: usize = 16;
+
+/// Most samples of one depth buffer (200 MB at 12 bytes each).
+pub const MAX_SAMPLES: usize = 1 << 24;
+
+/// A bistatic sample counts as lit when the source's depth buffer at its place holds its own
+/// facet, or a surface no nearer than this many of the source buffer's sample widths in
+/// front of it (the two buffers sample the surface at different points).
+pub const SHADOW_SLACK_SAMPLES: f64 = 2.0;
+
+/// How to draw.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageOptions {
+    /// Pixels along the image's longer side (the target's extent across the line of sight).
+    pub pixels: usize,
+    /// Samples per pixel along each side.
+    pub supersample: usize,
+}
+
+/// One aspect's image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LaserImage {
+    /// Pixels across.
+    pub width: usize,
+    /// Pixels down.
+    pub height: usize,
+    /// Pixel side, m.
+    pub pixel_m: f64,
+    /// σ per pixel, m², row by row from the top (up is the mesh's `z` seen from the sensor, or
+    /// its `y` when looking along `z`).
+    pub sigma: Vec<f64>,
+    /// Range of the nearest surface each pixel sees (the mean over its samples that see one),
+    /// m, as `brdf scene profile` measures it; NaN where none.
+    pub range: Vec<f64>,
+    /// σ of the samples on an outline (a neighbouring sample sees nothing, or a surface a
+    /// depth jump away), m²: each decides for its whole area, and so may the empty sample
+    /// beside it.
+    pub outline_sigma: f64,
+}
+
+impl LaserImage {
+    /// σ of the aspect: the sum over pixels.
+    pub fn lrcs(&self) -> f64 {
+        self.sigma.iter().fold(0.0, |s, v| s + v)
+    }
+
+    /// A bound on the image's error in σ from sampling: the σ of the samples on outlines
+    /// (each, and the empty sample beside it, covered by at most half its area wrongly
+    /// decided).
+    pub fn sigma_bound(&self) -> f64 {
+        self.outline_sigma
+    }
+}
+
+/// Why an image cannot be drawn.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ImageError {
+    /// Pixels or supersampling out of range, or too many samples.
+    #[error("{0}")]
+    Size(String),
+}
+
+/// An orthographic view along `-d` (`d` towards the viewer): image axes `right`, `up`.
+struct View {
+    d: [f64; 3],
+    right: [f64; 3],
+    up: [f64; 3],
+}
+
+impl View {
+    fn towards(d: [f64; 3]) -> View {
+        // Up is z, or y when looking along z.
+        let reference = if d[2].abs() > 0.999_999 {
+            [0.0, 1.0, 0.0]
+        } else {
+            [0.0, 0.0, 1.0]
+        };
+        // Facing -d with `reference` up: right = (-d) x up.
+        let r = v3::cross(v3::scale(d, -1.0), reference);
+        let right = v3::scale(r, 1.0 / v3::norm(r));
+        let up = v3::cross(right, v3::scale(d, -1.0));
+        View { d, right, up }
+    }
+
+    /// Image-plane coordinates and range (`-(p . d)`) of `p`.
+    fn project(&self, p: [f64; 3]) -> [f64; 3] {
+        [v3::dot(p, self.right), v3::dot(p, self.up), -v3::dot(p, self.d)]
+    }
+}
+
+/// A depth buffer of `nx` × `ny` samples of side `step` from `(x0, y0)` (the lower left).
+struct Buffer {
+    nx: usize,
+    ny: usize,
+    x0: f64,
+    y0: f64,
+    step: f64,
+    depth: Vec<f64>,
+    facet: Vec<u32>,
+}
+
+impl Buffer {
+    /// Every facet of `scene` rasterised in `view` over its projected extent.
+    fn draw(scene: &Scene, view: &View, step: f64, bounds: ([f64; 2], [f64; 2])) -> Buffer {
+        let ([x0, y0], [x1, y1]) = bounds;
+        let nx = (((x1 - x0) / step).ceil() as usize).max(1);
+        let ny = (((y1 - y0) / step).ceil() as usize).max(1);
+        let mut b = Buffer {
+            nx,
+            ny,
+            x0,
+            y0,
+            step,
+            depth: vec![f64::INFINITY; nx * ny],
+            facet: vec![u32::MAX; nx * ny],
+        };
+        let projected: Vec<[f64; 3]> = scene.mesh.vertices.iter().map(|&p| view.project(p)).collect();
+        for (k, f) in scene.mesh.facets.iter().enumerate() {
+            let [a, bb, c] = f.vertices.map(|i| projected[i as usize]);
+            b.triangle(k as u32, a, bb, c);
+        }
+        b
+    }
+
+    /// Rasterises one triangle: every sample centre inside it (edges by the top-left rule:
+    /// a centre on an edge shared by two triangles belongs to one) at its interpolated depth,
+    /// where nearer than what the sample holds.
+    fn triangle(&mut self, id: u32, a: [f64; 3], b: [f64; 3], c: [f64; 3]) {
+        // Sample coordinates: centre of sample (i, j) at (i + 0.5, j + 0.5).
+        let to = |p: [f64; 3]| [(p[0] - self.x0) / self.step, (p[1] - self.y0) / self.step, p[2]];
+        let (mut a, mut b, c) = (to(a), to(b), to(c));
+        let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+        if area == 0.0 || !area.is_finite() {
+            return; // seen edge-on: no projected area
+        }
+        if area < 0.0 {
+            std::mem::swap(&mut a, &mut b);
+        }
+        let area = area.abs();
+        let lo_x = a[0].min(b[0]).min(c[0]).floor().max(0.0) as usize;
+        let hi_x = (a[0].max(b[0]).max(c[0]).ceil() as usize).min(self.nx);
+        let lo_y = a[1].min(b[1]).min(c[1]).floor().max(0.0) as usize;
+        let hi_y = (a[1].max(b[1]).max(c[1]).ceil() as usize).min(self.ny);
+        // Edge function of edge p -> q at point x, positive inside (counter-clockwise).
+        let edge = |p: [f64; 3], q: [f64; 3], x: f64, y: f64| {
+            (q[0] - p[0]) * (y - p[1]) - (q[1] - p[1]) * (x - p[0])
+        };
+        // Top-left rule: an edge owns the centres on it when it is a top edge (horizontal,
+        // the triangle below it) or a left edge (going down).
+        let owns = |p: [f64; 3], q: [f64; 3]| {
+            let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+            (dy == 0.0 && dx < 0.0) || dy < 0.0
+        };
+        let (oa, ob, oc) = (owns(b, c), owns(c, a), owns(a, b));
+        for j in lo_y..hi_y {
+            let y = j as f64 + 0.5;
+            for i in lo_x..hi_x {
+                let x = i as f64 + 0.5;
+                let (wa, wb, wc) = (edge(b, c, x, y), edge(c, a, x, y), edge(a, b, x, y));
+                let inside = |w: f64, own: bool| w > 0.0 || (w == 0.0 && own);
+                if !(inside(wa, oa) && inside(wb, ob) && inside(wc, oc)) {
+                    continue;
+                }
+                let z = (wa * a[2] + wb * b[2] + wc * c[2]) / area;
+                let at = j * self.nx + i;
+                if z < self.depth[at] {
+                    self.depth[at] = z;
+                    self.facet[at] = id;
+                }
+            }
+        }
+    }
+
+    /// The sample holding image-plane point `(x, y)`, if inside.
+    fn at(&self, x: f64, y: f64) -> Option<usize> {
+        let (i, j) = ((x - self.x0) / self.step, (y - self.y0) / self.step);
+        (i >= 0.0 && j >= 0.0 && (i as usize) < self.nx && (j as usize) < self.ny)
+            .then(|| j as usize * self.nx + i as usize)
+    }
+}
+
+/// The projected extent of the mesh in `view`, widened by `margin`.
+fn bounds(scene: &Scene, view: &View, margin: f64) -> ([f64; 2], [f64; 2]) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for &p in &scene.mesh.vertices {
+        let q = view.project(p);
+        for k in 0..2 {
+            lo[k] = lo[k].min(q[k]);
+            hi[k] = hi[k].max(q[k]);
+        }
+    }
+    ([lo[0] - margin, lo[1] - margin], [hi[0] + margin, hi[1] + margin])
+}
+
+/// The laser image of `scene` at `aspect`, each material's exact model (f64).
+pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<LaserImage, ImageError> {
+    let (n, k) = (options.pixels, options.supersample);
+    if !(1..=MAX_PIXELS).contains(&n) {
+        return Err(ImageError::Size(format!("--pixels {n}: give 1 to {MAX_PIXELS}")));
+    }
+    if !(1..=MAX_SUPERSAMPLE).contains(&k) {
+        return Err(ImageError::Size(format!(
+            "--supersample {k}: give 1 to {MAX_SUPERSAMPLE}"
+        )));
+    }
+    let samples = (n * k + 2 * k) * (n * k + 2 * k);
+    if samples > MAX_SAMPLES {
+        return Err(ImageError::Size(format!(
+            "{n} pixels x {k} samples each way: {samples} samples, more than {MAX_SAMPLES}"
+        )));
+    }
+    let v = aspect.receiver();
+    let s = aspect.source(scene.sensor.mode);
+    let view = View::towards(v);
+    let (lo, hi) = bounds(scene, &view, 0.0);
+    let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(f64::MIN_POSITIVE);
+    let pixel = extent / n as f64;
+    // One pixel of margin each side, so outlines lie inside the image.
+    let (lo, hi) = bounds(scene, &view, pixel);
+    let width = (((hi[0] - lo[0]) / pixel).round() as usize).max(1);
+    let height = (((hi[1] - lo[1]) / pixel).round() as usize).max(1);
+    let step = pixel / k as f64;
+    let hi = [lo[0] + width as f64 * pixel, lo[1] + height as f64 * pixel];
+    let buffer = Buffer::draw(scene, &view, step, (lo, hi));
+    // Per facet facing both: 4 pi f_r cos(theta_i), by material.
+    let mut per_facet = vec![0.0f64; scene.mesh.facets.len()];
+    let mut values = Vec::new();
+    for (batch, m) in facing_queries(scene, aspect, |_, _| true)
+        .iter()
+        .zip(&scene.materials)
+    {
+        values.clear();
+        values.resize(batch.len(), 0.0);
+        eval_batch(
+            &m.evaluator(),
+            &batch.cos_theta_i,
+            &batch.cos_theta_r,
+            &batch.cos_phi,
+            &mut values,
+        );
+        for j in 0..batch.len() {
+            per_facet[batch.facet[j] as usize] = 4.0 * PI * values[j] * batch.cos_theta_i[j];
+        }
+    }
+    // Bistatic: the source's depth buffer at the same sample size decides what it lights.
+    let source = match scene.sensor.mode {
+        Mode::Monostatic => None,
+        Mode::Bistatic { .. } => {
+            let sv = View::towards(s);
+            let b = bounds(scene, &sv, pixel);
+            Some((Buffer::draw(scene, &sv, step, b), sv))
+        }
+    };
+    let lit = |at: usize, id: u32| -> bool {
+        let Some((sb, sv)) = &source else { return true };
+        // The sample's point on the surface, then where the source sees it.
+        let (i, j) = (at % buffer.nx, at / buffer.nx);
+        let x = buffer.x0 + (i as f64 + 0.5) * step;
+        let y = buffer.y0 + (j as f64 + 0.5) * step;
+        let p = v3::add(
+            v3::add(v3::scale(view.right, x), v3::scale(view.up, y)),
+            v3::scale(view.d, -buffer.depth[at]),
+        );
+        let q = sv.project(p);
+        match sb.at(q[0], q[1]) {
+            Some(t) => sb.facet[t] == id || sb.depth[t] >= q[2] - SHADOW_SLACK_SAMPLES * step,
+            None => true,
+        }
+    };
+    let area = step * step;
+    let mut sigma = vec![0.0; width * height];
+    let mut range_sum = vec![0.0; width * height];
+    let mut range_n = vec![0u32; width * height];
+    let mut outline_sigma = 0.0;
+    for sj in 0..buffer.ny {
+        for si in 0..buffer.nx {
+            let at = sj * buffer.nx + si;
+            let id = buffer.facet[at];
+            if id == u32::MAX {
+                continue;
+            }
+            // Pixel (row from the top).
+            let (px, py) = (si / k, sj / k);
+            if px >= width || py >= height {
+                continue;
+            }
+            let pix = (height - 1 - py) * width + px;
+            range_sum[pix] += buffer.depth[at];
+            range_n[pix] += 1;
+            let g = per_facet[id as usize];
+            if g == 0.0 || !lit(at, id) {
+                continue;
+            }
+            sigma[pix] += g * area;
+            // On an outline: a neighbouring sample sees nothing, or a surface that does not
+            // continue this one (another facet whose depth jumps by more than a sample).
+            let near = |t: usize| {
+                let other = buffer.facet[t];
+                other != u32::MAX && (buffer.depth[t] - buffer.depth[at]).abs() <= 4.0 * step
+            };
+            let outline = (si == 0 || !near(at - 1))
+                || (si + 1 == buffer.nx || !near(at + 1))
+                || (sj == 0 || !near(at - buffer.nx))
+                || (sj + 1 == buffer.ny || !near(at + buffer.nx));
+            if outline {
+                outline_sigma += g * area;
+            }
+        }
+    }
+    let range = range_sum
+        .iter()
+        .zip(&range_n)
+        .map(|(s, &c)| if c == 0 { f64::NAN } else { s / f64::from(c) })
+        .collect();
+    Ok(LaserImage {
+        width,
+        height,
+        pixel_m: pixel,
+        sigma,
+        range,
+        outline_sigma,
+    })
+}
