@@ -662,6 +662,48 @@ fn laser_images_see_by_area() {
         "centroid visibility is off here: the case tests something"
     );
 
+    // Bistatic, 90 degrees apart at one elevation: the receiver (azimuth 0) loses the square
+    // shifted along -x, the source (azimuth 90) lights all but the one shifted along -y.
+    let mut b = MeshBuilder::new();
+    b.plate([-1.0, -1.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0], (1, 1), "low");
+    b.plate(
+        [-1.1, -0.5, 0.5],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        (1, 1),
+        "high",
+    );
+    let s = scene(
+        b.build("plates").unwrap(),
+        lambert(rho),
+        sensor(Mode::Bistatic { separation_deg: 90.0 }, &[0.0], &[55.0, 70.0]),
+    );
+    // Area of [x0, x1] x [y0, y1] within the lower plate.
+    let clip = |x0: f64, x1: f64, y0: f64, y1: f64| {
+        (x1.min(1.0) - x0.max(-1.0)).max(0.0) * (y1.min(1.0) - y0.max(-1.0)).max(0.0)
+    };
+    for a in s.aspects() {
+        let el = a.elevation_deg.to_radians();
+        let d = 0.5 / el.tan();
+        let hidden = clip(-1.1 - d, -0.1 - d, -0.5, 0.5);
+        let shadow = clip(-1.1, -0.1, -0.5 - d, 0.5 - d);
+        // Hidden and in shadow: the two squares' overlap.
+        let both = clip(-1.1, -0.1 - d, -0.5, 0.5 - d);
+        let want = 4.0 * rho * el.sin().powi(2) * (1.0 + 4.0 - (hidden + shadow - both));
+        let img = image(&s, &a, &options).unwrap();
+        let got = img.lrcs();
+        println!(
+            "bistatic, elevation {}: image {got:.5} (bound {:.1e}), analytic {want:.5}",
+            a.elevation_deg,
+            img.sigma_bound()
+        );
+        assert!(
+            rel(got, want) < 0.01,
+            "elevation {}: {got} against {want}",
+            a.elevation_deg
+        );
+    }
+
     let (r, rho) = (1.0, 0.4);
     let mut b = MeshBuilder::new();
     b.icosphere(r, 5, "ball");
