@@ -92,6 +92,26 @@ pub struct LrcsCmd {
     /// Draw sigma against azimuth, one curve per elevation (.svg or .png).
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// Which part of a facet counts: all of it when its centroid is seen (`centroid`, fast),
+    /// or the part seen (`area`: each aspect's laser image summed, with a sampling bound per
+    /// aspect; `--pixels`, `--supersample` set its resolution).
+    #[arg(long, value_enum, default_value = "centroid")]
+    visibility: Visibility,
+    /// With --visibility area: pixels along the image's longer side (1 to 4096).
+    #[arg(long, default_value_t = 256, requires = "visibility")]
+    pixels: usize,
+    /// With --visibility area: depth-buffer samples per pixel along each side (1 to 16).
+    #[arg(long, default_value_t = 4, requires = "visibility")]
+    supersample: usize,
+}
+
+/// What part of a facet counts in σ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Visibility {
+    /// The whole facet when the rays from its centroid to source and receiver are free.
+    Centroid,
+    /// The part of it seen and lit (a depth buffer along the line of sight).
+    Area,
 }
 
 /// `brdf scene domain`.
@@ -147,7 +167,22 @@ impl LrcsCmd {
         }
         let n = scene.aspects().len();
         let bar = progress::bar(n, "aspects");
-        let result = lrcs(&scene, &|| bar.inc(1));
+        let result = match self.visibility {
+            Visibility::Centroid => {
+                if self.pixels != 256 || self.supersample != 4 {
+                    anyhow::bail!("--pixels and --supersample set the resolution of --visibility area");
+                }
+                lrcs(&scene, &|| bar.inc(1))
+            }
+            Visibility::Area => {
+                let options = brdf_scene::image::ImageOptions {
+                    pixels: self.pixels,
+                    supersample: self.supersample,
+                };
+                brdf_scene::lrcs::lrcs_by_area(&scene, &options, &|| bar.inc(1), &brdf_fit::Stop::new())?
+                    .context("the sweep was stopped")?
+            }
+        };
         bar.finish_and_clear();
         let (lo, hi) = result
             .aspects
@@ -162,6 +197,25 @@ impl LrcsCmd {
             n,
             result.seconds
         );
+        if let Some((a, b)) = result
+            .aspects
+            .iter()
+            .filter_map(|a| a.sampling_bound.map(|b| (a, b)))
+            .max_by(|x, y| {
+                (x.1 / x.0.lrcs.max(f64::MIN_POSITIVE)).total_cmp(&(y.1 / y.0.lrcs.max(f64::MIN_POSITIVE)))
+            })
+        {
+            eprintln!(
+                "visibility by area ({} pixels, {}x{} samples each): sampling bound at most {:.2e} of sigma \
+                 (azimuth {}, elevation {})",
+                self.pixels,
+                self.supersample,
+                self.supersample,
+                b / a.lrcs.max(f64::MIN_POSITIVE),
+                a.azimuth,
+                a.elevation
+            );
+        }
         if result.aspects.iter().all(|a| a.facets_seen == 0) {
             eprintln!(
                 "warning: no facet faces the sensor at any aspect, so sigma is 0 everywhere: is \

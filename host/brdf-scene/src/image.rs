@@ -65,6 +65,14 @@ pub struct LaserImage {
     /// depth jump away), m²: each decides for its whole area, and so may the empty sample
     /// beside it.
     pub outline_sigma: f64,
+    /// σ of each material (scene order), m²: the pixels' sum split by the facet each sample
+    /// sees.
+    pub by_material: Vec<f64>,
+    /// Facets that at least one sample sees lit.
+    pub facets_seen: usize,
+    /// Each material's share of σ from facets outside its fitted table's coverage, m² (0
+    /// for materials without one), as [`crate::lrcs::AspectSigma::outside_coverage`].
+    pub outside_coverage: Vec<f64>,
 }
 
 impl LaserImage {
@@ -84,9 +92,10 @@ impl LaserImage {
 /// Why an image cannot be drawn.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ImageError {
-    /// Pixels or supersampling out of range, or too many samples.
+    /// Pixels or supersampling out of range, too many samples, or a scene an image cannot
+    /// be made of.
     #[error("{0}")]
-    Size(String),
+    Refused(String),
 }
 
 /// An orthographic view along `-d` (`d` towards the viewer): image axes `right`, `up`.
@@ -225,16 +234,18 @@ fn bounds(scene: &Scene, view: &View, margin: f64) -> ([f64; 2], [f64; 2]) {
 pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<LaserImage, ImageError> {
     let (n, k) = (options.pixels, options.supersample);
     if !(1..=MAX_PIXELS).contains(&n) {
-        return Err(ImageError::Size(format!("--pixels {n}: give 1 to {MAX_PIXELS}")));
+        return Err(ImageError::Refused(format!(
+            "--pixels {n}: give 1 to {MAX_PIXELS}"
+        )));
     }
     if !(1..=MAX_SUPERSAMPLE).contains(&k) {
-        return Err(ImageError::Size(format!(
+        return Err(ImageError::Refused(format!(
             "--supersample {k}: give 1 to {MAX_SUPERSAMPLE}"
         )));
     }
     let samples = (n * k + 2 * k) * (n * k + 2 * k);
     if samples > MAX_SAMPLES {
-        return Err(ImageError::Size(format!(
+        return Err(ImageError::Refused(format!(
             "{n} pixels x {k} samples each way: {samples} samples, more than {MAX_SAMPLES}"
         )));
     }
@@ -253,6 +264,8 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
     let buffer = Buffer::draw(scene, &view, step, (lo, hi));
     // Per facet facing both: 4 pi f_r cos(theta_i), by material.
     let mut per_facet = vec![0.0f64; scene.mesh.facets.len()];
+    // Facets outside their material's fitted-table coverage.
+    let mut outside = vec![false; scene.mesh.facets.len()];
     let mut values = Vec::new();
     for (batch, m) in facing_queries(scene, aspect, |_, _| true)
         .iter()
@@ -260,15 +273,26 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
     {
         values.clear();
         values.resize(batch.len(), 0.0);
+        let e = m.evaluator();
         eval_batch(
-            &m.evaluator(),
+            &e,
             &batch.cos_theta_i,
             &batch.cos_theta_r,
             &batch.cos_phi,
             &mut values,
         );
+        let table = e.fitted_table();
         for j in 0..batch.len() {
-            per_facet[batch.facet[j] as usize] = 4.0 * PI * values[j] * batch.cos_theta_i[j];
+            let k = batch.facet[j] as usize;
+            per_facet[k] = 4.0 * PI * values[j] * batch.cos_theta_i[j];
+            if let Some(t) = &table {
+                let g = brdf_core::Geometry::from_cosines(
+                    batch.cos_theta_i[j],
+                    batch.cos_theta_r[j],
+                    batch.cos_phi[j],
+                );
+                outside[k] = !t.covers(&g);
+            }
         }
     }
     // Bistatic: the source's depth buffer at the same sample size decides what it lights.
@@ -301,6 +325,9 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
     let mut range_sum = vec![0.0; width * height];
     let mut range_n = vec![0u32; width * height];
     let mut outline_sigma = 0.0;
+    let mut by_material = vec![0.0; scene.materials.len()];
+    let mut outside_coverage = vec![0.0; scene.materials.len()];
+    let mut seen = vec![false; scene.mesh.facets.len()];
     for sj in 0..buffer.ny {
         for si in 0..buffer.nx {
             let at = sj * buffer.nx + si;
@@ -321,6 +348,12 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
                 continue;
             }
             sigma[pix] += g * area;
+            let m = scene.facet_material[id as usize] as usize;
+            by_material[m] += g * area;
+            if outside[id as usize] {
+                outside_coverage[m] += g * area;
+            }
+            seen[id as usize] = true;
             // On an outline: a neighbouring sample sees nothing, or a surface that does not
             // continue this one (another facet whose depth jumps by more than a sample).
             let near = |t: usize| {
@@ -348,5 +381,8 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
         sigma,
         range,
         outline_sigma,
+        by_material,
+        facets_seen: seen.iter().filter(|s| **s).count(),
+        outside_coverage,
     })
 }

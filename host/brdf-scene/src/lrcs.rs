@@ -146,6 +146,9 @@ pub struct AspectSigma {
     /// σ at each wavelength of the scene's list (`Scene::spectrum`), m²; empty without one.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub by_wavelength: Vec<f64>,
+    /// With visibility by area ([`lrcs_by_area`]): the bound on σ's sampling error, m².
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sampling_bound: Option<f64>,
     /// Each material's share of σ from lookups outside its fitted table's coverage, m² (0
     /// for materials without one).
     #[serde(skip)]
@@ -224,6 +227,7 @@ fn lrcs_with_until(
                         by_material: Vec::new(),
                         facets_seen: 0,
                         by_wavelength: Vec::new(),
+                        sampling_bound: None,
                         outside_coverage: Vec::new(),
                     };
                 }
@@ -256,6 +260,7 @@ fn lrcs_with_until(
                     by_material,
                     facets_seen: batches.iter().map(QueryBatch::len).sum(),
                     by_wavelength,
+                    sampling_bound: None,
                     outside_coverage,
                 }
             },
@@ -265,4 +270,54 @@ fn lrcs_with_until(
         aspects,
         seconds: started.elapsed().as_secs_f64(),
     }
+}
+
+/// σ at every aspect with visibility by the part of each facet seen: each aspect's laser
+/// image ([`crate::image::image`]) summed, in parallel over aspects, each with its sampling
+/// bound ([`AspectSigma::sampling_bound`]); `None` once `stop` is requested. At one
+/// wavelength only (a scene's list of wavelengths is refused).
+pub fn lrcs_by_area(
+    scene: &Scene,
+    options: &crate::image::ImageOptions,
+    progress: &(dyn Fn() + Sync),
+    stop: &Stop,
+) -> Result<Option<Lrcs>, crate::image::ImageError> {
+    if !scene.spectrum.is_empty() {
+        return Err(crate::image::ImageError::Refused(
+            "visibility by area works at one wavelength; the scene lists several".into(),
+        ));
+    }
+    let started = Instant::now();
+    let aspects: Vec<Result<Option<AspectSigma>, crate::image::ImageError>> = scene
+        .aspects()
+        .par_iter()
+        .map(|a| {
+            if stop.requested() {
+                return Ok(None);
+            }
+            let img = crate::image::image(scene, a, options)?;
+            progress();
+            Ok(Some(AspectSigma {
+                azimuth: a.azimuth_deg,
+                elevation: a.elevation_deg,
+                lrcs: img.by_material.iter().fold(0.0, |s, m| s + m),
+                facets_seen: img.facets_seen,
+                by_wavelength: Vec::new(),
+                sampling_bound: Some(img.sigma_bound()),
+                outside_coverage: img.outside_coverage,
+                by_material: img.by_material,
+            }))
+        })
+        .collect();
+    let mut out = Vec::with_capacity(aspects.len());
+    for a in aspects {
+        match a? {
+            Some(a) => out.push(a),
+            None => return Ok(None),
+        }
+    }
+    Ok(Some(Lrcs {
+        aspects: out,
+        seconds: started.elapsed().as_secs_f64(),
+    }))
 }

@@ -500,3 +500,49 @@ fn image_draws_sigma_and_range_and_its_pixels_sum_to_sigma() {
     ]);
     assert!(!o.status.success());
 }
+
+/// `brdf scene lrcs --visibility area`: every aspect's σ by the part of each facet seen, each
+/// with its sampling bound in the JSON; on the bundled target (small facets, little shadow)
+/// it agrees with the centroid σ to within that bound plus the centroid's own shadow error.
+#[test]
+fn lrcs_by_area_states_each_aspects_bound() {
+    let area: serde_json::Value = serde_json::from_str(&ok(&brdf(&[
+        "scene",
+        "lrcs",
+        &scene(),
+        "--visibility",
+        "area",
+        "--pixels",
+        "96",
+        "--json",
+    ])))
+    .unwrap();
+    let centroid: serde_json::Value =
+        serde_json::from_str(&ok(&brdf(&["scene", "lrcs", &scene(), "--json"]))).unwrap();
+    let (a, c) = (
+        area["aspects"].as_array().unwrap(),
+        centroid["aspects"].as_array().unwrap(),
+    );
+    assert_eq!(a.len(), c.len());
+    let mut close = 0;
+    for (x, y) in a.iter().zip(c) {
+        let (sa, sc) = (x["lrcs"].as_f64().unwrap(), y["lrcs"].as_f64().unwrap());
+        let bound = x["sampling_bound"].as_f64().unwrap();
+        assert!(bound > 0.0 && bound < 0.2 * sa, "{x}");
+        assert!(y.get("sampling_bound").is_none());
+        // The parts add up.
+        let parts: f64 = x["by_material"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .sum();
+        assert!((parts - sa).abs() <= 1e-12 * sa);
+        if (sa - sc).abs() <= bound {
+            close += 1;
+        }
+    }
+    assert!(close >= a.len() * 9 / 10, "{close} of {}", a.len());
+    let bad = brdf(&["scene", "lrcs", &scene(), "--visibility", "area", "--pixels", "0"]);
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--pixels 0"));
+}
