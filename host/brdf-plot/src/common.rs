@@ -110,6 +110,38 @@ pub(crate) fn viridis(t: f64) -> RGBColor {
     RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
 }
 
+/// A vertical viridis colour bar over `lo..lo + span` with its caption; `(font, top, bottom,
+/// right)`: the caption's size and the margins, pixels.
+pub(crate) fn colour_bar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    caption: &str,
+    (lo, span): (f64, f64),
+    (font, top, bottom, right): (u32, u32, u32, u32),
+) -> Res {
+    let mut bar = ChartBuilder::on(area)
+        .caption(caption, (FONT, font))
+        .margin_top(top)
+        .margin_bottom(bottom)
+        .margin_right(right)
+        .y_label_area_size(50)
+        .build_cartesian_2d(0f64..1f64, lo..lo + span)
+        .map_err(err)?;
+    bar.configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .label_style((FONT, 14))
+        .draw()
+        .map_err(err)?;
+    let steps = 100;
+    bar.draw_series((0..steps).map(|k| {
+        let a = lo + span * k as f64 / steps as f64;
+        let b = lo + span * (k + 1) as f64 / steps as f64;
+        Rectangle::new([(0.0, a), (1.0, b)], viridis((a - lo) / span).filled())
+    }))
+    .map_err(err)?;
+    Ok(())
+}
+
 /// Degrees with up to two decimals, trailing zeros dropped (11.25, 30, 78.75).
 pub(crate) fn deg(rad: f64) -> String {
     let s = format!("{:.2}", rad.to_degrees());

@@ -6,7 +6,7 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::common::{err, render, viridis, Res, FONT};
+use crate::common::{colour_bar, err, render, viridis, Res, FONT};
 use crate::PlotError;
 
 /// One image to draw: `width` × `height` pixels of side `pixel_m`, row by row from the top.
@@ -89,26 +89,7 @@ pub fn laser_image(path: &Path, title: &str, image: &Pixels<'_>) -> Result<(), P
                 ))
             }))
             .map_err(err)?;
-        let mut bar = ChartBuilder::on(&bar_area)
-            .caption(bar_desc, (FONT, 13))
-            .margin_top(30)
-            .margin_bottom(50)
-            .margin_right(40)
-            .y_label_area_size(50)
-            .build_cartesian_2d(0f64..1f64, lo..lo + span)
-            .map_err(err)?;
-        bar.configure_mesh()
-            .disable_mesh()
-            .disable_x_axis()
-            .label_style((FONT, 13))
-            .draw()
-            .map_err(err)?;
-        bar.draw_series((0..100).map(|k| {
-            let a = lo + span * k as f64 / 100.0;
-            let b = lo + span * (k + 1) as f64 / 100.0;
-            Rectangle::new([(0.0, a), (1.0, b)], viridis((a - lo) / span).filled())
-        }))
-        .map_err(err)?;
+        colour_bar(&bar_area, bar_desc, (lo, span), (13, 30, 50, 40))?;
         Ok(())
     }
     fn both<DB: DrawingBackend>(

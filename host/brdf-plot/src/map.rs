@@ -7,7 +7,7 @@ use plotters::prelude::*;
 
 use brdf_core::{AnyModel, Brdf};
 
-use crate::common::{circle, deg, err, render, viridis, Res, FONT};
+use crate::common::{circle, colour_bar, deg, err, render, viridis, Res, FONT};
 use crate::PlotError;
 
 /// (b) The BRDF over the viewing hemisphere for incidence `theta_i` (radians), as a
@@ -95,27 +95,7 @@ pub fn hemisphere_map(
                 .draw_series(LineSeries::new(ring, WHITE.mix(0.6).stroke_width(1)))
                 .map_err(err)?;
         }
-        let mut bar = ChartBuilder::on(&bar_area)
-            .caption("log10 BRDF (1/sr)", (FONT, 15))
-            .margin_top(40)
-            .margin_bottom(56)
-            .margin_right(50)
-            .y_label_area_size(50)
-            .build_cartesian_2d(0f64..1f64, lo..lo + span)
-            .map_err(err)?;
-        bar.configure_mesh()
-            .disable_mesh()
-            .disable_x_axis()
-            .label_style((FONT, 14))
-            .draw()
-            .map_err(err)?;
-        let steps = 100;
-        bar.draw_series((0..steps).map(|k| {
-            let a = lo + span * k as f64 / steps as f64;
-            let b = lo + span * (k + 1) as f64 / steps as f64;
-            Rectangle::new([(0.0, a), (1.0, b)], viridis((a - lo) / span).filled())
-        }))
-        .map_err(err)?;
+        colour_bar(&bar_area, "log10 BRDF (1/sr)", (lo, span), (15, 40, 56, 50))?;
         Ok(())
     }
     render(
