@@ -35,7 +35,8 @@ enum SceneSub {
     Profile(ProfileCmd),
     /// Laser image of one aspect: sigma per pixel (m^2) with visibility by the part of each
     /// facet seen (a depth buffer along the line of sight), and the range image beside it, as
-    /// a PNG or SVG (and, with --csv, the pixels as CSV `column,row,x_m,y_m,lrcs,range_m`).
+    /// a PNG or SVG (and, with --csv, the pixels as CSV `column,row,x_m,y_m,lrcs,range_m`:
+    /// x_m, y_m the pixel's centre on the image's right and up axes through the mesh origin).
     Image(ImageCmd),
 }
 
@@ -97,12 +98,14 @@ pub struct LrcsCmd {
     /// aspect; `--pixels`, `--supersample` set its resolution).
     #[arg(long, value_enum, default_value = "centroid")]
     visibility: Visibility,
-    /// With --visibility area: pixels along the image's longer side (1 to 4096).
-    #[arg(long, default_value_t = 256, requires = "visibility")]
-    pixels: usize,
-    /// With --visibility area: depth-buffer samples per pixel along each side (1 to 16).
-    #[arg(long, default_value_t = 4, requires = "visibility")]
-    supersample: usize,
+    /// With --visibility area: pixels along the image's longer side (1 to 4096; 256 unless
+    /// given).
+    #[arg(long)]
+    pixels: Option<usize>,
+    /// With --visibility area: depth-buffer samples per pixel along each side (1 to 16; 4
+    /// unless given).
+    #[arg(long)]
+    supersample: Option<usize>,
 }
 
 /// What part of a facet counts in σ.
@@ -169,15 +172,15 @@ impl LrcsCmd {
         let bar = progress::bar(n, "aspects");
         let result = match self.visibility {
             Visibility::Centroid => {
-                if self.pixels != 256 || self.supersample != 4 {
+                if self.pixels.is_some() || self.supersample.is_some() {
                     anyhow::bail!("--pixels and --supersample set the resolution of --visibility area");
                 }
                 lrcs(&scene, &|| bar.inc(1))
             }
             Visibility::Area => {
                 let options = brdf_scene::image::ImageOptions {
-                    pixels: self.pixels,
-                    supersample: self.supersample,
+                    pixels: self.pixels.unwrap_or(256),
+                    supersample: self.supersample.unwrap_or(4),
                 };
                 brdf_scene::lrcs::lrcs_by_area(&scene, &options, &|| bar.inc(1), &brdf_fit::Stop::new())?
                     .context("the sweep was stopped")?
@@ -208,15 +211,21 @@ impl LrcsCmd {
             eprintln!(
                 "visibility by area ({} pixels, {}x{} samples each): sampling bound at most {:.2e} of sigma \
                  (azimuth {}, elevation {})",
-                self.pixels,
-                self.supersample,
-                self.supersample,
+                self.pixels.unwrap_or(256),
+                self.supersample.unwrap_or(4),
+                self.supersample.unwrap_or(4),
                 b / a.lrcs.max(f64::MIN_POSITIVE),
                 a.azimuth,
                 a.elevation
             );
         }
-        if result.aspects.iter().all(|a| a.facets_seen == 0) {
+        if result.aspects.iter().all(|a| a.facets_seen == 0) && self.visibility == Visibility::Area {
+            eprintln!(
+                "warning: no sample of any aspect sees a lit facet, so sigma is 0 everywhere (each \
+                 aspect's sampling bound says how much may be missing): are the target's parts \
+                 thinner than a sample (give more --pixels), or is the mesh wound inside out?"
+            );
+        } else if result.aspects.iter().all(|a| a.facets_seen == 0) {
             eprintln!(
                 "warning: no facet faces the sensor at any aspect, so sigma is 0 everywhere: is \
                  the mesh wound inside out (facets are counter-clockwise seen from outside), or \
@@ -382,8 +391,9 @@ impl ImageCmd {
             writeln!(out, "column,row,x_m,y_m,lrcs,range_m")?;
             for (k, (s, r)) in img.sigma.iter().zip(&img.range).enumerate() {
                 let (col, row) = (k % img.width, k / img.width);
-                let x = (col as f64 + 0.5) * img.pixel_m;
-                let y = (img.height - row) as f64 * img.pixel_m - 0.5 * img.pixel_m;
+                // On the image's axes through the mesh origin.
+                let x = img.origin_m[0] + (col as f64 + 0.5) * img.pixel_m;
+                let y = img.origin_m[1] + (img.height - row) as f64 * img.pixel_m - 0.5 * img.pixel_m;
                 let r = if r.is_finite() {
                     r.to_string()
                 } else {

@@ -116,8 +116,8 @@ pub(crate) fn scene_profile(
 }
 
 /// A laser image: width, height, pixel side, σ and range per pixel (row by row from the
-/// top), the sampling bound.
-pub(crate) type SceneImage = (usize, usize, f64, Vec<f64>, Vec<f64>, f64);
+/// top), the sampling bound, the lower left corner on the image's axes.
+pub(crate) type SceneImage = (usize, usize, f64, Vec<f64>, Vec<f64>, f64, [f64; 2]);
 
 /// `brdf scene image` through the same library call (`brdf_scene::image::image`), at the
 /// aspect given or the sweep's first.
@@ -163,7 +163,15 @@ pub(crate) fn scene_image(
     crate::fit::interruptible(py, move |_| -> Result<SceneImage, String> {
         let img = image(&scene, &aspect, &options).map_err(|e| e.to_string())?;
         let bound = img.sigma_bound();
-        Ok((img.width, img.height, img.pixel_m, img.sigma, img.range, bound))
+        Ok((
+            img.width,
+            img.height,
+            img.pixel_m,
+            img.sigma,
+            img.range,
+            bound,
+            img.origin_m,
+        ))
     })?
     .map_err(PyValueError::new_err)
 }
@@ -184,7 +192,9 @@ pub(crate) fn select_scene<'py>(
     use brdf_scene::select::{select, SelectOptions};
     check_budget(budget).map_err(PyValueError::new_err)?;
     let scene = scene_at(&path)?;
-    scene.one_wavelength().map_err(PyValueError::new_err)?;
+    scene
+        .one_wavelength("selecting (a blob holds one representation per material)")
+        .map_err(PyValueError::new_err)?;
     let opts = SelectOptions {
         budget,
         fit: FitOptions {

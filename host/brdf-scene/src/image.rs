@@ -55,6 +55,9 @@ pub struct LaserImage {
     pub height: usize,
     /// Pixel side, m.
     pub pixel_m: f64,
+    /// The image's lower left corner on its right and up axes through the mesh origin, m
+    /// (the axes run along the receiver's right and up; the mesh origin projects to 0, 0).
+    pub origin_m: [f64; 2],
     /// σ per pixel, m², row by row from the top (up is the mesh's `z` seen from the sensor, or
     /// its `y` when looking along `z`).
     pub sigma: Vec<f64>,
@@ -63,7 +66,8 @@ pub struct LaserImage {
     pub range: Vec<f64>,
     /// σ of the samples on an outline (a neighbouring sample sees nothing, or a surface a
     /// depth jump away), m²: each decides for its whole area, and so may the empty sample
-    /// beside it.
+    /// beside it; plus the whole σ of every facet facing source and receiver that no sample
+    /// saw (hidden, or narrower than a sample).
     pub outline_sigma: f64,
     /// σ of each material (scene order), m²: the pixels' sum split by the facet each sample
     /// sees.
@@ -179,9 +183,17 @@ impl Buffer {
         let hi_x = (a[0].max(b[0]).max(c[0]).ceil() as usize).min(self.nx);
         let lo_y = a[1].min(b[1]).min(c[1]).floor().max(0.0) as usize;
         let hi_y = (a[1].max(b[1]).max(c[1]).ceil() as usize).min(self.ny);
-        // Edge function of edge p -> q at point x, positive inside (counter-clockwise).
+        // Edge function of edge p -> q at point x, positive inside (counter-clockwise),
+        // evaluated from the edge's lower endpoint (x, then y) whichever way it is traversed:
+        // the two triangles sharing an edge then get the same value with opposite signs, so a
+        // centre on it is never rejected by both through rounding.
         let edge = |p: [f64; 3], q: [f64; 3], x: f64, y: f64| {
-            (q[0] - p[0]) * (y - p[1]) - (q[1] - p[1]) * (x - p[0])
+            let raw = |p: [f64; 3], q: [f64; 3]| (q[0] - p[0]) * (y - p[1]) - (q[1] - p[1]) * (x - p[0]);
+            if (p[0], p[1]) <= (q[0], q[1]) {
+                raw(p, q)
+            } else {
+                -raw(q, p)
+            }
         };
         // Top-left rule: an edge owns the centres on it when it is a top edge (horizontal,
         // the triangle below it) or a left edge (going down).
@@ -232,6 +244,7 @@ fn bounds(scene: &Scene, view: &View, margin: f64) -> ([f64; 2], [f64; 2]) {
 
 /// The laser image of `scene` at `aspect`, each material's exact model (f64).
 pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<LaserImage, ImageError> {
+    scene.one_wavelength("an image").map_err(ImageError::Refused)?;
     let (n, k) = (options.pixels, options.supersample);
     if !(1..=MAX_PIXELS).contains(&n) {
         return Err(ImageError::Refused(format!(
@@ -264,6 +277,8 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
     let buffer = Buffer::draw(scene, &view, step, (lo, hi));
     // Per facet facing both: 4 pi f_r cos(theta_i), by material.
     let mut per_facet = vec![0.0f64; scene.mesh.facets.len()];
+    // Per facet facing both: its whole σ, 4 pi f_r cos(theta_i) cos(theta_r) A.
+    let mut whole = vec![0.0f64; scene.mesh.facets.len()];
     // Facets outside their material's fitted-table coverage.
     let mut outside = vec![false; scene.mesh.facets.len()];
     let mut values = Vec::new();
@@ -285,6 +300,7 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
         for j in 0..batch.len() {
             let k = batch.facet[j] as usize;
             per_facet[k] = 4.0 * PI * values[j] * batch.cos_theta_i[j];
+            whole[k] = per_facet[k] * batch.cos_theta_r[j] * scene.mesh.facets[k].area;
             if let Some(t) = &table {
                 let g = brdf_core::Geometry::from_cosines(
                     batch.cos_theta_i[j],
@@ -301,20 +317,32 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
         Mode::Bistatic { .. } => {
             let sv = View::towards(s);
             let b = bounds(scene, &sv, pixel);
+            let (nx, ny) = ((b.1[0] - b.0[0]) / step, (b.1[1] - b.0[1]) / step);
+            if nx.ceil() * ny.ceil() > MAX_SAMPLES as f64 {
+                return Err(ImageError::Refused(format!(
+                    "the source sees the target {:.0} x {:.0} samples wide at this sample size: more than \
+                     {MAX_SAMPLES}; give fewer pixels or samples",
+                    nx.ceil(),
+                    ny.ceil()
+                )));
+            }
             Some((Buffer::draw(scene, &sv, step, b), sv))
         }
     };
-    let lit = |at: usize, id: u32| -> bool {
-        let Some((sb, sv)) = &source else { return true };
-        // The sample's point on the surface, then where the source sees it.
+    // The surface point a sample sees.
+    let point = |at: usize| {
         let (i, j) = (at % buffer.nx, at / buffer.nx);
         let x = buffer.x0 + (i as f64 + 0.5) * step;
         let y = buffer.y0 + (j as f64 + 0.5) * step;
-        let p = v3::add(
+        v3::add(
             v3::add(v3::scale(view.right, x), v3::scale(view.up, y)),
             v3::scale(view.d, -buffer.depth[at]),
-        );
-        let q = sv.project(p);
+        )
+    };
+    let lit = |at: usize, id: u32| -> bool {
+        let Some((sb, sv)) = &source else { return true };
+        // Where the source sees the sample's point.
+        let q = sv.project(point(at));
         match sb.at(q[0], q[1]) {
             Some(t) => sb.facet[t] == id || sb.depth[t] >= q[2] - SHADOW_SLACK_SAMPLES * step,
             None => true,
@@ -341,7 +369,11 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
                 continue;
             }
             let pix = (height - 1 - py) * width + px;
-            range_sum[pix] += buffer.depth[at];
+            // Range as `brdf scene profile` measures it: bistatic, half the extra path.
+            range_sum[pix] += match &source {
+                None => buffer.depth[at],
+                Some(_) => 0.5 * (buffer.depth[at] - v3::dot(point(at), s)),
+            };
             range_n[pix] += 1;
             let g = per_facet[id as usize];
             if g == 0.0 || !lit(at, id) {
@@ -369,6 +401,13 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
             }
         }
     }
+    // A facet facing both that no sample saw is hidden, or narrower than a sample and slipped
+    // between them: its whole σ joins the bound (thin parts would otherwise vanish unreported).
+    for (k, w) in whole.iter().enumerate() {
+        if *w > 0.0 && !seen[k] {
+            outline_sigma += w;
+        }
+    }
     let range = range_sum
         .iter()
         .zip(&range_n)
@@ -378,6 +417,7 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
         width,
         height,
         pixel_m: pixel,
+        origin_m: [buffer.x0, buffer.y0],
         sigma,
         range,
         outline_sigma,

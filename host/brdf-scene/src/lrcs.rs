@@ -282,11 +282,9 @@ pub fn lrcs_by_area(
     progress: &(dyn Fn() + Sync),
     stop: &Stop,
 ) -> Result<Option<Lrcs>, crate::image::ImageError> {
-    if !scene.spectrum.is_empty() {
-        return Err(crate::image::ImageError::Refused(
-            "visibility by area works at one wavelength; the scene lists several".into(),
-        ));
-    }
+    scene
+        .one_wavelength("visibility by area")
+        .map_err(crate::image::ImageError::Refused)?;
     let started = Instant::now();
     let aspects: Vec<Result<Option<AspectSigma>, crate::image::ImageError>> = scene
         .aspects()

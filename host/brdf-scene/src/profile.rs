@@ -27,6 +27,10 @@ use crate::scene::{Mode, Scene};
 /// tails).
 pub const MAX_BINS: usize = 100_000;
 
+/// Farthest bin from the mesh origin, in bins: below 2^52, where `(k + 0.5) b` still tells
+/// neighbouring bins apart.
+pub const MAX_BIN_INDEX: f64 = 4.5e15;
+
 /// Most range bins over a whole sweep (aspects times the bins of each): 160 MB of σ values.
 pub const MAX_SWEEP_BINS: usize = 20_000_000;
 
@@ -95,9 +99,13 @@ fn range_of(p: [f64; 3], r: [f64; 3], s: [f64; 3]) -> f64 {
     -0.5 * (dot(r) + dot(s))
 }
 
-/// Checks `options` against `scene`: a bin width and pulse that are positive finite lengths,
-/// and no more bins than [`MAX_BINS`] per aspect and [`MAX_SWEEP_BINS`] over the sweep.
+/// Checks `options` against `scene`: one wavelength, a bin width and pulse that are positive
+/// finite lengths, no more bins than [`MAX_BINS`] per aspect and [`MAX_SWEEP_BINS`] over the
+/// sweep, and a target no farther than [`MAX_BIN_INDEX`] bins from the mesh origin.
 pub fn check(scene: &Scene, options: &ProfileOptions) -> Result<(), ProfileError> {
+    scene
+        .one_wavelength("a range profile")
+        .map_err(ProfileError::Option)?;
     let b = options.bin_m;
     if !(b.is_finite() && b > 0.0) {
         return Err(ProfileError::Option(format!(
@@ -123,14 +131,31 @@ pub fn check(scene: &Scene, options: &ProfileOptions) -> Result<(), ProfileError
     let tails = options.pulse_m.map_or(0.0, |w| 2.0 * PULSE_TAIL_FWHM * w);
     let bins = ((extent + tails) / b).ceil() + 2.0;
     if bins > MAX_BINS as f64 {
+        let with_tails = if tails > 0.0 {
+            format!(" and the pulse's tails {tails:.4} m more")
+        } else {
+            String::new()
+        };
         return Err(ProfileError::TooManyBins(format!(
-            "--bin-m {b:?}: the target spans up to {extent:.4} m{}, {bins:.0} bins per aspect: more than \
-             {MAX_BINS}; give a wider bin",
-            if tails > 0.0 {
-                " (with the pulse's tails)"
-            } else {
-                ""
-            }
+            "--bin-m {b:?}: the target spans up to {extent:.4} m{with_tails}, {bins:.0} bins per aspect: \
+             more than {MAX_BINS}; give a wider bin"
+        )));
+    }
+    // Bin indices are counted from the mesh origin: a target far from it in bins of this width
+    // would lose them to rounding (and overflow the count).
+    let far = scene
+        .mesh
+        .vertices
+        .iter()
+        .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+        .fold(0.0f64, f64::max)
+        + tails;
+    if far / b > MAX_BIN_INDEX {
+        return Err(ProfileError::TooManyBins(format!(
+            "--bin-m {b:?}: the target lies up to {far:.4e} m from the mesh origin, {:.1e} bins away: \
+             more than {MAX_BIN_INDEX:e}, where bins no longer resolve; move the mesh near the origin \
+             or give a wider bin",
+            far / b
         )));
     }
     let total = bins * scene.aspects().len() as f64;
@@ -250,17 +275,17 @@ fn convolve(first: i64, sigma: &[f64], b: f64, w: f64) -> (i64, Vec<f64>) {
     let mut out = vec![0.0; n];
     // Normal CDF.
     let cdf = |x: f64| 0.5 * (1.0 + libm::erf(x / (sd * std::f64::consts::SQRT_2)));
+    // The pulse's share in the bin `o` bins away from the one it is centred on: the same for
+    // every bin (bins are uniform), so computed once.
+    let share: Vec<f64> = (-pad..=pad)
+        .map(|o| cdf((o as f64 + 0.5) * b) - cdf((o as f64 - 0.5) * b))
+        .collect();
     for (j, &v) in sigma.iter().enumerate() {
         if v == 0.0 {
             continue;
         }
-        let centre = (first + j as i64) as f64 * b + 0.5 * b;
-        let (lo, hi) = (j as i64, j as i64 + 2 * pad);
-        let mut below = cdf((start + lo) as f64 * b - centre);
-        for k in lo..=hi {
-            let upto = cdf((start + k + 1) as f64 * b - centre);
-            out[k as usize] += v * (upto - below);
-            below = upto;
+        for (o, w) in share.iter().enumerate() {
+            out[j + o] += v * w;
         }
     }
     (start, out)

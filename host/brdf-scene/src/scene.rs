@@ -614,14 +614,15 @@ impl Scene {
         files
     }
 
-    /// For what works at one wavelength (`brdf select --scene`: a blob holds one choice per
-    /// material): refused, naming the list, when the scene lists several.
-    pub fn one_wavelength(&self) -> Result<(), String> {
+    /// For what works at one wavelength (`what`: selecting, whose blob holds one choice per
+    /// material; an image; a range profile; visibility by area): refused, naming the list,
+    /// when the scene lists several.
+    pub fn one_wavelength(&self, what: &str) -> Result<(), String> {
         match self.spectrum.len() {
             0 => Ok(()),
             n => Err(format!(
-                "{}: [sensor] wavelength_um lists {n} wavelengths; selecting works at one (a \
-                 blob holds one representation per material): give one wavelength",
+                "{}: [sensor] wavelength_um lists {n} wavelengths; {what} works at one: give one \
+                 wavelength",
                 self.file.display()
             )),
         }

@@ -366,6 +366,20 @@ fn a_scene_takes_a_spectral_fit_at_one_wavelength_or_a_list() {
         !refused.status.success() && err.contains("lists 3 wavelengths"),
         "{err}"
     );
+    // What works at one wavelength refuses the list by name (it took the first, unsaid).
+    let png = dir.path().join("i.png");
+    for args in [
+        vec!["scene", "profile", &list, "--bin-m", "0.1"],
+        vec!["scene", "image", &list, "-o", png.to_str().unwrap()],
+        vec!["scene", "lrcs", &list, "--visibility", "area"],
+    ] {
+        let o = brdf(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.contains("lists 3 wavelengths"),
+            "{args:?}: {err}"
+        );
+    }
 }
 
 /// `brdf scene profile`: each aspect's bins sum to its σ of `brdf scene lrcs`, with and
@@ -545,4 +559,7 @@ fn lrcs_by_area_states_each_aspects_bound() {
     assert!(close >= a.len() * 9 / 10, "{close} of {}", a.len());
     let bad = brdf(&["scene", "lrcs", &scene(), "--visibility", "area", "--pixels", "0"]);
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--pixels 0"));
+    // A resolution without area visibility is refused, not ignored.
+    let bad = brdf(&["scene", "lrcs", &scene(), "--pixels", "256"]);
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("set the resolution of --visibility area"));
 }

@@ -849,18 +849,19 @@ def scene_image(
     ``supersample`` x ``supersample`` samples per pixel along the line of sight), and the
     range of the surface each pixel sees. A dict: ``sigma`` and ``range_m`` (numpy arrays of
     shape (height, width), the top row first; range NaN where nothing is seen),
-    ``pixel_m`` (the pixel side), ``lrcs`` (sigma's sum, m^2) and ``bound`` (the sampling
-    bound on it). Raises ValueError with the command's message.
+    ``pixel_m`` (the pixel side), ``origin_m`` (the lower left corner on the image's right and
+    up axes through the mesh origin), ``lrcs`` (sigma's sum, m^2) and ``bound`` (the sampling
+    bound on it). A scene that lists several wavelengths is refused. Raises ValueError with the command's message.
     """
     for name, v in (("pixels", pixels), ("supersample", supersample)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
             raise TypeError(f"{name}: {type(v).__name__} is not a whole number")
     for name, v in (("azimuth", azimuth), ("elevation", elevation)):
-        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating))):
             raise TypeError(f"{name}: {type(v).__name__} is not a number of degrees")
     if int(pixels) < 1 or int(supersample) < 1:
         raise ValueError(f"pixels {pixels}, supersample {supersample}: each at least 1")
-    w, h, pixel, sigma, rng, bound = _brdf.scene_image(
+    w, h, pixel, sigma, rng, bound, origin = _brdf.scene_image(
         os.fspath(scene),
         None if azimuth is None else float(azimuth),
         None if elevation is None else float(elevation),
@@ -872,6 +873,7 @@ def scene_image(
         "sigma": s,
         "range_m": np.array(rng, dtype=np.float64).reshape(h, w),
         "pixel_m": pixel,
+        "origin_m": tuple(origin),
         "lrcs": float(s.sum()),
         "bound": bound,
     }

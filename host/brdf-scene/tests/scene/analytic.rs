@@ -745,3 +745,164 @@ fn laser_images_see_by_area() {
         assert!((nearest + r).abs() < 0.01, "{nearest}");
     }
 }
+
+/// Review findings on images and profiles, each a case that failed: a unit cube's faces
+/// seen square-on lose no sample along their diagonals; parts thinner than a sample enter the
+/// bound; a bistatic source that sees the target too wide is refused, not allocated; a
+/// bistatic image's range is the profile's (half the extra path); a target far from the mesh
+/// origin in fine bins is refused.
+#[test]
+fn images_and_profiles_hold_at_their_edges() {
+    use brdf_scene::image::{image, ImageOptions};
+    use brdf_scene::profile::{profile, ProfileError, ProfileOptions};
+    let rho = 0.5;
+    let mut b = MeshBuilder::new();
+    // The cube [-0.5, 0.5]^3, each face (corner, u, v) with outward normal u x v.
+    let (o, x, y, z) = (-0.5, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
+    for (corner, u, v) in [
+        ([0.5, o, o], y, z),
+        ([o, o, o], z, y),
+        ([o, 0.5, o], z, x),
+        ([o, o, o], x, z),
+        ([o, o, 0.5], x, y),
+        ([o, o, o], y, x),
+    ] {
+        b.plate(corner, u, v, (1, 1), "cube");
+    }
+    let cube = scene(
+        b.build("cube").unwrap(),
+        lambert(rho),
+        sensor(Mode::Monostatic, &[0.0, 90.0], &[-90.0, 0.0, 90.0]),
+    );
+    let one = ImageOptions {
+        pixels: 8,
+        supersample: 1,
+    };
+    for a in cube.aspects() {
+        let got = image(&cube, &a, &one).unwrap().lrcs();
+        // One face square-on: 4 rho A.
+        assert!(rel(got, 4.0 * rho) < 1e-12, "{a:?}: {got}");
+    }
+
+    // Eight strips 0.4 samples wide between sample centres: no sample sees them, the bound
+    // holds their σ.
+    let mut b = MeshBuilder::new();
+    for k in 0..8 {
+        let y = -0.5 + (k as f64 + 0.55) / 8.0;
+        b.plate(
+            [0.0, y, -0.5],
+            [0.0, 0.4 / 8.0 / 4.0, 0.0],
+            [0.0, 0.0, 1.0],
+            (1, 1),
+            "strip",
+        );
+    }
+    let strips = scene(
+        b.build("strips").unwrap(),
+        lambert(rho),
+        sensor(Mode::Monostatic, &[0.0], &[0.0]),
+    );
+    let img = image(
+        &strips,
+        &strips.aspects()[0],
+        &ImageOptions {
+            pixels: 8,
+            supersample: 4,
+        },
+    )
+    .unwrap();
+    let centroid = sigmas(&strips)[0];
+    assert!(centroid > 0.0);
+    assert!(
+        (img.lrcs() - centroid).abs() <= img.sigma_bound(),
+        "{} {} {}",
+        img.lrcs(),
+        centroid,
+        img.sigma_bound()
+    );
+
+    // Two 1 cm plates 1 km apart across the source's view: refused by size.
+    let mut b = MeshBuilder::new();
+    b.plate([0.0, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01], (1, 1), "a");
+    b.plate(
+        [1000.0, 0.0, 0.0],
+        [0.0, 0.01, 0.0],
+        [0.0, 0.0, 0.01],
+        (1, 1),
+        "b",
+    );
+    let far = scene(
+        b.build("far").unwrap(),
+        lambert(rho),
+        sensor(Mode::Bistatic { separation_deg: 90.0 }, &[0.0], &[0.0]),
+    );
+    let e = image(
+        &far,
+        &far.aspects()[0],
+        &ImageOptions {
+            pixels: 64,
+            supersample: 4,
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("the source sees the target"), "{e}");
+
+    // A plate at x = 1 facing +x, bistatic 60 degrees: each pixel's range lies within the
+    // profile's bins.
+    let mut b = MeshBuilder::new();
+    b.plate([1.0, -0.5, -0.5], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], (2, 2), "p");
+    let bi = scene(
+        b.build("plate").unwrap(),
+        lambert(rho),
+        sensor(Mode::Bistatic { separation_deg: 60.0 }, &[0.0], &[0.0]),
+    );
+    let img = image(
+        &bi,
+        &bi.aspects()[0],
+        &ImageOptions {
+            pixels: 16,
+            supersample: 2,
+        },
+    )
+    .unwrap();
+    let p = &profile(
+        &bi,
+        &ProfileOptions {
+            bin_m: 0.05,
+            pulse_m: None,
+        },
+        &|| {},
+    )
+    .unwrap()[0];
+    let (lo, hi) = (
+        p.first_bin as f64 * 0.05,
+        (p.first_bin as f64 + p.sigma.len() as f64) * 0.05,
+    );
+    let ranges: Vec<f64> = img.range.iter().copied().filter(|r| r.is_finite()).collect();
+    assert!(
+        !ranges.is_empty() && ranges.iter().all(|r| (lo..=hi).contains(r)),
+        "{lo} {hi} {ranges:?}"
+    );
+
+    // A target 1e13 m out in bins of 1 µm.
+    let mut b = MeshBuilder::new();
+    b.plate([1e13, 0.0, 0.0], [0.0, 0.05, 0.0], [0.0, 0.0, 0.05], (1, 1), "p");
+    let out = scene(
+        b.build("far").unwrap(),
+        lambert(rho),
+        sensor(Mode::Monostatic, &[0.0], &[0.0]),
+    );
+    let e = profile(
+        &out,
+        &ProfileOptions {
+            bin_m: 1e-6,
+            pulse_m: None,
+        },
+        &|| {},
+    )
+    .unwrap_err();
+    assert!(
+        matches!(e, ProfileError::TooManyBins(ref m) if m.contains("from the mesh origin")),
+        "{e}"
+    );
+}

@@ -382,8 +382,11 @@ fn spectral_materials_are_taken_at_the_sensors_wavelength() {
     let bands = report.materials[0].bands_by_wavelength.clone().unwrap();
     assert_eq!(bands[0].as_deref(), Some("lambert (fit 1)"));
     assert_eq!(bands[2].as_deref(), Some("lambert (fit 0)"));
-    assert!(list.one_wavelength().unwrap_err().contains("lists 3 wavelengths"));
-    assert!(at_05.one_wavelength().is_ok());
+    assert!(list
+        .one_wavelength("x")
+        .unwrap_err()
+        .contains("lists 3 wavelengths; x works at one"));
+    assert!(at_05.one_wavelength("x").is_ok());
     for (bad, says) in [
         ("[0.5, 0.8]", "span 0.5–0.7 µm"),
         ("[0.5, 0.6, 0.5]", "0.5 and 0.5 µm are one wavelength"),
