@@ -123,7 +123,9 @@ impl Active {
             };
             return match m.locate(blob, um).map_err(|_| ErrorCode::OutOfDomain)? {
                 Located::Band(k) => Ok(Answer::Exact(band(k)?)),
-                Located::Between { lower, weight } => Ok(Answer::Blend(band(lower)?, band(lower + 1)?, weight)),
+                Located::Between { lower, weight } => {
+                    Ok(Answer::Blend(band(lower)?, band(lower + 1)?, weight))
+                }
             };
         }
         let table = table.and_then(|(r, c)| SixTable::from_parts(c, r.bytes(blob)?));
@@ -262,10 +264,12 @@ fn handle<'v, F: Flash>(
             active_crc: active.crc,
             materials: active.blob.materials.len() as u8,
         },
-        Request::Eval { material, input, x } => match active.resolve(material, None).and_then(|a| a.eval(input, x)) {
-            Ok(f) => Response::Value(f),
-            Err(e) => Response::Error(e),
-        },
+        Request::Eval { material, input, x } => {
+            match active.resolve(material, None).and_then(|a| a.eval(input, x)) {
+                Ok(f) => Response::Value(f),
+                Err(e) => Response::Error(e),
+            }
+        }
         Request::EvalBatch {
             material,
             input,

@@ -280,7 +280,8 @@ fn banded(ticks: &Ticks) {
         exit(false)
     };
     measure(24, "six banded, two bands blended from cosines", ticks, |x| {
-        let g = brdf_core::Geometry::from_cosines(black_box(0.9 - x), black_box(0.7 + x), black_box(-0.3 + x));
+        let g =
+            brdf_core::Geometry::from_cosines(black_box(0.9 - x), black_box(0.7 + x), black_box(-0.3 + x));
         blend(a.eval(&g), b.eval(&g), black_box(w))
     });
 }
