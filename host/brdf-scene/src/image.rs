@@ -204,7 +204,27 @@ impl Buffer {
         let (oa, ob, oc) = (owns(b, c), owns(c, a), owns(a, b));
         for j in lo_y..hi_y {
             let y = j as f64 + 0.5;
-            for i in lo_x..hi_x {
+            // This row's span: where the row's centre line crosses the edges, a sample wider
+            // each side (the exact test below decides); not the whole bounding box, which a
+            // long thin facet across the image makes thousands of times larger.
+            let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for (p, q) in [(a, b), (b, c), (c, a)] {
+                if (p[1] - y) * (q[1] - y) <= 0.0 {
+                    let x = if q[1] == p[1] {
+                        p[0]
+                    } else {
+                        p[0] + (y - p[1]) * (q[0] - p[0]) / (q[1] - p[1])
+                    };
+                    x_lo = x_lo.min(x.min(if q[1] == p[1] { q[0] } else { x }));
+                    x_hi = x_hi.max(x.max(if q[1] == p[1] { q[0] } else { x }));
+                }
+            }
+            if x_lo > x_hi {
+                continue;
+            }
+            let from = ((x_lo - 1.5).floor().max(lo_x as f64)) as usize;
+            let to = ((x_hi + 1.5).ceil().max(0.0) as usize).min(hi_x);
+            for i in from..to {
                 let x = i as f64 + 0.5;
                 let (wa, wb, wc) = (edge(b, c, x, y), edge(c, a, x, y), edge(a, b, x, y));
                 let inside = |w: f64, own: bool| w > 0.0 || (w == 0.0 && own);
