@@ -158,6 +158,10 @@ impl Buffer {
         };
         let projected: Vec<[f64; 3]> = scene.mesh.vertices.iter().map(|&p| view.project(p)).collect();
         for (k, f) in scene.mesh.facets.iter().enumerate() {
+            // A closed shell's facet seen from behind lies behind one of its front faces.
+            if scene.mesh.closed[k] && v3::dot(f.normal, view.d) <= 0.0 {
+                continue;
+            }
             let [a, bb, c] = f.vertices.map(|i| projected[i as usize]);
             b.triangle(k as u32, a, bb, c);
         }

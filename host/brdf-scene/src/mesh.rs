@@ -238,6 +238,10 @@ pub struct Mesh {
     pub parts: Vec<String>,
     /// Where each facet came from (OBJ line or facet number).
     pub origins: Vec<Origin>,
+    /// Per facet: whether its shell is closed (each of its edges shared by exactly two
+    /// facets), so the facet faces outwards and, seen from behind, always lies behind a front
+    /// face of its own shell (a depth buffer may skip it then).
+    pub closed: Vec<bool>,
 }
 
 impl fmt::Debug for Mesh {
@@ -386,14 +390,15 @@ impl Mesh {
             });
             origins.push(at);
         }
-        let mesh = Mesh {
+        let mut mesh = Mesh {
             file,
             vertices: welded,
             facets,
             parts,
             origins,
+            closed: Vec::new(),
         };
-        mesh.check_winding()?;
+        mesh.closed = mesh.check_winding()?;
         mesh.check_coincident()?;
         Ok(mesh)
     }
@@ -644,8 +649,8 @@ impl Mesh {
     /// Consistent winding across shared edges; closed shells face outwards. An edge shared by
     /// exactly two facets must be run in opposite directions by them; an edge of three or more
     /// facets (a sheet welded onto a body along an edge) is not manifold, and its shells are
-    /// treated as open.
-    fn check_winding(&self) -> Result<(), MeshError> {
+    /// treated as open. Returns whether each facet's shell is closed.
+    fn check_winding(&self) -> Result<Vec<bool>, MeshError> {
         let file = || self.file.display().to_string();
         let edges = |f: &Facet| {
             let v = f.vertices;
@@ -737,7 +742,7 @@ impl Mesh {
                 });
             }
         }
-        Ok(())
+        Ok((0..n).map(|k| !open[root(&mut parent, k)]).collect())
     }
 
     /// OBJ through `tobj`, with line numbers for every facet and every reader error.
