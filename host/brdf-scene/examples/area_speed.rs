@@ -36,8 +36,13 @@ fn main() {
     };
     let lambert = AnyModel::new(ModelKind::Lambert, &[rho]).expect("rho in range");
     let t = Instant::now();
-    let scene = Scene::new("sphere".into(), mesh, vec![SceneMaterial::new("*", lambert)], sensor)
-        .expect("one material covers the sphere");
+    let scene = Scene::new(
+        "sphere".into(),
+        mesh,
+        vec![SceneMaterial::new("*", lambert)],
+        sensor,
+    )
+    .expect("one material covers the sphere");
     let prepare = t.elapsed().as_secs_f64();
     let options = ImageOptions { pixels, supersample };
     let t = Instant::now();

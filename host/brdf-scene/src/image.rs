@@ -183,29 +183,15 @@ impl Buffer {
             std::mem::swap(&mut a, &mut b);
         }
         let area = area.abs();
-        let lo_x = a[0].min(b[0]).min(c[0]).floor().max(0.0) as usize;
-        let hi_x = (a[0].max(b[0]).max(c[0]).ceil() as usize).min(self.nx);
-        let lo_y = a[1].min(b[1]).min(c[1]).floor().max(0.0) as usize;
-        let hi_y = (a[1].max(b[1]).max(c[1]).ceil() as usize).min(self.ny);
-        // Edge function of edge p -> q at point x, positive inside (counter-clockwise),
-        // evaluated from the edge's lower endpoint (x, then y) whichever way it is traversed:
-        // the two triangles sharing an edge then get the same value with opposite signs, so a
-        // centre on it is never rejected by both through rounding.
-        let edge = |p: [f64; 3], q: [f64; 3], x: f64, y: f64| {
-            let raw = |p: [f64; 3], q: [f64; 3]| (q[0] - p[0]) * (y - p[1]) - (q[1] - p[1]) * (x - p[0]);
-            if (p[0], p[1]) <= (q[0], q[1]) {
-                raw(p, q)
-            } else {
-                -raw(q, p)
-            }
-        };
-        // Top-left rule: an edge owns the centres on it when it is a top edge (horizontal,
-        // the triangle below it) or a left edge (going down).
-        let owns = |p: [f64; 3], q: [f64; 3]| {
-            let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
-            (dy == 0.0 && dx < 0.0) || dy < 0.0
-        };
-        let (oa, ob, oc) = (owns(b, c), owns(c, a), owns(a, b));
+        // Sample coordinates are at least 0 here (the buffer spans every vertex), so
+        // truncation is the floor (a call to `floor` costs more than the rest of a small
+        // triangle); one column or row more than the ceiling is harmless (the exact test
+        // decides).
+        let lo_x = a[0].min(b[0]).min(c[0]).max(0.0) as usize;
+        let hi_x = (a[0].max(b[0]).max(c[0]).max(0.0) as usize + 1).min(self.nx);
+        let lo_y = a[1].min(b[1]).min(c[1]).max(0.0) as usize;
+        let hi_y = (a[1].max(b[1]).max(c[1]).max(0.0) as usize + 1).min(self.ny);
+        let (ea, eb, ec) = (Edge::new(b, c), Edge::new(c, a), Edge::new(a, b));
         for j in lo_y..hi_y {
             let y = j as f64 + 0.5;
             // This row's span: where the row's centre line crosses the edges, a sample wider
@@ -214,25 +200,25 @@ impl Buffer {
             let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
             for (p, q) in [(a, b), (b, c), (c, a)] {
                 if (p[1] - y) * (q[1] - y) <= 0.0 {
-                    let x = if q[1] == p[1] {
-                        p[0]
+                    let (x0, x1) = if q[1] == p[1] {
+                        (p[0], q[0])
                     } else {
-                        p[0] + (y - p[1]) * (q[0] - p[0]) / (q[1] - p[1])
+                        let x = p[0] + (y - p[1]) * (q[0] - p[0]) / (q[1] - p[1]);
+                        (x, x)
                     };
-                    x_lo = x_lo.min(x.min(if q[1] == p[1] { q[0] } else { x }));
-                    x_hi = x_hi.max(x.max(if q[1] == p[1] { q[0] } else { x }));
+                    x_lo = x_lo.min(x0.min(x1));
+                    x_hi = x_hi.max(x0.max(x1));
                 }
             }
             if x_lo > x_hi {
                 continue;
             }
-            let from = ((x_lo - 1.5).floor().max(lo_x as f64)) as usize;
-            let to = ((x_hi + 1.5).ceil().max(0.0) as usize).min(hi_x);
+            let from = (x_lo - 1.5).max(lo_x as f64) as usize;
+            let to = ((x_hi + 1.5).max(0.0) as usize + 1).min(hi_x);
             for i in from..to {
                 let x = i as f64 + 0.5;
-                let (wa, wb, wc) = (edge(b, c, x, y), edge(c, a, x, y), edge(a, b, x, y));
-                let inside = |w: f64, own: bool| w > 0.0 || (w == 0.0 && own);
-                if !(inside(wa, oa) && inside(wb, ob) && inside(wc, oc)) {
+                let (wa, wb, wc) = (ea.at(x, y), eb.at(x, y), ec.at(x, y));
+                if !(ea.inside(wa) && eb.inside(wb) && ec.inside(wc)) {
                     continue;
                 }
                 let z = (wa * a[2] + wb * b[2] + wc * c[2]) / area;
@@ -250,6 +236,55 @@ impl Buffer {
         let (i, j) = ((x - self.x0) / self.step, (y - self.y0) / self.step);
         (i >= 0.0 && j >= 0.0 && (i as usize) < self.nx && (j as usize) < self.ny)
             .then(|| j as usize * self.nx + i as usize)
+    }
+}
+
+/// One edge `p -> q` of a counter-clockwise triangle, for its edge function: positive inside.
+/// It is evaluated from the edge's lower endpoint (x, then y) whichever way it is traversed,
+/// so the two triangles sharing an edge get the same value with opposite signs, and a centre
+/// on it is never rejected by both through rounding; the top-left rule gives such a centre to
+/// one of them (an edge owns it when it is a top edge, horizontal with the triangle below it,
+/// or a left edge, going down).
+struct Edge {
+    px: f64,
+    py: f64,
+    dx: f64,
+    dy: f64,
+    sign: f64,
+    owns: bool,
+}
+
+impl Edge {
+    fn new(p: [f64; 3], q: [f64; 3]) -> Edge {
+        let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+        let owns = (dy == 0.0 && dx < 0.0) || dy < 0.0;
+        if (p[0], p[1]) <= (q[0], q[1]) {
+            Edge {
+                px: p[0],
+                py: p[1],
+                dx,
+                dy,
+                sign: 1.0,
+                owns,
+            }
+        } else {
+            Edge {
+                px: q[0],
+                py: q[1],
+                dx: p[0] - q[0],
+                dy: p[1] - q[1],
+                sign: -1.0,
+                owns,
+            }
+        }
+    }
+
+    fn at(&self, x: f64, y: f64) -> f64 {
+        self.sign * (self.dx * (y - self.py) - self.dy * (x - self.px))
+    }
+
+    fn inside(&self, w: f64) -> bool {
+        w > 0.0 || (w == 0.0 && self.owns)
     }
 }
 
