@@ -618,7 +618,8 @@ impl Spectrum {
 
 /// The spectra among `reports`: every measurement with at least two bands (datasets named
 /// `FILE[wavelength=...]`) fitted with one model, in order of first appearance. Bands of a
-/// measurement fitted with different models make no spectrum.
+/// measurement fitted with different models, or a band given twice (the same file fitted
+/// twice), make no spectrum.
 pub fn spectra(reports: &[FitReport]) -> Vec<Spectrum> {
     let mut out: Vec<Spectrum> = Vec::new();
     let mut mixed: Vec<String> = Vec::new();
@@ -639,6 +640,13 @@ pub fn spectra(reports: &[FitReport]) -> Vec<Spectrum> {
             rms_rel: r.metrics.rms_rel,
         };
         match out.iter_mut().find(|s| s.measurement == measurement) {
+            Some(s)
+                if s.bands
+                    .iter()
+                    .any(|b| (b.wavelength_um - um).abs() < SAME_BAND_UM) =>
+            {
+                mixed.push(measurement)
+            }
             Some(s) if s.model == r.model => s.bands.push(band),
             Some(_) => mixed.push(measurement),
             None => out.push(Spectrum {

@@ -895,6 +895,10 @@ fn the_bands_of_a_spectral_file_are_tabulated_and_drawn_against_wavelength() {
     assert!(text.contains("[wavelength=0.45]: model six"));
     // Dark readings make ln f undefined: said in words, not NaN.
     assert!(!text.contains("NaN"), "{text}");
+    // The same file twice: every band twice, so no table (it listed 62 bands, each twice).
+    let twice = brdf(&["fit", "--format", "cornell", data, data]);
+    assert!(twice.status.success());
+    assert!(!String::from_utf8_lossy(&twice.stdout).contains("bands, six"));
 
     let dir = tempfile::tempdir().unwrap();
     let png = dir.path().join("s.png");
