@@ -164,6 +164,8 @@ fn regions(n: usize, edge: usize, seed: u64) -> Vec<(&'static str, Vec<[f32; 3]>
 /// the f64 model of every band (from the device's f32 parameters), the host's blend.
 struct BandPlan {
     centres: Vec<f32>,
+    /// The centres widened, as the host's blend locates a wavelength among them.
+    centres_f64: Vec<f64>,
     midpoints: Vec<f32>,
     models: Vec<AnyModel<f64>>,
 }
@@ -193,6 +195,7 @@ fn band_plan(mat: &Material, blob: &[u8], m: usize, blob_name: &str) -> Result<O
     // The midpoint in f32, as sent; the host blends at that same wavelength.
     let midpoints = centres.windows(2).map(|w| w[0] + 0.5 * (w[1] - w[0])).collect();
     Ok(Some(BandPlan {
+        centres_f64: centres.iter().map(|&c| f64::from(c)).collect(),
         centres,
         midpoints,
         models,
@@ -263,9 +266,8 @@ impl BandPlan {
 
     /// The host's f64 value at `um` (a centre or a midpoint) from angles in radians.
     fn eval_angles(&self, um: f32, ti: f64, tr: f64, phi: f64) -> f64 {
-        let centres: Vec<f64> = self.centres.iter().map(|&c| f64::from(c)).collect();
         let f = |k: usize| self.models[k].eval_angles(ti, tr, phi);
-        match brdf_core::bands::locate(&centres, f64::from(um)) {
+        match brdf_core::bands::locate(&self.centres_f64, f64::from(um)) {
             Ok(Located::Band(k)) => f(k),
             Ok(Located::Between { lower, weight }) => blend(f(lower), f(lower + 1), weight),
             // Never asked: the plan's wavelengths lie within the bands.
