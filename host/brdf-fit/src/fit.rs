@@ -29,6 +29,7 @@ use std::time::Instant;
 use brdf_core::{ModelKind, MAX_PARAMS};
 use rand_core::SeedableRng;
 use rand_pcg::Pcg64Mcg;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::anneal::{anneal, unit, AnnealOptions};
@@ -189,113 +190,241 @@ pub fn fit(problem: &Problem, opts: &FitOptions) -> FitOutcome {
     out
 }
 
-/// The global search on one (possibly reweighted) problem.
-fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
-    let kind = problem.kind();
-    let (lo, hi) = problem.bounds();
-    let probes_apply = matches!(kind, ModelKind::Six | ModelKind::SixCos2) && opts.lobe_probes > 0;
-    let need = opts.agree.max(1);
-    let max_chains = opts.chains.max(1);
-    // Hops are cheaper than chains (no annealing); as many as the chain limit.
-    let max_hops = max_chains.max(opts.hops);
-    let mut found: Vec<LmResult> = Vec::new();
-    let mut chain_costs = Vec::with_capacity(opts.chains);
-    let (mut evals, mut chains, mut probes, mut hops, mut quiet_hops) = (0, 0, 0, 0, 0);
-    let mut hopping = false;
-    let mut hop_rng = Pcg64Mcg::seed_from_u64(opts.seed ^ 0xB0B5_1ED5_5EED_0001);
-    let best_of = |found: &[LmResult]| -> LmResult {
-        *found
+/// One unit of the global search: an annealing chain (its index seeds it) polished, or a
+/// basin-hopping move from `start` polished.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Unit {
+    Chain { index: usize, probe: bool },
+    Hop { start: [f64; MAX_PARAMS] },
+}
+
+/// Where the global search stands: everything the next unit and the stopping rules depend on.
+#[derive(Clone)]
+struct SearchState {
+    found: Vec<LmResult>,
+    /// Grid polishes at the front of `found` (never counted as independent arrivals).
+    grid_n: usize,
+    chain_costs: Vec<f64>,
+    evals: usize,
+    chains: usize,
+    probes: usize,
+    hops: usize,
+    quiet_hops: usize,
+    hopping: bool,
+    hop_rng: Pcg64Mcg,
+}
+
+impl SearchState {
+    fn best(&self) -> LmResult {
+        *self
+            .found
             .iter()
             .min_by(|a, b| a.cost.total_cmp(&b.cost))
             .expect("at least one search")
-    };
-    // Grid polishes are seed-independent and often start side by side: they may supply the
-    // best point but never count as independent arrivals at it. Only chains and hops do.
-    let mut grid_n = 0;
-    let agreeing = |found: &[LmResult], grid_n: usize| -> usize {
-        let best = best_of(found);
-        found[grid_n..]
+    }
+
+    fn agreeing(&self, kind: ModelKind) -> usize {
+        let best = self.best();
+        self.found[self.grid_n..]
             .iter()
             .filter(|f| same_optimum(kind, f, &best))
             .count()
-    };
-    let probes_done = |best: &LmResult, probes: usize| {
-        !probes_apply || !lobe_off(kind, &best.q) || probes >= opts.lobe_probes
-    };
-    // The seed-independent part: polish the best nodes of the fixed grid.
-    for start in grid_starts(problem, opts.grid_starts) {
-        let r = minimise(problem, &start, &lo, &hi, opts.lm);
-        evals += r.evals + 1;
-        found.push(r);
-        grid_n += 1;
     }
-    loop {
-        if problem.stopped() {
-            break;
-        }
-        if !hopping {
-            if chains >= max_chains {
-                break;
+}
+
+/// The global search's rules, separate from the work they order, so that the next unit can be
+/// run before the current one ends (see [`search`]).
+struct Rules<'a> {
+    problem: &'a Problem,
+    opts: &'a FitOptions,
+    probes_apply: bool,
+    need: usize,
+    max_chains: usize,
+    max_hops: usize,
+}
+
+impl Rules<'_> {
+    fn probes_done(&self, best: &LmResult, probes: usize) -> bool {
+        !self.probes_apply || !lobe_off(self.problem.kind(), &best.q) || probes >= self.opts.lobe_probes
+    }
+
+    /// The next unit and the hop generator after it, or `None` when the search is over.
+    fn next(&self, s: &SearchState) -> Option<(Unit, Pcg64Mcg)> {
+        let kind = self.problem.kind();
+        if !s.hopping {
+            if s.chains >= self.max_chains {
+                return None;
             }
             // A lobe-on probe when the best so far has its lobe off and probes remain.
-            let probe = probes_apply
-                && !found.is_empty()
-                && lobe_off(kind, &best_of(&found).q)
-                && probes < opts.lobe_probes;
-            let seed = opts
-                .seed
-                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-                .wrapping_add(chains as u64);
-            let mut rng = Pcg64Mcg::seed_from_u64(seed);
-            let schedule = AnnealOptions {
-                lobe_on: probe,
-                ..opts.anneal
-            };
-            let a = anneal(problem, &mut rng, schedule);
-            let r = minimise(problem, &a.q, &lo, &hi, opts.lm);
-            evals += a.evals + r.evals;
-            chain_costs.push(r.cost);
-            found.push(r);
-            chains += 1;
-            probes += usize::from(probe);
-            hopping = chains >= opts.min_chains
-                && agreeing(&found, grid_n) >= need
-                && probes_done(&best_of(&found), probes);
+            let probe = self.probes_apply
+                && !s.found.is_empty()
+                && lobe_off(kind, &s.best().q)
+                && s.probes < self.opts.lobe_probes;
+            Some((
+                Unit::Chain {
+                    index: s.chains,
+                    probe,
+                },
+                s.hop_rng.clone(),
+            ))
         } else {
-            if hops >= max_hops || quiet_hops >= opts.hops {
-                break;
+            if s.hops >= self.max_hops || s.quiet_hops >= self.opts.hops {
+                return None;
             }
-            // Basin hopping: must fail `hops` times in a row; an arrival at the best cost
-            // counts towards the agreement.
-            let before = best_of(&found);
-            let start = hop_start(problem, &before.q, &mut hop_rng);
-            let r = minimise(problem, &start, &lo, &hi, opts.lm);
-            evals += r.evals + 1;
-            hops += 1;
-            let improved = r.cost < before.cost * (1.0 - AGREEMENT);
-            found.push(r);
-            quiet_hops = if improved { 0 } else { quiet_hops + 1 };
-            if improved && !probes_done(&best_of(&found), probes) {
-                // The new best has its lobe off: probe for lobe-on optima first.
-                hopping = false;
+            let mut rng = s.hop_rng.clone();
+            let start = hop_start(self.problem, &s.best().q, &mut rng);
+            Some((Unit::Hop { start }, rng))
+        }
+    }
+
+    /// Runs `unit`: the polished point and the passes over the data it took.
+    fn run(&self, unit: Unit) -> (LmResult, usize) {
+        let (lo, hi) = self.problem.bounds();
+        match unit {
+            Unit::Chain { index, probe } => {
+                let seed = self
+                    .opts
+                    .seed
+                    .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                    .wrapping_add(index as u64);
+                let mut rng = Pcg64Mcg::seed_from_u64(seed);
+                let schedule = AnnealOptions {
+                    lobe_on: probe,
+                    ..self.opts.anneal
+                };
+                let a = anneal(self.problem, &mut rng, schedule);
+                let r = minimise(self.problem, &a.q, &lo, &hi, self.opts.lm);
+                (r, a.evals + r.evals)
+            }
+            Unit::Hop { start } => {
+                let r = minimise(self.problem, &start, &lo, &hi, self.opts.lm);
+                (r, r.evals + 1)
             }
         }
     }
-    let best = best_of(&found);
-    let agree_n = agreeing(&found, grid_n);
+
+    /// `s` after `unit` gave `r` (`None`: as if it found nothing, for planning ahead).
+    fn apply(&self, s: &mut SearchState, unit: Unit, rng: Pcg64Mcg, r: Option<(LmResult, usize)>) {
+        let kind = self.problem.kind();
+        match unit {
+            Unit::Chain { probe, .. } => {
+                if let Some((r, evals)) = r {
+                    s.evals += evals;
+                    s.chain_costs.push(r.cost);
+                    s.found.push(r);
+                }
+                s.chains += 1;
+                s.probes += usize::from(probe);
+                // (Planning ahead of the first chain with no grid: nothing found yet.)
+                s.hopping = s.chains >= self.opts.min_chains
+                    && !s.found.is_empty()
+                    && s.agreeing(kind) >= self.need
+                    && self.probes_done(&s.best(), s.probes);
+            }
+            Unit::Hop { .. } => {
+                // Basin hopping: must fail `hops` times in a row; an arrival at the best
+                // cost counts towards the agreement.
+                s.hop_rng = rng;
+                s.hops += 1;
+                let Some((r, evals)) = r else {
+                    s.quiet_hops += 1;
+                    return;
+                };
+                let before = s.best();
+                s.evals += evals;
+                let improved = r.cost < before.cost * (1.0 - AGREEMENT);
+                s.found.push(r);
+                s.quiet_hops = if improved { 0 } else { s.quiet_hops + 1 };
+                if improved && !self.probes_done(&s.best(), s.probes) {
+                    // The new best has its lobe off: probe for lobe-on optima first.
+                    s.hopping = false;
+                }
+            }
+        }
+    }
+}
+
+/// The global search on one (possibly reweighted) problem.
+///
+/// The rules order the work one unit at a time. On more than one thread the unit after the
+/// current one (as it would be if the current one found nothing) runs beside it, and its
+/// result is used only when the rules, given the current unit's real result, ask for exactly
+/// that unit; so the outcome is the same bits whatever the thread count.
+fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
+    let kind = problem.kind();
+    let max_chains = opts.chains.max(1);
+    let rules = Rules {
+        problem,
+        opts,
+        probes_apply: matches!(kind, ModelKind::Six | ModelKind::SixCos2) && opts.lobe_probes > 0,
+        need: opts.agree.max(1),
+        max_chains,
+        // Hops are cheaper than chains (no annealing); as many as the chain limit.
+        max_hops: max_chains.max(opts.hops),
+    };
+    let (lo, hi) = problem.bounds();
+    // The seed-independent part: polish the best nodes of the fixed grid (in parallel, kept
+    // in grid order).
+    let grid: Vec<LmResult> = grid_starts(problem, opts.grid_starts)
+        .par_iter()
+        .map(|start| minimise(problem, start, &lo, &hi, opts.lm))
+        .collect();
+    let mut s = SearchState {
+        evals: grid.iter().map(|r| r.evals + 1).sum(),
+        grid_n: grid.len(),
+        found: grid,
+        chain_costs: Vec::with_capacity(opts.chains),
+        chains: 0,
+        probes: 0,
+        hops: 0,
+        quiet_hops: 0,
+        hopping: false,
+        hop_rng: Pcg64Mcg::seed_from_u64(opts.seed ^ 0xB0B5_1ED5_5EED_0001),
+    };
+    let ahead = rayon::current_num_threads() > 1;
+    let mut pending: Option<(Unit, (LmResult, usize))> = None;
+    while !problem.stopped() {
+        let Some((unit, rng)) = rules.next(&s) else {
+            break;
+        };
+        let result = match pending.take() {
+            Some((u, r)) if u == unit => r,
+            _ => {
+                let after = ahead
+                    .then(|| {
+                        let mut t = s.clone();
+                        rules.apply(&mut t, unit, rng.clone(), None);
+                        rules.next(&t)
+                    })
+                    .flatten();
+                match after {
+                    Some((next, _)) => {
+                        let (r, r_next) = rayon::join(|| rules.run(unit), || rules.run(next));
+                        pending = Some((next, r_next));
+                        r
+                    }
+                    None => rules.run(unit),
+                }
+            }
+        };
+        rules.apply(&mut s, unit, rng, Some(result));
+    }
+    let best = s.best();
+    let agree_n = s.agreeing(kind);
+    let need = rules.need;
     let not_converged = if problem.stopped() {
         Some("the fit was stopped before its search ended".to_owned())
     } else if agree_n < need {
         Some(format!(
             "the best cost was reached by {agree_n} of {} chains and hops ({need} needed): the search could still improve",
-            found.len() - grid_n
+            s.found.len() - s.grid_n
         ))
-    } else if !probes_done(&best, probes) {
+    } else if !rules.probes_done(&best, s.probes) {
         Some("the lobe is off and the lobe-on probes were not run (chain limit)".to_owned())
-    } else if quiet_hops < opts.hops {
+    } else if s.quiet_hops < opts.hops {
         Some(format!(
-            "basin hopping still improved the best point ({quiet_hops} of {} moves since without improvement)",
-            opts.hops
+            "basin hopping still improved the best point ({} of {} moves since without improvement)",
+            s.quiet_hops, opts.hops
         ))
     } else if !best.converged {
         Some("the local polish stopped at its iteration limit".to_owned())
@@ -307,13 +436,13 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
         q: best.q,
         params: to_natural(kind, &best.q[..kind.param_count()]),
         cost: best.cost,
-        chain_costs,
-        evals,
+        chain_costs: s.chain_costs,
+        evals: s.evals,
         converged: not_converged.is_none(),
         search: SearchSummary {
-            chains,
-            lobe_probes: probes,
-            hops,
+            chains: s.chains,
+            lobe_probes: s.probes,
+            hops: s.hops,
             agreeing: agree_n,
             not_converged,
         },

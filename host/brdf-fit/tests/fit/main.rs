@@ -13,3 +13,4 @@ mod real_data_cases;
 mod report_json;
 mod stop;
 mod targets;
+mod threads;
