@@ -329,6 +329,13 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
         )?,
         Some(why) => writeln!(out, "  converged: false: {why}")?,
     }
+    if let Some(m) = s.sample {
+        writeln!(
+            out,
+            "  the search ran on {m} of the {} points (stratified by reading); the polish on all of them",
+            r.n
+        )?;
+    }
     writeln!(
         out,
         "  {:<6} {:>14} {:>12}  determined by the data?",

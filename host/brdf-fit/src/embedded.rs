@@ -118,6 +118,7 @@ pub fn fit_embedded(
             not_converged: Some(
                 "the embedded annealer runs a fixed budget with no convergence test".to_owned(),
             ),
+            sample: None,
         },
         seconds: started.elapsed().as_secs_f64(),
     })

@@ -2,6 +2,7 @@
 
 use brdf_core::names::Named;
 use brdf_core::{ModelKind, MAX_PARAMS};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::data::{Dataset, Point};
@@ -9,6 +10,35 @@ use crate::kernel::{bases, eval_many, nonlinear_count, Prepared};
 
 /// Points per call of [`eval_many`] in the passes over the data.
 const CHUNK: usize = 1024;
+
+/// Points from which a pass over the data (cost, normal equations) runs on all cores, in
+/// blocks of [`BLOCK`]: below, one thread is quicker than the pool's start-up (a pass costs
+/// 10–50 ns per point).
+pub const PARALLEL_POINTS: usize = 65_536;
+
+/// Points per block of a parallel pass (a multiple of the kernels' chunk).
+pub const BLOCK: usize = 8 * CHUNK;
+
+/// Partial sums of one pass: `sum rho`, `J^T r`, the lower triangle of `J^T J`.
+#[derive(Clone, Copy, Default)]
+struct Sums {
+    cost: f64,
+    jtj: [[f64; MAX_PARAMS]; MAX_PARAMS],
+    jtr: [f64; MAX_PARAMS],
+}
+
+impl Sums {
+    fn add(mut self, o: Sums) -> Sums {
+        self.cost += o.cost;
+        for a in 0..MAX_PARAMS {
+            self.jtr[a] += o.jtr[a];
+            for b in 0..MAX_PARAMS {
+                self.jtj[a][b] += o.jtj[a][b];
+            }
+        }
+        self
+    }
+}
 
 /// Residual form. `f` is the model, `y` the measurement.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -397,6 +427,19 @@ impl Problem {
         p
     }
 
+    /// The problem on the points `indices` only (in that order), everything else alike.
+    pub fn subset(&self, indices: &[usize]) -> Problem {
+        Problem {
+            pts: indices.iter().map(|&i| self.pts[i]).collect(),
+            y: indices.iter().map(|&i| self.y[i]).collect(),
+            d: indices.iter().map(|&i| self.d[i]).collect(),
+            w: indices.iter().map(|&i| self.w[i]).collect(),
+            irls: indices.iter().map(|&i| self.irls[i]).collect(),
+            stop: self.stop.clone(),
+            ..*self
+        }
+    }
+
     /// Residual `r_i` (weighted, in the residual form) of model value `f` at point `i`.
     pub fn residual_of(&self, i: usize, f: f64) -> f64 {
         self.residual_at(i, f)
@@ -462,35 +505,71 @@ impl Problem {
     /// `0.5 * sum C^2 rho(r_i^2 / C^2)` (`0.5 * sum r_i^2` for the linear loss) at internal
     /// parameters `q`; infinite where a log residual sees `f <= 0`.
     pub fn cost(&self, q: &[f64]) -> f64 {
-        let q = &q[..self.dim()];
-        let mut s = 0.0;
-        let mut f = [0.0; CHUNK];
-        for (c, pts) in self.pts.chunks(CHUNK).enumerate() {
-            eval_many(self.kind, q, pts, &mut f[..pts.len()], None);
-            for (k, &fk) in f[..pts.len()].iter().enumerate() {
-                let r = self.residual_at(c * CHUNK + k, fk);
-                s += self.loss.eval(r * r).0;
-            }
-        }
+        let s = if self.len() < PARALLEL_POINTS {
+            self.cost_sum(q, 0..self.len())
+        } else {
+            let blocks: Vec<f64> = (0..self.len().div_ceil(BLOCK))
+                .into_par_iter()
+                .map(|b| self.cost_sum(q, b * BLOCK..((b + 1) * BLOCK).min(self.len())))
+                .collect();
+            blocks.into_iter().sum()
+        };
         0.5 * s
     }
 
-    /// Cost, gradient `J^T r` and Gauss–Newton matrix `J^T J` at `q` in one pass.
+    /// `sum rho(r_i^2)` over the points in `range`.
+    fn cost_sum(&self, q: &[f64], range: std::ops::Range<usize>) -> f64 {
+        let q = &q[..self.dim()];
+        let mut s = 0.0;
+        let mut f = [0.0; CHUNK];
+        for (c, pts) in self.pts[range.clone()].chunks(CHUNK).enumerate() {
+            eval_many(self.kind, q, pts, &mut f[..pts.len()], None);
+            for (k, &fk) in f[..pts.len()].iter().enumerate() {
+                let r = self.residual_at(range.start + c * CHUNK + k, fk);
+                s += self.loss.eval(r * r).0;
+            }
+        }
+        s
+    }
+
+    /// Cost, gradient `J^T r` and Gauss–Newton matrix `J^T J` at `q` in one pass (over
+    /// blocks of [`BLOCK`] points on all cores above [`PARALLEL_POINTS`] points, the blocks'
+    /// sums added in order: the same bits whatever the thread count).
     pub fn normal_equations(
         &self,
         q: &[f64],
         jtj: &mut [[f64; MAX_PARAMS]; MAX_PARAMS],
         jtr: &mut [f64; MAX_PARAMS],
     ) -> f64 {
+        let sums = if self.len() < PARALLEL_POINTS {
+            self.normal_sums(q, 0..self.len())
+        } else {
+            let blocks: Vec<Sums> = (0..self.len().div_ceil(BLOCK))
+                .into_par_iter()
+                .map(|b| self.normal_sums(q, b * BLOCK..((b + 1) * BLOCK).min(self.len())))
+                .collect();
+            blocks.into_iter().fold(Sums::default(), Sums::add)
+        };
+        let n = self.dim();
+        (*jtj, *jtr) = (sums.jtj, sums.jtr);
+        for a in 0..n {
+            for b in 0..a {
+                jtj[b][a] = jtj[a][b];
+            }
+        }
+        0.5 * sums.cost
+    }
+
+    /// `sum rho`, `J^T r` and the lower triangle of `J^T J` over the points in `range`.
+    fn normal_sums(&self, q: &[f64], range: std::ops::Range<usize>) -> Sums {
         let n = self.dim();
         let q = &q[..n];
-        *jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
-        *jtr = [0.0; MAX_PARAMS];
+        let (mut jtj, mut jtr) = ([[0.0; MAX_PARAMS]; MAX_PARAMS], [0.0; MAX_PARAMS]);
         let mut cost = 0.0;
         let mut fs = [0.0; CHUNK];
         let mut gs = [[0.0; MAX_PARAMS]; CHUNK];
         let linear = self.loss.is_linear();
-        for (c, pts) in self.pts.chunks(CHUNK).enumerate() {
+        for (c, pts) in self.pts[range.clone()].chunks(CHUNK).enumerate() {
             eval_many(
                 self.kind,
                 q,
@@ -501,7 +580,7 @@ impl Problem {
             // Residuals and Jacobian rows in place, then the sums with the parameter count
             // known at compile time (the accumulators stay in registers).
             for (k, (f, g)) in fs.iter_mut().zip(&mut gs).take(pts.len()).enumerate() {
-                let i = c * CHUNK + k;
+                let i = range.start + c * CHUNK + k;
                 let r = self.residual_at(i, *f);
                 let (d, w) = (self.d[i], self.w[i]);
                 let mut scale = match self.residual {
@@ -526,23 +605,18 @@ impl Problem {
             }
             let (fs, gs) = (&fs[..pts.len()], &gs[..pts.len()]);
             let squares = match n {
-                6 => accumulate::<6>(fs, gs, jtj, jtr),
-                5 => accumulate::<5>(fs, gs, jtj, jtr),
-                2 => accumulate::<2>(fs, gs, jtj, jtr),
-                1 => accumulate::<1>(fs, gs, jtj, jtr),
-                _ => accumulate::<MAX_PARAMS>(fs, gs, jtj, jtr),
+                6 => accumulate::<6>(fs, gs, &mut jtj, &mut jtr),
+                5 => accumulate::<5>(fs, gs, &mut jtj, &mut jtr),
+                2 => accumulate::<2>(fs, gs, &mut jtj, &mut jtr),
+                1 => accumulate::<1>(fs, gs, &mut jtj, &mut jtr),
+                _ => accumulate::<MAX_PARAMS>(fs, gs, &mut jtj, &mut jtr),
             };
             // Under a robust loss the cost was summed above (the scaled residuals are not it).
             if linear {
                 cost += squares;
             }
         }
-        for a in 0..n {
-            for b in 0..a {
-                jtj[b][a] = jtj[a][b];
-            }
-        }
-        0.5 * cost
+        Sums { cost, jtj, jtr }
     }
 
     /// Row `i` of the Jacobian of the residuals with respect to the internal parameters
@@ -573,10 +647,32 @@ impl Problem {
 
     /// `J^T J` of the residuals' Jacobian ([`Problem::jacobian_row`]), summed row by row
     /// without holding the Jacobian (constant memory however many points).
+    /// Above [`PARALLEL_POINTS`] points, on all cores in blocks added in order (the same bits
+    /// whatever the thread count).
     pub fn jacobian_gram(&self, q: &[f64]) -> [[f64; MAX_PARAMS]; MAX_PARAMS] {
+        if self.len() < PARALLEL_POINTS {
+            return self.gram_sum(q, 0..self.len());
+        }
+        let blocks: Vec<[[f64; MAX_PARAMS]; MAX_PARAMS]> = (0..self.len().div_ceil(BLOCK))
+            .into_par_iter()
+            .map(|b| self.gram_sum(q, b * BLOCK..((b + 1) * BLOCK).min(self.len())))
+            .collect();
+        let mut jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
+        for g in blocks {
+            for a in 0..MAX_PARAMS {
+                for b in 0..MAX_PARAMS {
+                    jtj[a][b] += g[a][b];
+                }
+            }
+        }
+        jtj
+    }
+
+    /// `J^T J` over the rows in `range`.
+    fn gram_sum(&self, q: &[f64], range: std::ops::Range<usize>) -> [[f64; MAX_PARAMS]; MAX_PARAMS] {
         let n = self.dim();
         let mut jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
-        for i in 0..self.len() {
+        for i in range {
             let g = self.jacobian_row(i, q);
             for a in 0..n {
                 for b in 0..n {

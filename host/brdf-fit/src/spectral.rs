@@ -445,6 +445,7 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
                     hops: o.search.hops,
                     agreeing,
                     not_converged: why_not.clone(),
+                    sample: o.search.sample,
                 },
                 seconds: o.seconds + seconds,
             }

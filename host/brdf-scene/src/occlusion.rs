@@ -6,9 +6,11 @@
 //! rounding: the boxes are padded by [`PAD`] of the mesh size, a ray lying in the plane of a
 //! box face counts as entering it (the crate's own slab test treats that case as a miss),
 //! and a triangle is hit up to [`EDGE_SLACK`] beyond its edges, so a ray through the edge
-//! shared by two occluding facets cannot slip between them. Hits closer than [`T_MIN`] of
-//! the origin facet's own scale (its size plus its distance from the coordinate origin, what
-//! its rounding is relative to) are ignored: they are that facet's own plane.
+//! shared by two occluding facets cannot slip between them. A hit counts only when the ray's
+//! origin lies off the hit facet's plane by more than [`T_MIN`] of the origin facet's own
+//! scale (its size plus its distance from the coordinate origin, what its rounding is relative
+//! to): a hit nearer that plane is rounding in a plane through the origin (a coplanar
+//! neighbour), never a facet in front of it.
 
 use bvh::aabb::{Aabb, Bounded};
 use bvh::bounding_hierarchy::{BHShape, BoundingHierarchy};
@@ -25,11 +27,15 @@ pub const PAD: f64 = 1e-9;
 /// triangle's size) outside an edge still hits, closing the cracks between neighbours.
 pub const EDGE_SLACK: f64 = 1e-12;
 
-/// Nearest hit distance counted, as a fraction of the origin facet's scale (its longest edge
-/// plus its largest coordinate magnitude): a ray leaving a facet cannot be blocked closer
-/// than this by anything but rounding in its own plane. Not of the mesh diagonal: one facet
-/// 1e10 m away made it 10 m, and a plate 1 m behind another was seen through it.
-pub const T_MIN: f64 = 1e-9;
+/// Least distance of the ray's origin from the plane of a facet it hits, for the hit to
+/// count, as a fraction of the origin facet's scale (its longest edge plus its largest
+/// coordinate magnitude): about 4,500 times the rounding of coordinates of that size (2.2e-16
+/// each), which is all that puts a coplanar neighbour's plane off the origin. Measured across
+/// the hit facet's plane, not along the ray, so that grazing rays do not stretch it. Not of
+/// the mesh diagonal: one facet 1e10 m away made it 10 m, and a plate 1 m behind another was
+/// seen through it. At 6.4e6 m from the origin (geocentric coordinates) it is 6.4 µm: parts
+/// closer together than that along their normal are not told apart.
+pub const T_MIN: f64 = 1e-12;
 
 struct Shape {
     index: usize,
@@ -58,6 +64,8 @@ struct Tri {
     v0: [f64; 3],
     e1: [f64; 3],
     e2: [f64; 3],
+    /// `|e1 x e2|`, twice the area.
+    area2: f64,
 }
 
 /// The facets of a mesh with a BVH over them, for occlusion rays.
@@ -65,7 +73,7 @@ pub struct Occluder {
     nodes: Vec<BvhNode<f64, 3>>,
     shape_facet: Vec<usize>,
     tris: Vec<Tri>,
-    /// Per facet, the nearest hit counted on a ray leaving it ([`T_MIN`]).
+    /// Per facet, how far off a hit facet's plane a ray leaving it must start ([`T_MIN`]).
     t_min: Vec<f64>,
 }
 
@@ -87,10 +95,12 @@ impl Occluder {
             .iter()
             .map(|f| {
                 let p = f.vertices.map(|i| mesh.vertices[i as usize]);
+                let (e1, e2) = (v3::sub(p[1], p[0]), v3::sub(p[2], p[0]));
                 Tri {
                     v0: p[0],
-                    e1: v3::sub(p[1], p[0]),
-                    e2: v3::sub(p[2], p[0]),
+                    e1,
+                    e2,
+                    area2: v3::norm(v3::cross(e1, e2)),
                 }
             })
             .collect();
@@ -187,8 +197,9 @@ fn enters(b: &Aabb<f64, 3>, o: [f64; 3], d: [f64; 3], inv: [f64; 3]) -> bool {
     t0 <= t1
 }
 
-/// Möller–Trumbore: does the ray hit the triangle at a distance beyond `t_min`? A ray in the
-/// triangle's plane (edge-on) does not: the triangle has no projected area along it.
+/// Möller–Trumbore: does the ray hit the triangle ahead of its origin, with the origin more
+/// than `t_min` from the triangle's plane? A ray in the triangle's plane (edge-on) does not:
+/// the triangle has no projected area along it.
 #[inline]
 fn hits(t: &Tri, o: [f64; 3], d: [f64; 3], t_min: f64) -> bool {
     let p = v3::cross(d, t.e2);
@@ -208,5 +219,8 @@ fn hits(t: &Tri, o: [f64; 3], d: [f64; 3], t_min: f64) -> bool {
     if v < -EDGE_SLACK || u + v > 1.0 + EDGE_SLACK {
         return false;
     }
-    v3::dot(t.e2, q) * inv > t_min
+    // The origin's distance from the hit facet's plane is `t |n . d|`, with
+    // `|n . d| = |det| / |e1 x e2|`.
+    let t_hit = v3::dot(t.e2, q) * inv;
+    t_hit > 0.0 && t_hit * det.abs() > t_min * t.area2
 }

@@ -63,7 +63,17 @@ pub fn distinct_directions(d: &Dataset, kind: ModelKind, limit: usize) -> usize 
     seen.len()
 }
 
-pub(crate) fn profile_rise(problem: &Problem, outcome: &FitOutcome, j: usize, s2: f64) -> Option<f64> {
+/// The profile test of parameter `j`: the least rise of `2 (cost - cost_min) / s2` over refits
+/// with `q_j` held at half, twice and each end of its box. On a large problem (`sample` given,
+/// see [`crate::fit::SEARCH_POINTS`]) each refit starts on the subsample and is finished on
+/// every point from there: the rise is every point's, at a few passes over them.
+pub(crate) fn profile_rise(
+    problem: &Problem,
+    sample: Option<&Problem>,
+    outcome: &FitOutcome,
+    j: usize,
+    s2: f64,
+) -> Option<f64> {
     let kind = outcome.kind;
     let (lo, hi) = problem.bounds();
     let log_param = matches!(kind, ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five) && j == 1;
@@ -96,7 +106,11 @@ pub(crate) fn profile_rise(problem: &Problem, outcome: &FitOutcome, j: usize, s2
             fhi[j] = v;
             let mut start = outcome.q;
             start[j] = v;
-            let r = crate::lm::minimise(problem, &start, &flo, &fhi, crate::lm::LmOptions::default());
+            let lm = crate::lm::LmOptions::default();
+            if let Some(sample) = sample {
+                start = crate::lm::minimise(sample, &start, &flo, &fhi, lm).q;
+            }
+            let r = crate::lm::minimise(problem, &start, &flo, &fhi, lm);
             Some(2.0 * (r.cost - outcome.cost).max(0.0) / s2)
         })
         .reduce_with(f64::min)
@@ -316,12 +330,14 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome, distinct: usize) -> 
     }
     let d = natural_per_internal(kind, &outcome.q);
     // Profile refits of every parameter that gets a standard error, all in parallel.
+    let sample = (problem.len() > crate::fit::SEARCH_POINTS)
+        .then(|| problem.subset(&crate::fit::search_sample(problem, crate::fit::SEARCH_POINTS)));
     let rises: Vec<Option<f64>> = (0..p)
         .into_par_iter()
         .map(|j| {
             let estimated = note[j].is_none() && cov[j][j].is_finite() && cov[j][j] >= 0.0;
             if estimated && s2 > 0.0 {
-                profile_rise(problem, outcome, j, s2)
+                profile_rise(problem, sample.as_ref(), outcome, j, s2)
             } else {
                 None
             }

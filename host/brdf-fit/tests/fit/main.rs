@@ -6,6 +6,7 @@
 mod embedded;
 mod import_measured;
 mod invariance;
+mod large;
 mod noise_floor;
 mod outliers;
 mod real_data;

@@ -349,6 +349,33 @@ fn a_far_facet_does_not_let_rays_through_near_ones() {
     }
 }
 
+/// Two plates 5 mm apart (the front one hides the back one head-on) at geocentric
+/// coordinates, 6.4e6 m from the origin where f64 resolves about a nanometre: the nearest hit
+/// counted was 1e-9 of the coordinates along the ray (6.4 mm), so the back plate was seen
+/// through the front one and σ doubled. The plates 1 m apart at 1e9 m, likewise.
+#[test]
+fn plates_close_together_far_from_the_origin_hide_each_other() {
+    let rho = 0.5;
+    for (o, gap) in [(6.4e6, 0.005), (4.2e7, 0.02), (1e9, 1.0), (0.0, 1e-3)] {
+        let mut b = MeshBuilder::new();
+        b.plate([o, o, o], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], (1, 1), "back");
+        b.plate([o, o, o + gap], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], (1, 1), "front");
+        let s = scene(
+            b.build("stack").unwrap(),
+            lambert(rho),
+            sensor(Mode::Monostatic, &[0.0], &[90.0, 89.0]),
+        );
+        let got = sigmas(&s);
+        let c = 1f64.to_radians().cos();
+        for (g, want) in got.iter().zip([4.0 * rho, 4.0 * rho * c * c]) {
+            assert!(
+                rel(*g, want) <= F64_REFORMULATION_REL,
+                "at {o} m, {gap} m apart: {got:?}"
+            );
+        }
+    }
+}
+
 /// A ray-triangle test written apart from the library's: the ray meets the triangle's plane
 /// at `t`, and the hit point is inside when the three edge functions agree in sign.
 fn brute_hit(p: [[f64; 3]; 3], o: [f64; 3], d: [f64; 3], t_min: f64) -> bool {
@@ -358,7 +385,8 @@ fn brute_hit(p: [[f64; 3]; 3], o: [f64; 3], d: [f64; 3], t_min: f64) -> bool {
         return false;
     }
     let t = dot(sub(p[0], o), n) / dn;
-    if t <= t_min {
+    // Ahead of the origin, and the origin off the hit plane by more than `t_min`.
+    if t <= 0.0 || t * dn.abs() <= t_min * norm(n) {
         return false;
     }
     let x = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
