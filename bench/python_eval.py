@@ -5,7 +5,7 @@ per point of each, their ratio and the largest relative difference.
     python3 bench/python_eval.py [POINTS]        # default 1,000,000
 
 Both take degrees (numpy converts with np.deg2rad inside the timed call); both are float64.
-brdf.eval runs the core's batch path (the GIL released) on one thread (`parallel=False`, the
+brdf.eval runs the core's batch path (the GIL released) on one thread (`threads=1`, the
 figure compared with numpy, which runs on one) and on all cores (its default).
 """
 import os
@@ -37,7 +37,7 @@ def main():
     ti = rng.uniform(0, 89, n)
     tr = rng.uniform(0, 89, n)
     ph = rng.uniform(0, 360, n)
-    t_brdf, f_brdf = best_of(7, lambda: brdf.eval("six", PARAMS, ti, tr, ph, parallel=False))
+    t_brdf, f_brdf = best_of(7, lambda: brdf.eval("six", PARAMS, ti, tr, ph, threads=1))
     t_all, f_all = best_of(7, lambda: brdf.eval("six", PARAMS, ti, tr, ph))
     assert f_all.tobytes() == f_brdf.tobytes()
     t_np, f_np = best_of(7, lambda: six(KHAKI, np.deg2rad(ti), np.deg2rad(tr), np.deg2rad(ph)))

@@ -208,13 +208,18 @@ impl LrcsCmd {
                 (x.1 / x.0.lrcs.max(f64::MIN_POSITIVE)).total_cmp(&(y.1 / y.0.lrcs.max(f64::MIN_POSITIVE)))
             })
         {
+            // Where sigma is 0 the bound is no fraction of it: say it in m^2.
+            let worst = if a.lrcs > 0.0 {
+                format!("at most {:.2e} of sigma", b / a.lrcs)
+            } else {
+                format!("{b:.4e} m^2 where sigma is 0")
+            };
             eprintln!(
-                "visibility by area ({} pixels, {}x{} samples each): sampling bound at most {:.2e} of sigma \
+                "visibility by area ({} pixels, {}x{} samples each): sampling bound {worst} \
                  (azimuth {}, elevation {})",
                 self.pixels.unwrap_or(256),
                 self.supersample.unwrap_or(4),
                 self.supersample.unwrap_or(4),
-                b / a.lrcs.max(f64::MIN_POSITIVE),
                 a.azimuth,
                 a.elevation
             );
@@ -439,8 +444,7 @@ impl ProfileCmd {
         writeln!(out, "azimuth,elevation,range_m,lrcs")?;
         for p in &profiles {
             for (j, v) in p.sigma.iter().enumerate() {
-                // The centre to a nanometre (-1.95, not -1.9500000000000002).
-                let range = brdf_core::Compact((p.range_m(j, self.bin_m) * 1e9).round() / 1e9);
+                let range = brdf_core::Compact(p.range_label(j, self.bin_m));
                 writeln!(out, "{},{},{range},{v}", p.azimuth, p.elevation)?;
             }
         }

@@ -261,6 +261,11 @@ pub struct RowDegrees {
 /// 100% error), so a value out here is a unit error and is refused with its line.
 pub const BRDF_MAGNITUDE: std::ops::RangeInclusive<f64> = 1e-100..=1e100;
 
+/// Largest `|brdf| / sigma` of a row: its residual is squared (and summed over at most some
+/// 1e8 points), so up to 1e100 the cost stays far inside f64; no measurement is 1e100 times
+/// more precise than its value.
+pub const SIGMA_RATIO_MAX: f64 = 1e100;
+
 /// Largest azimuth magnitude a direction may be given with, degrees: two turns either way
 /// covers every convention (`[0, 360)`, `[-180, 180]`, a sweep written past 360). Beyond, the
 /// angle is a unit or column error, and a huge one loses its phase in the conversion to
@@ -325,12 +330,23 @@ impl Point {
                 None => Ok(None),
             }
         };
+        let sigma = positive(r.sigma, "sigma")?;
+        // The residual `(f - y) / sigma` is squared: a reading 1e199 times its sigma (each
+        // within its own range) overflowed the cost to infinity.
+        if let Some(s) = sigma {
+            in_range(
+                s,
+                brdf.abs() / s <= SIGMA_RATIO_MAX,
+                "sigma",
+                "[|brdf| / 1e100, 1e100] (a reading more than 1e100 times its sigma squares past f64; is the unit of one of them right?)",
+            )?;
+        }
         Ok(Point {
             theta_i: theta_i.to_radians(),
             theta_r: theta_r.to_radians(),
             phi: phi.to_radians(),
             brdf,
-            sigma: positive(r.sigma, "sigma")?,
+            sigma,
             weight: positive(r.weight, "weight")?,
             line,
         })
@@ -808,6 +824,8 @@ mod tests {
         // Scaled by 1e200 (or 1e-200) the data once fitted to all-zero parameters at 100%.
         huge_brdf: "theta_i,theta_r,phi,brdf\n0,0,0,0.1\n0,10,0,2.5e200\n" => "line 3: column brdf: 2.5e200 is outside [1e-100, 1e100] 1/sr";
         tiny_brdf: "theta_i,theta_r,phi,brdf\n0,0,0,3e-200\n" => "line 2: column brdf: 3e-200 is outside [1e-100, 1e100]";
+        // Each within its range, together 1e199 apart: the squared residual overflowed.
+        reading_far_above_sigma: "theta_i,theta_r,phi,brdf,sigma\n0,0,0,1,1\n0,10,0,1e99,1e-100\n" => "line 3: column sigma: 1e-100 is outside [|brdf| / 1e100, 1e100]";
         zenith_at_90: "theta_i,theta_r,phi,brdf\n90,0,0,0.1\n" => "column theta_i: 90 is outside [0, 90)";
         negative_zenith: "theta_i,theta_r,phi,brdf\n10,-5,0,0.1\n" => "column theta_r: -5 is outside";
         theta_s_out_of_range: "theta_i,theta_s,brdf\n10,95,0.1\n" => "column theta_s: 95 is outside";

@@ -141,15 +141,29 @@ pub fn floor_for(choice: FloorChoice, points: &[Point]) -> Result<Option<NoiseFl
     let at_or_below = |s: f64| points.iter().filter(|p| p.brdf <= s).count();
     let zero = at_or_below(0.0);
     Ok(match choice {
-        FloorChoice::Given(s) if s > 0.0 => Some(NoiseFloor {
-            value: s,
-            source: "given".to_owned(),
-            sigma_a: None,
-            relative_noise: None,
-            at_or_below_zero: zero,
-            at_or_below_floor: at_or_below(s),
-            note: None,
-        }),
+        FloorChoice::Given(s) if s > 0.0 => {
+            let below = at_or_below(s);
+            let share = below as f64 / points.len().max(1) as f64;
+            Some(NoiseFloor {
+                value: s,
+                source: "given".to_owned(),
+                sigma_a: None,
+                relative_noise: None,
+                at_or_below_zero: zero,
+                at_or_below_floor: below,
+                // A floor above most readings weighs them by absolute error in units of the
+                // floor: their relative errors then look small however far off the fit is.
+                note: (share > FLOOR_ABOVE_MOST).then(|| {
+                    format!(
+                        "the given noise floor {} 1/sr lies above {:.0}% of the readings: the fit weighs \
+                         this dataset almost by absolute error in units of the floor, and its relative \
+                         errors look small however far off it is",
+                        brdf_core::Compact(s),
+                        100.0 * share
+                    )
+                }),
+            })
+        }
         FloorChoice::Given(_) => None,
         FloorChoice::Auto => estimate(points)?.map(|e| {
             let s = e.sigma_a / ASSUMED_RELATIVE_NOISE;

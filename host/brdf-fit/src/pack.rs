@@ -575,6 +575,20 @@ pub fn pack(
             if let Some(text) = f32_beyond_claim(&m).map_err(refused)? {
                 say(Level::Warning, format!("warning: {origin} ({name}): {text}"));
             }
+            // A parameter below f32's normal numbers is rounded to 0 or to a few bits (the
+            // claim above is measured on the f32 parameters, so it cannot see this).
+            for ((p, &x), &f) in r.model.param_names().iter().zip(&params).zip(&m.params) {
+                if x != 0.0 && !f.is_normal() {
+                    say(
+                        Level::Warning,
+                        format!(
+                            "warning: {origin} ({name}): {p} = {x:e} is below f32's normal numbers \
+                             (1.18e-38); the device holds {:e}",
+                            f64::from(f)
+                        ),
+                    );
+                }
+            }
             materials.push(m);
             fitted_tables.push(None);
             origin_of.push(origin);
@@ -753,6 +767,15 @@ mod tests {
             .and_then(|w| w.parse().ok())
             .unwrap();
         assert!(e > F32_MAX_REL && e < 10.0 * F32_MAX_REL, "{text}");
+        // A parameter f32 holds as 0 was packed with no word.
+        let (packed, notes) = pack_text(r#"{"model": "lambert", "params": {"rho0": 1e-50}}"#, None);
+        packed.unwrap();
+        assert!(
+            notes
+                .iter()
+                .any(|n| n.text.contains("rho0 = 1e-50 is below f32's normal numbers")),
+            "{notes:?}"
+        );
         // Khaki, in the paper's range, gets no note at all.
         let (_, notes) = pack_text(KHAKI, None);
         assert!(notes.is_empty(), "{notes:?}");

@@ -116,8 +116,8 @@ pub enum OptionError {
         "the embedded engine fits relative residuals with the linear loss, no brightening and no noise floor; {0} is set"
     )]
     Embedded(String),
-    /// The noise floor is not a finite number at or above zero.
-    #[error("noise_floor {0} is not a finite number at or above 0 (1/sr)")]
+    /// The noise floor is neither 0 nor within a reading's magnitude.
+    #[error("noise_floor {0} is neither 0 nor within [1e-100, 1e100] 1/sr (a reading's magnitude)")]
     NoiseFloor(f64),
     /// More agreeing searches asked for than chains run.
     #[error("agree {agree} is more than chains {chains}: the fit could never converge")]
@@ -236,7 +236,9 @@ impl FitSettings {
             }
         }
         if let Some(s) = r.noise_floor {
-            if !(s.is_finite() && s >= 0.0) {
+            // 0 (none), or a reading's magnitude: a floor of 1e200 made every residual
+            // underflow to 0 and a grid node "converged" at 0.000%.
+            if !(s == 0.0 || crate::data::BRDF_MAGNITUDE.contains(&s)) {
                 return Err(OptionError::NoiseFloor(s));
             }
         }

@@ -31,14 +31,65 @@ pub(crate) fn radians<T: Float>(deg: &[f64]) -> Vec<T> {
     deg.iter().map(|d| T::from_f64(d.to_radians())).collect()
 }
 
+/// Most threads a call may ask for: far above any machine's cores, a bound on what one call
+/// can create.
+pub(crate) const MAX_THREADS: usize = 256;
+
+/// Where an evaluation runs: every core (rayon's global pool), this thread alone, or a pool of
+/// a given size (made once per size and kept).
+pub(crate) enum Threads {
+    All,
+    One,
+    Pool(std::sync::Arc<rayon::ThreadPool>),
+}
+
+impl Threads {
+    /// 0: all cores; 1: one thread; `n`: a pool of `n` (at most [`MAX_THREADS`]).
+    pub(crate) fn new(threads: usize) -> PyResult<Threads> {
+        static POOLS: std::sync::Mutex<std::collections::BTreeMap<usize, std::sync::Arc<rayon::ThreadPool>>> =
+            std::sync::Mutex::new(std::collections::BTreeMap::new());
+        match threads {
+            0 => Ok(Threads::All),
+            1 => Ok(Threads::One),
+            n if n > MAX_THREADS => Err(PyValueError::new_err(format!(
+                "threads {n}: at most {MAX_THREADS}"
+            ))),
+            n => {
+                let mut pools = POOLS.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                if let Some(p) = pools.get(&n) {
+                    return Ok(Threads::Pool(p.clone()));
+                }
+                let p = std::sync::Arc::new(
+                    rayon::ThreadPoolBuilder::new()
+                        .num_threads(n)
+                        .build()
+                        .map_err(|e| PyValueError::new_err(format!("threads {n}: {e}")))?,
+                );
+                pools.insert(n, p.clone());
+                Ok(Threads::Pool(p))
+            }
+        }
+    }
+
+    /// Runs `f`, telling it whether to spread its work (`true`) over the pool it runs in.
+    pub(crate) fn run<R: Send>(&self, f: impl FnOnce(bool) -> R + Send) -> R {
+        match self {
+            Threads::All => f(true),
+            Threads::One => f(false),
+            Threads::Pool(p) => p.install(|| f(true)),
+        }
+    }
+}
+
 /// `brdf eval` on arrays: f64 through the batch path, f32 through the scalar path (the
-/// firmware's arithmetic); on all cores when `parallel` (each value the same bit for bit).
+/// firmware's arithmetic); on `threads` threads ([`Threads`]; each value the same bit for bit
+/// whatever the count).
 ///
 /// With `table` (a fitted table's device bytes, as `fitted` returns them) the model is its
 /// base and every value is `f_model * exp(t)` (`brdf_core::fitted::Corrected`), in both
 /// precisions through the scalar path.
 #[pyfunction]
-#[pyo3(signature = (model, params, theta_i, theta_r, phi, precision, parallel, table=None))]
+#[pyo3(signature = (model, params, theta_i, theta_r, phi, precision, threads, table=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn eval_angles<'py>(
     py: Python<'py>,
@@ -48,10 +99,11 @@ pub(crate) fn eval_angles<'py>(
     theta_r: PyReadonlyArray1<'py, f64>,
     phi: PyReadonlyArray1<'py, f64>,
     precision: &str,
-    parallel: bool,
+    threads: usize,
     table: Option<&[u8]>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let kind = parse_kind(model)?;
+    let pool = Threads::new(threads)?;
     let cols = [
         slice(&theta_i, "theta_i")?,
         slice(&theta_r, "theta_r")?,
@@ -68,12 +120,12 @@ pub(crate) fn eval_angles<'py>(
         return match precision {
             "f64" => {
                 let base: AnyModel<f64> = build(kind, params)?;
-                let out = py.detach(|| corrected(base, table, cols, kind, parallel))?;
+                let out = py.detach(|| pool.run(|parallel| corrected(base, table, cols, kind, parallel)))?;
                 Ok(PyArray1::from_vec(py, out).into_any())
             }
             "f32" => {
                 let base: AnyModel<f32> = build(kind, params)?;
-                let out = py.detach(|| corrected(base, table, cols, kind, parallel))?;
+                let out = py.detach(|| pool.run(|parallel| corrected(base, table, cols, kind, parallel)))?;
                 Ok(PyArray1::from_vec(py, out).into_any())
             }
             other => Err(PyValueError::new_err(format!(
@@ -84,20 +136,22 @@ pub(crate) fn eval_angles<'py>(
     match precision {
         "f64" => {
             let m: AnyModel<f64> = build(kind, params)?;
-            let out = py.detach(|| -> Result<Vec<f64>, Failure> {
-                check_degrees(cols)?;
-                let [a, b, c] = cols.map(radians::<f64>);
-                let mut out = vec![0.0; a.len()];
-                par::eval(&Batch::new(&m), Inputs::Angles([&a, &b, &c]), &mut out, parallel)
-                    .map_err(batch_failure)?;
-                finite(&out, kind)?;
-                Ok(out)
+            let out = py.detach(|| {
+                pool.run(|parallel| -> Result<Vec<f64>, Failure> {
+                    check_degrees(cols)?;
+                    let [a, b, c] = cols.map(radians::<f64>);
+                    let mut out = vec![0.0; a.len()];
+                    par::eval(&Batch::new(&m), Inputs::Angles([&a, &b, &c]), &mut out, parallel)
+                        .map_err(batch_failure)?;
+                    finite(&out, kind)?;
+                    Ok(out)
+                })
             })?;
             Ok(PyArray1::from_vec(py, out).into_any())
         }
         "f32" => {
             let m: AnyModel<f32> = build(kind, params)?;
-            let out = py.detach(|| scalar_angles(&m, cols, kind, parallel))?;
+            let out = py.detach(|| pool.run(|parallel| scalar_angles(&m, cols, kind, parallel)))?;
             Ok(PyArray1::from_vec(py, out).into_any())
         }
         other => Err(PyValueError::new_err(format!(
@@ -245,9 +299,10 @@ pub(crate) fn eval_columns<'py>(
     params: &str,
     columns: Vec<PyReadonlyArray1<'py, f64>>,
     precision: &str,
-    parallel: bool,
+    threads: usize,
 ) -> PyResult<Bound<'py, PyAny>> {
     let kind = parse_kind(model)?;
+    let pool = Threads::new(threads)?;
     if columns.len() != 3 && columns.len() != 6 {
         return Err(PyValueError::new_err("internal: need 3 or 6 columns"));
     }
@@ -257,11 +312,11 @@ pub(crate) fn eval_columns<'py>(
         .collect::<PyResult<_>>()?;
     match precision {
         "f64" => {
-            let out = py.detach(|| eval_batch::<f64>(kind, params, &cols, parallel))?;
+            let out = py.detach(|| pool.run(|parallel| eval_batch::<f64>(kind, params, &cols, parallel)))?;
             Ok(PyArray1::from_vec(py, out).into_any())
         }
         "f32" => {
-            let out = py.detach(|| eval_batch::<f32>(kind, params, &cols, parallel))?;
+            let out = py.detach(|| pool.run(|parallel| eval_batch::<f32>(kind, params, &cols, parallel)))?;
             Ok(PyArray1::from_vec(py, out).into_any())
         }
         other => Err(PyValueError::new_err(format!(

@@ -168,11 +168,14 @@ def test_all_cores_give_one_threads_values_bit_for_bit(precision):
     rng = np.random.default_rng(7)
     n = 100_003
     ti, tr, phi = rng.uniform(0, 89, n), rng.uniform(0, 89, n), rng.uniform(-360, 360, n)
-    one = brdf.eval("six", KHAKI, ti, tr, phi, precision=precision, parallel=False)
+    one = brdf.eval("six", KHAKI, ti, tr, phi, precision=precision, threads=1)
     assert brdf.eval("six", KHAKI, ti, tr, phi, precision=precision).tobytes() == one.tobytes()
+    # A pool of its own size: three threads on any machine.
+    assert brdf.eval("six", KHAKI, ti, tr, phi, precision=precision, threads=3).tobytes() == one.tobytes()
     c = [np.cos(np.deg2rad(x)) for x in (ti, tr, phi)]
-    one = brdf.eval_cosines("six", KHAKI, *c, precision=precision, parallel=False)
+    one = brdf.eval_cosines("six", KHAKI, *c, precision=precision, threads=1)
     assert brdf.eval_cosines("six", KHAKI, *c, precision=precision).tobytes() == one.tobytes()
+    assert brdf.eval_cosines("six", KHAKI, *c, precision=precision, threads=2).tobytes() == one.tobytes()
     # The first bad element is still the one named, wherever its chunk runs.
     ti[n - 5] = 95
     ti[50_000] = 91
@@ -218,8 +221,12 @@ def test_flags_and_counts_of_the_wrong_type_are_refused():
     # Before: panels=2.9 ran with 2 panels, parallel="no" ran in parallel.
     with pytest.raises(TypeError, match="panels must be a whole number, not 2.9"):
         brdf.albedo("lambert", "rho0=0.5", [0.0], panels=2.9)
-    with pytest.raises(TypeError, match="parallel must be True or False, not 'no'"):
-        brdf.eval("lambert", "rho0=0.5", 0, 0, 0, parallel="no")
+    for bad in ("no", True, 2.0):
+        with pytest.raises(TypeError, match="threads must be None or a whole number"):
+            brdf.eval("lambert", "rho0=0.5", 0, 0, 0, threads=bad)
+    for bad in (0, -1, 257):
+        with pytest.raises(ValueError, match=f"threads {bad}: give 1 to 256"):
+            brdf.eval("lambert", "rho0=0.5", 0, 0, 0, threads=bad)
 
 
 @pytest.mark.parametrize("precision", ["f64", "f32"])

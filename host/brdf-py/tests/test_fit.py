@@ -268,6 +268,12 @@ def test_dark_readings_are_kept_and_weighed_with_a_noise_floor(root):
         brdf.fit(d, residual="log")
     with pytest.raises(ValueError, match="noise_floor"):
         brdf.fit(d, noise_floor=-1.0)
+    # A floor of 1e200 made every residual underflow: a grid node "converged" at 0.000%.
+    with pytest.raises(ValueError, match=r"within \[1e-100, 1e100\]"):
+        brdf.fit(d, noise_floor=1e200)
+    # A given floor above most readings is doubted as an estimated one is.
+    high = brdf.fit(d, noise_floor=100.0)
+    assert "lies above 100% of the readings" in high.report["noise_floor"]["note"]
     with pytest.raises(TypeError, match="noise_floor must be a number"):
         brdf.fit(d, noise_floor="0.1")
 

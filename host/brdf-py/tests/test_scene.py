@@ -184,6 +184,10 @@ def test_profile_is_the_cli_file(cli, root):
         brdf.scene_profile(root / SCENE, 0.0)
     with pytest.raises(TypeError, match="bin_m: str"):
         brdf.scene_profile(root / SCENE, "0.1")
+    with pytest.raises(TypeError, match="bin_m: bool"):
+        brdf.scene_profile(root / SCENE, np.bool_(True))
+    # A numpy scalar is a length (a float32 bin was refused).
+    assert brdf.scene_profile(root / SCENE, np.float32(0.25))["lrcs"].size > 216
 
 
 def test_image_is_the_cli_csv(cli, root, tmp_path):

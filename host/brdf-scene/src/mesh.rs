@@ -17,6 +17,11 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
+/// Largest coordinate magnitude accepted, m: a thousand times the observable universe, and
+/// far below where a facet's cross product overflows (about 1e154 m: a plate 2e77 m wide got
+/// a zero normal and returned nothing, with no word).
+pub const MAX_COORDINATE_M: f64 = 1e30;
+
 /// Smallest accepted `2 A / L^2` of a facet (area `A`, longest edge `L`): about the sine of its
 /// smallest angle. Below 1e-10 the cross product that gives the normal has lost all but a
 /// few digits of f64 to cancellation, so the facet's normal (and whether a ray hits it) is
@@ -127,6 +132,16 @@ pub enum MeshError {
         file: String,
         /// Facet using the vertex.
         at: Origin,
+    },
+    /// A coordinate is beyond [`MAX_COORDINATE_M`].
+    #[error("{file}: {at}: a vertex coordinate {value:e} is beyond {MAX_COORDINATE_M:e} m in magnitude (is the unit right?)")]
+    TooFar {
+        /// Mesh file.
+        file: String,
+        /// Facet using the vertex.
+        at: Origin,
+        /// The coordinate.
+        value: f64,
     },
     /// A facet of (nearly) zero area.
     #[error(
@@ -361,6 +376,13 @@ impl Mesh {
             let p = ids.map(|i| welded[i as usize]);
             if p.iter().flatten().any(|c| !c.is_finite()) {
                 return Err(MeshError::NotFinite { file: name, at });
+            }
+            if let Some(&value) = p.iter().flatten().find(|c| c.abs() > MAX_COORDINATE_M) {
+                return Err(MeshError::TooFar {
+                    file: name,
+                    at,
+                    value,
+                });
             }
             let c = v3::cross(v3::sub(p[1], p[0]), v3::sub(p[2], p[0]));
             let twice_area = v3::norm(c);
@@ -965,9 +987,15 @@ fn fan(
         return Ok(());
     }
     let p = |i: u32| vertices[i as usize];
+    let mean = idx
+        .iter()
+        .fold([0.0; 3], |m, &i| v3::add(m, p(i)))
+        .map(|c| c / idx.len() as f64);
+    // About the polygon's mean: about the coordinate origin, the terms of a polygon 1e8 m out
+    // cancel to rounding larger than its own normal, and planar quads were refused.
     let mut newell = [0.0; 3];
     for (k, &i) in idx.iter().enumerate() {
-        let (a, b) = (p(i), p(idx[(k + 1) % idx.len()]));
+        let (a, b) = (v3::sub(p(i), mean), v3::sub(p(idx[(k + 1) % idx.len()]), mean));
         newell = v3::add(newell, v3::cross(a, b));
     }
     let refuse = || MeshError::Polygon {
@@ -976,10 +1004,6 @@ fn fan(
         vertices: idx.len(),
     };
     let unit = v3::norm(newell);
-    let mean = idx
-        .iter()
-        .fold([0.0; 3], |m, &i| v3::add(m, p(i)))
-        .map(|c| c / idx.len() as f64);
     let size = idx
         .iter()
         .flat_map(|&i| idx.iter().map(move |&j| (i, j)))
@@ -1102,6 +1126,18 @@ fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
                         ),
                     });
                 }
+            }
+            // Free-form geometry (a curve or surface patch) is a surface the reader does not
+            // tessellate: a `surf` lid was dropped with no word and σ lost it.
+            Some(word @ ("surf" | "curv" | "curv2")) => {
+                return Err(MeshError::Parse {
+                    file: file.to_owned(),
+                    at,
+                    message: format!(
+                        "free-form geometry (`{word}`) is not read: export the target as polygons \
+                         (triangles or convex planar faces)"
+                    ),
+                })
             }
             // A statement the reader does not know is skipped by it: a misspelt `v0 1 0` shifted
             // every later vertex index. Only the statements of the OBJ format are taken.
@@ -1434,6 +1470,39 @@ mod tests {
             "{e}"
         );
         assert!(obj(&format!("# c\nmtllib a.mtl\nusemtl x\ns off\n{TETRA}")).is_ok());
+    }
+
+    /// Free-form geometry was skipped (a `surf` lid lost with no word); coordinates beyond
+    /// 1.2e77 m gave zero normals (the cross product overflowed) and σ 0; planar quads 1e8 m
+    /// from the origin were refused as not planar (the Newell normal about the origin).
+    #[test]
+    fn free_form_geometry_huge_coordinates_and_far_quads() {
+        let lid = format!("{TETRA}v 0 0 2\nv 1 0 2\nv 1 1 2\nv 0 1 2\no lid\ncstype bspline\ndeg 1 1\nsurf 0 1 0 1 5 6 7 8\nparm u 0 0 1 1\nparm v 0 0 1 1\nend\n");
+        let e = obj(&lid).unwrap_err().to_string();
+        assert!(
+            e.contains("line 17") && e.contains("free-form geometry (`surf`)"),
+            "{e}"
+        );
+        for s in [2e77, 1e31] {
+            let big = TETRA.replace("v 1 0 0", &format!("v {s:e} 0 0"));
+            let e = obj(&big).unwrap_err().to_string();
+            assert!(e.contains("beyond 1e30 m"), "{s}: {e}");
+        }
+        let scaled = TETRA
+            .replace("v 1 0 0", "v 1e29 0 0")
+            .replace("v 0 1 0", "v 0 1e29 0")
+            .replace("v 0 0 1", "v 0 0 1e29");
+        let m = obj(&scaled).unwrap();
+        assert!(m.facets.iter().all(|f| f.area > 1e57 && f.area.is_finite()));
+        for o in [1e8, 6.4e6, 1e12] {
+            let quads = format!(
+                "v {o} {o} {o}\nv {a} {o} {o}\nv {a} {a} {o}\nv {o} {a} {o}\no plate\nf 1 2 3 4\n",
+                a = o + 1.0
+            );
+            let m = obj(&quads).unwrap_or_else(|e| panic!("{o}: {e}"));
+            assert_eq!(m.facets.len(), 2, "{o}");
+            assert!((m.facets[0].area + m.facets[1].area - 1.0).abs() < 1e-6, "{o}");
+        }
     }
 
     /// An inside-out cube written with one corner as `-0` was welded as an open shell (its

@@ -65,6 +65,18 @@ impl AspectProfile {
     pub fn range_m(&self, j: usize, bin_m: f64) -> f64 {
         (self.first_bin as f64 + j as f64 + 0.5) * bin_m
     }
+
+    /// [`Profile::range_m`] rounded to a millionth of a bin in decimal significant digits,
+    /// for printing (-1.95, not -1.9500000000000002): neighbouring bins stay apart at every
+    /// bin width and range (a fixed nanometre merged bins of 2e-10 m and overflowed at 1e300).
+    pub fn range_label(&self, j: usize, bin_m: f64) -> f64 {
+        let r = self.range_m(j, bin_m);
+        if r == 0.0 {
+            return r;
+        }
+        let digits = ((r.abs() / bin_m).log10().ceil().max(0.0) + 7.0).min(17.0) as usize;
+        format!("{:.*e}", digits - 1, r).parse().unwrap_or(r)
+    }
 }
 
 /// Why a profile cannot be made.
@@ -294,6 +306,42 @@ fn convolve(first: i64, sigma: &[f64], b: f64, w: f64) -> (i64, Vec<f64>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Printed centres were rounded to a nanometre: bins of 2e-10 m shared labels, and at a
+    /// bin of 1e300 m the rounding overflowed to -inf.
+    #[test]
+    fn range_labels_keep_bins_apart_at_every_scale() {
+        for (first_bin, bin) in [
+            (-3, 0.1),
+            (0, 2e-10),
+            (-1, 1e300),
+            (4_000_000_000_000, 0.25),
+            (-7, 1e-300),
+        ] {
+            let p = AspectProfile {
+                azimuth: 0.0,
+                elevation: 0.0,
+                first_bin,
+                sigma: vec![1.0; 6],
+            };
+            let labels: Vec<f64> = (0..6).map(|j| p.range_label(j, bin)).collect();
+            for (j, l) in labels.iter().enumerate() {
+                let exact = p.range_m(j, bin);
+                assert!(
+                    l.is_finite() && (l - exact).abs() <= 1e-6 * bin,
+                    "{bin}: {l} against {exact}"
+                );
+            }
+            assert!(labels.windows(2).all(|w| w[0] < w[1]), "{bin}: {labels:?}");
+        }
+        let p = AspectProfile {
+            azimuth: 0.0,
+            elevation: 0.0,
+            first_bin: -20,
+            sigma: vec![1.0],
+        };
+        assert_eq!(p.range_label(0, 0.1).to_string(), "-1.95");
+    }
 
     #[test]
     fn a_triangles_area_below_a_range_is_quadratic_on_either_side_of_its_middle_vertex() {

@@ -441,6 +441,15 @@ pub fn read_directions(path: &Path) -> Result<Vec<Direction>, DirectionsError> {
                 return Err(bad(c, format!("zenith {v} deg is outside [0, 90]")));
             }
         }
+        // As every other reader of angles: beyond two turns an azimuth is a unit or column
+        // error (1e300 was wrapped and checked as some other direction).
+        let limit = brdf_fit::data::PHI_LIMIT_DEG;
+        if phi.abs() > limit {
+            return Err(bad(
+                "phi",
+                format!("azimuth {phi} deg is outside [-{limit}, {limit}] (is the unit right?)"),
+            ));
+        }
         let material = match material_col {
             None => None,
             Some(i) => {
@@ -474,4 +483,30 @@ pub fn read_directions(path: &Path) -> Result<Vec<Direction>, DirectionsError> {
         return Err(DirectionsError::Empty { file });
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every other reader of angles refuses an azimuth beyond two turns; this one wrapped 1e300
+    /// and checked the device at some other direction.
+    #[test]
+    fn a_directions_file_refuses_an_azimuth_beyond_two_turns() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("d.csv");
+        for (phi, ok) in [("1e300", false), ("-721", false), ("720", true), ("-30", true)] {
+            std::fs::write(&p, format!("theta_i,theta_r,phi\n10,20,0\n10,20,{phi}\n")).unwrap();
+            match read_directions(&p) {
+                Ok(d) => assert!(ok && d.len() == 2, "{phi} accepted"),
+                Err(e) => {
+                    let e = e.to_string();
+                    assert!(
+                        !ok && e.contains("line 3") && e.contains("column phi"),
+                        "{phi}: {e}"
+                    );
+                }
+            }
+        }
+    }
 }

@@ -757,6 +757,20 @@ fn spectral_files_import_every_band_and_fit_dark_bands_with_a_noise_floor() {
         ),
         (Some("given"), Some(0.01))
     );
+    // A given floor above most readings gets the warning an estimated one gets.
+    let out = brdf(&[
+        "fit",
+        "--model",
+        "lambert",
+        "--noise-floor",
+        "100",
+        path.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && err.contains("the given noise floor 100 1/sr lies above"),
+        "{err}"
+    );
     for (args, says) in [
         (
             vec!["import", "cornell", &astm, "--band", "0.405"],
@@ -775,6 +789,11 @@ fn spectral_files_import_every_band_and_fit_dark_bands_with_a_noise_floor() {
         (
             vec!["fit", "--noise-floor", "nan", path.to_str().unwrap()],
             "at or above 0",
+        ),
+        // Every residual underflowed to 0: a grid node "converged" at 0.000%.
+        (
+            vec!["fit", "--noise-floor", "1e200", path.to_str().unwrap()],
+            "neither 0 nor within [1e-100, 1e100]",
         ),
         (
             vec!["fit", "--residual", "log", path.to_str().unwrap()],

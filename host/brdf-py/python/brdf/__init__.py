@@ -111,7 +111,7 @@ def _shaped(out: np.ndarray, shape: tuple):
     return out[()] if shape == () else out
 
 
-def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, phi, *, precision: str = "f64", parallel: bool = True):
+def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, phi, *, precision: str = "f64", threads: Optional[int] = None):
     """The BRDF (1/sr) of ``model`` at zenith angles ``theta_i``, ``theta_r`` and relative
     azimuth ``phi`` in degrees (canonical convention: ``phi = 180`` is the mirror side),
     broadcast like numpy.
@@ -120,8 +120,9 @@ def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, 
     ``precision="f64"`` is the reference (the core's batch path, as ``brdf eval``);
     ``"f32"`` is the device's arithmetic (radians computed in f64, rounded once to f32).
     Returns float64 or float32 of the broadcast shape (a scalar for 0-d inputs).
-    ``parallel`` spreads the work over all cores (rayon; every value is the one a single
-    thread gives, bit for bit); ``parallel=False`` runs on one thread. The GIL is released.
+    ``threads`` is how many threads do the work: ``None`` (the default) all cores, ``1``
+    this thread alone, ``n`` a pool of ``n`` (at most 256; made once and kept); every value
+    is the one a single thread gives, bit for bit. The GIL is released.
     Raises ValueError, with the index of the first bad element, for angles that are not
     finite, zeniths outside [0, 90] and values that are not finite.
     """
@@ -129,7 +130,7 @@ def eval(model: str, params: Union[str, Mapping[str, float]], theta_i, theta_r, 
     names = ("theta_i", "theta_r", "phi")
     shape, cols = _columns(names, (theta_i, theta_r, phi))
     try:
-        out = _brdf.eval_angles(model, _params_text(params), *cols, precision, _flag("parallel", parallel))
+        out = _brdf.eval_angles(model, _params_text(params), *cols, precision, _threads(threads))
     except _brdf.ElementError as e:
         raise _located(names, shape, e) from None
     return _shaped(out, shape)
@@ -144,7 +145,7 @@ def eval_fit(
     index: Optional[int] = None,
     wavelength=None,
     precision: str = "f64",
-    parallel: bool = True,
+    threads: Optional[int] = None,
 ):
     """The BRDF (1/sr) of a fit result at angles in degrees, as ``brdf eval --fit``:
     ``fit`` is a :class:`FitResult`, a list of them (what :func:`fit` returns for several
@@ -176,12 +177,12 @@ def eval_fit(
         origin = path
     index = _whole("index", index)
     _precision(precision)
-    parallel = _flag("parallel", parallel)
+    threads = _threads(threads)
     if wavelength is None:
         names = ("theta_i", "theta_r", "phi")
         shape, cols = _columns(names, (theta_i, theta_r, phi))
         parts = _brdf.fitted_at(text, origin, index)
-        return _shaped(_eval_parts(parts, names, shape, cols, np.ones(cols[0].size, dtype=bool), precision, parallel), shape)
+        return _shaped(_eval_parts(parts, names, shape, cols, np.ones(cols[0].size, dtype=bool), precision, threads), shape)
     names = ("theta_i", "theta_r", "phi", "wavelength")
     shape, cols = _columns(names, (theta_i, theta_r, phi, wavelength))
     um = cols[3]
@@ -194,11 +195,11 @@ def eval_fit(
     for w in np.unique(um):
         rows = um == w
         parts = _brdf.fitted_at(text, origin, index, float(w))
-        out[rows] = _eval_parts(parts, names, shape, cols, rows, precision, parallel)
+        out[rows] = _eval_parts(parts, names, shape, cols, rows, precision, threads)
     return _shaped(out, shape)
 
 
-def _eval_parts(parts, names, shape, cols, rows, precision, parallel):
+def _eval_parts(parts, names, shape, cols, rows, precision, threads):
     """The weighted sum of a fit's parts (one band, or two around a wavelength) at the
     selected ``rows`` of the flat columns; warns about directions outside a fitted table's
     coverage, as ``brdf eval --fit`` does."""
@@ -208,9 +209,9 @@ def _eval_parts(parts, names, shape, cols, rows, precision, parallel):
     for weight, model, params, table in parts:
         try:
             if table is None:
-                values = _brdf.eval_angles(model, params, *picked, precision, parallel)
+                values = _brdf.eval_angles(model, params, *picked, precision, threads)
             else:
-                values = _brdf.eval_angles(model, params, *picked, precision, parallel, table)
+                values = _brdf.eval_angles(model, params, *picked, precision, threads, table)
         except _brdf.ElementError as e:
             flat, message = e.args[0], e.args[1]
             raise _located(names[:3], shape, _brdf.ElementError(int(where_rows[flat]), message)) from None
@@ -234,20 +235,20 @@ def _eval_parts(parts, names, shape, cols, rows, precision, parallel):
     return total
 
 
-def eval_cosines(model: str, params: Union[str, Mapping[str, float]], cos_theta_i, cos_theta_r, cos_phi, *, precision: str = "f64", parallel: bool = True):
+def eval_cosines(model: str, params: Union[str, Mapping[str, float]], cos_theta_i, cos_theta_r, cos_phi, *, precision: str = "f64", threads: Optional[int] = None):
     """The BRDF at cosines of the zenith angles and of the relative azimuth (each in
     [-1, 1], zenith cosines in [0, 1]), broadcast like numpy; see :func:`eval`."""
     dtype = _precision(precision)
     names = ("cos_theta_i", "cos_theta_r", "cos_phi")
     shape, cols = _columns(names, (cos_theta_i, cos_theta_r, cos_phi))
     try:
-        out = _brdf.eval_columns(model, _params_text(params), cols, precision, _flag("parallel", parallel))
+        out = _brdf.eval_columns(model, _params_text(params), cols, precision, _threads(threads))
     except _brdf.ElementError as e:
         raise _located(names, shape, e) from None
     return _shaped(out.astype(dtype, copy=False), shape)
 
 
-def eval_vectors(model: str, params: Union[str, Mapping[str, float]], wi, wr, *, precision: str = "f64", parallel: bool = True):
+def eval_vectors(model: str, params: Union[str, Mapping[str, float]], wi, wr, *, precision: str = "f64", threads: Optional[int] = None):
     """The BRDF at unit direction vectors ``wi`` (towards the source) and ``wr`` (towards
     the viewer), arrays of shape ``(..., 3)`` in the surface frame (z the normal),
     broadcast like numpy over the leading axes; see :func:`eval`."""
@@ -261,7 +262,7 @@ def eval_vectors(model: str, params: Union[str, Mapping[str, float]], wi, wr, *,
     parts = [wi[..., k] for k in range(3)] + [wr[..., k] for k in range(3)]
     shape, cols = _columns(["wi"] * 3 + ["wr"] * 3, parts)
     try:
-        out = _brdf.eval_columns(model, _params_text(params), cols, precision, _flag("parallel", parallel))
+        out = _brdf.eval_columns(model, _params_text(params), cols, precision, _threads(threads))
     except _brdf.ElementError as e:
         raise _located(names, shape, e) from None
     return _shaped(out.astype(dtype, copy=False), shape)
@@ -339,9 +340,9 @@ class FitResult:
         """The report exactly as ``brdf fit --json`` prints one (without its final newline)."""
         return self._text
 
-    def eval(self, theta_i, theta_r, phi, *, precision: str = "f64", parallel: bool = True):
+    def eval(self, theta_i, theta_r, phi, *, precision: str = "f64", threads: Optional[int] = None):
         """This fit's BRDF at angles in degrees: :func:`eval_fit` of it."""
-        return eval_fit(self, theta_i, theta_r, phi, precision=precision, parallel=parallel)
+        return eval_fit(self, theta_i, theta_r, phi, precision=precision, threads=threads)
 
     def __repr__(self) -> str:
         ps = ", ".join(f"{k}={v:.6g}" for k, v in self.params.items())
@@ -415,6 +416,17 @@ def _flag(name: str, v) -> bool:
     if not isinstance(v, (bool, np.bool_)):
         raise TypeError(f"{name} must be True or False, not {v!r}")
     return bool(v)
+
+
+def _threads(v) -> int:
+    """``threads=`` as the extension takes it: 0 for all cores, else the count."""
+    if v is None:
+        return 0
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+        raise TypeError(f"threads must be None or a whole number, not {v!r}")
+    if not 1 <= int(v) <= 256:
+        raise ValueError(f"threads {v}: give 1 to 256, or None for all cores")
+    return int(v)
 
 
 def _number(name: str, v) -> float:
@@ -831,7 +843,10 @@ def scene_profile(scene, bin_m: float, pulse_m: Optional[float] = None) -> Dict[
     extra path) and ``lrcs`` (m^2). Raises ValueError with the command's message.
     """
     for name, v in (("bin_m", bin_m), ("pulse_m", pulse_m)):
-        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+        # numpy scalars are numbers too (a float32 bin was refused); booleans are not.
+        if v is not None and (
+            isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating))
+        ):
             raise TypeError(f"{name}: {type(v).__name__} is not a length in metres")
     az, el, rng, lrcs = _brdf.scene_profile(
         os.fspath(scene), float(bin_m), None if pulse_m is None else float(pulse_m)
