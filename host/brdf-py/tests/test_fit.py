@@ -272,7 +272,8 @@ def test_dark_readings_are_kept_and_weighed_with_a_noise_floor(root):
     with pytest.raises(ValueError, match=r"within \[1e-100, 1e100\]"):
         brdf.fit(d, noise_floor=1e200)
     # A given floor above most readings is doubted as an estimated one is.
-    high = brdf.fit(d, noise_floor=100.0)
+    with pytest.warns(UserWarning, match="given noise floor 100 1/sr lies above 100% of the readings"):
+        high = brdf.fit(d, noise_floor=100.0)
     assert "lies above 100% of the readings" in high.report["noise_floor"]["note"]
     with pytest.raises(TypeError, match="noise_floor must be a number"):
         brdf.fit(d, noise_floor="0.1")
