@@ -61,9 +61,10 @@ pub fn engine_vs_scipy(path: &Path, out: &mut dyn Write) -> Result<()> {
     let median = times[times.len() / 2];
     writeln!(
         out,
-        "six-parameter fit of {shown} ({} points, {} incidences), relative residuals, one core",
+        "six-parameter fit of {shown} ({} points, {} incidences), relative residuals, {}",
         data.points.len(),
-        data.incidences().len()
+        data.incidences().len(),
+        threads()
     )?;
     writeln!(out, "{:<34} {:>12} {:>14}", "method", "seconds", "rms rel error")?;
     writeln!(
@@ -134,6 +135,15 @@ struct Method {
     name: String,
     seconds: Vec<f64>,
     errors: Vec<f64>,
+}
+
+/// The threads a fit may use (the search runs its next chain or hop beside the current one;
+/// `RAYON_NUM_THREADS=1` for one).
+fn threads() -> String {
+    match rayon::current_num_threads() {
+        1 => "one thread".to_owned(),
+        n => format!("up to {n} threads"),
+    }
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -233,8 +243,9 @@ impl MethodBench {
         let front = pareto_front(&points);
         writeln!(
             text,
-            "six-parameter fit of {file} ({} points), relative residuals, one core; best RMS relative error found {best:.6e}",
-            data.points.len()
+            "six-parameter fit of {file} ({} points), relative residuals, {}; best RMS relative error found {best:.6e}",
+            data.points.len(),
+            threads()
         )?;
         writeln!(
             text,
@@ -286,7 +297,7 @@ impl MethodBench {
             brdf_plot::tradeoff(
                 &self.out.join(format!("fit.{ext}")),
                 &format!("six-parameter fit of {}: time against error", short(&self.data)),
-                "median seconds per fit (one core)",
+                &format!("median seconds per fit ({})", threads()),
                 "RMS relative error of the worst seed",
                 &points,
             )
