@@ -136,17 +136,7 @@ pub(crate) fn eval_angles<'py>(
     match precision {
         "f64" => {
             let m: AnyModel<f64> = build(kind, params)?;
-            let out = py.detach(|| {
-                pool.run(|parallel| -> Result<Vec<f64>, Failure> {
-                    check_degrees(cols)?;
-                    let [a, b, c] = cols.map(radians::<f64>);
-                    let mut out = vec![0.0; a.len()];
-                    par::eval(&Batch::new(&m), Inputs::Angles([&a, &b, &c]), &mut out, parallel)
-                        .map_err(batch_failure)?;
-                    finite(&out, kind)?;
-                    Ok(out)
-                })
-            })?;
+            let out = py.detach(|| pool.run(|parallel| batch_angles(&m, cols, kind, parallel)))?;
             Ok(PyArray1::from_vec(py, out).into_any())
         }
         "f32" => {
@@ -158,6 +148,74 @@ pub(crate) fn eval_angles<'py>(
             "unknown precision `{other}` (expected f64 or f32)"
         ))),
     }
+}
+
+/// The f64 batch path at angles in degrees, by chunks of [`par::PAR_CHUNK`] directions
+/// (in parallel when asked): each chunk's angles checked as `brdf eval` checks them, turned
+/// into radians in buffers of the chunk's own and evaluated into its part of the output, so
+/// that no pass over the whole input runs on one thread and no whole-input copy is made.
+/// Failures are the ones a pass over everything in turn would report: the first bad angle
+/// anywhere, else the first direction outside the model's domain, else the first value that
+/// is not finite.
+fn batch_angles(
+    m: &AnyModel<f64>,
+    cols: [&[f64]; 3],
+    kind: ModelKind,
+    parallel: bool,
+) -> Result<Vec<f64>, Failure> {
+    use rayon::prelude::*;
+    let b = Batch::new(m);
+    let n = cols[0].len();
+    let mut out = vec![0.0; n];
+    // (bad angle, domain error, non-finite value) of one chunk, each its first.
+    type Found = [Option<(usize, String)>; 3];
+    let chunk = |k: usize, o: &mut [f64]| -> Found {
+        let start = k * par::PAR_CHUNK;
+        let len = o.len();
+        // On the heap: a Python thread's stack may be small.
+        let mut rad = vec![0.0f64; 3 * len];
+        let (ti, rest) = rad.split_at_mut(len);
+        let (tr, ph) = rest.split_at_mut(len);
+        for i in 0..len {
+            let deg = [cols[0][start + i], cols[1][start + i], cols[2][start + i]];
+            if let Err(e) = brdf_fit::params::check_eval_degrees(deg) {
+                return [Some((start + i, e)), None, None];
+            }
+            (ti[i], tr[i], ph[i]) = (deg[0].to_radians(), deg[1].to_radians(), deg[2].to_radians());
+        }
+        if let Err(e) = b.angles(ti, tr, ph, o) {
+            return match batch_failure(e) {
+                Failure::At(i, e) => [None, Some((start + i, e)), None],
+                Failure::General(e) => [None, Some((start, e)), None],
+            };
+        }
+        match o.iter().position(|f| !f.is_finite()) {
+            Some(i) => [
+                None,
+                None,
+                Some((start + i, brdf_fit::params::not_finite(o[i], kind))),
+            ],
+            None => [None, None, None],
+        }
+    };
+    let found: Vec<Found> = if parallel {
+        out.par_chunks_mut(par::PAR_CHUNK)
+            .enumerate()
+            .map(|(k, o)| chunk(k, o))
+            .collect()
+    } else {
+        out.chunks_mut(par::PAR_CHUNK)
+            .enumerate()
+            .map(|(k, o)| chunk(k, o))
+            .collect()
+    };
+    for kind in 0..3 {
+        // Chunks are in order: the first one holding a failure of this kind holds the first.
+        if let Some((i, e)) = found.iter().find_map(|f| f[kind].clone()) {
+            return Err(Failure::At(i, e));
+        }
+    }
+    Ok(out)
 }
 
 /// A base model times a fitted table at angles in degrees, through [`scalar_angles`].
