@@ -181,9 +181,10 @@ pub struct SceneMaterial {
     /// then `(1 - weight) f(model, table) + weight f(upper)` (`model` and `table` are the band
     /// below; [`brdf_fit::spectral::AtWavelength`]).
     pub upper: Option<Upper>,
-    /// Whether the material was taken from the bands of a spectral fit at the scene's
-    /// wavelength (one band, or two with `upper`).
-    pub banded: bool,
+    /// When the material was taken from bands at the scene's wavelength (one band, or two
+    /// with `upper`): the band used (the lower of two): its fit's index in a fit file, its
+    /// band's index in a blob material.
+    pub band: Option<usize>,
 }
 
 /// The band above a scene's wavelength, for a material interpolated between two bands.
@@ -209,7 +210,7 @@ impl SceneMaterial {
             source: Source::Params,
             line: 0,
             upper: None,
-            banded: false,
+            band: None,
         }
     }
 
@@ -497,7 +498,7 @@ impl Scene {
             for entry in &parsed.materials {
                 let e = entry.get_ref();
                 let line = line_of(&text, e.part.span().start);
-                let (model, source, table, upper, banded) =
+                let (model, source, table, upper, band) =
                     resolve_material(e, dir, wavelength.clone(), &field)?;
                 at.push(SceneMaterial {
                     part: e.part.get_ref().clone(),
@@ -506,7 +507,7 @@ impl Scene {
                     source,
                     line,
                     upper,
-                    banded,
+                    band,
                 });
             }
             spectrum.push((wavelength.map_or(0.0, |w| w.0), at));
@@ -691,12 +692,12 @@ impl SceneMaterial {
     pub fn band_used(&self, wavelength: Option<f64>) -> Option<String> {
         match (&self.source, &self.upper, wavelength) {
             (_, Some(_), Some(_)) => Some(self.description()),
-            (Source::Fit(_, k), None, Some(_)) if self.banded => {
+            (Source::Fit(_, k), None, Some(_)) if self.band.is_some() => {
                 Some(format!("{} (fit {k})", self.description()))
             }
-            (Source::Blob(_, k), None, _) if self.banded => {
-                Some(format!("{} (a band of blob material {k})", self.description()))
-            }
+            (Source::Blob(_, k), None, _) => self
+                .band
+                .map(|b| format!("{} (band {b} of blob material {k})", self.description())),
             _ => None,
         }
     }
@@ -748,9 +749,15 @@ fn sweep(v: &Spanned<Vec<f64>>, lo: f64, hi: f64) -> Result<Vec<f64>, String> {
 }
 
 /// A material entry resolved: its model, where it came from, a fitted table's bytes, the band
-/// above when it lies between two bands at the scene's wavelength, and whether it was taken
-/// from bands at all.
-type Resolved = (AnyModel<f64>, Source, Option<Vec<u8>>, Option<Upper>, bool);
+/// above when it lies between two bands at the scene's wavelength, and the band used when it
+/// was taken from bands at all ([`SceneMaterial::band`]).
+type Resolved = (
+    AnyModel<f64>,
+    Source,
+    Option<Vec<u8>>,
+    Option<Upper>,
+    Option<usize>,
+);
 
 /// The model of one `[[material]]` entry: exactly one of `model`+`params`, `fit`, `blob`; a
 /// spectral fit at `wavelength` (µm, and the span of `wavelength_um`), when given.
@@ -805,7 +812,7 @@ fn resolve_material(
             Source::Params,
             None,
             None,
-            false,
+            None,
         ));
     }
     if let Some(fit) = &e.fit {
@@ -855,7 +862,7 @@ fn resolve_material(
             Source::Fit(path, one.index),
             one.table,
             upper,
-            banded,
+            banded.then_some(one.index),
         ));
     }
     let blob = e.blob.as_ref().expect("exactly one source is given");
@@ -900,7 +907,7 @@ fn resolve_material(
             Source::Blob(path, k),
             table,
             None,
-            false,
+            None,
         ));
     }
     // A banded (spectral) material: its band at the scene's wavelength, or the two around it
@@ -928,7 +935,7 @@ fn resolve_material(
     );
     let Some((um, span)) = wavelength else {
         if count == 1 {
-            return Ok((band(0)?, Source::Blob(path, k), None, None, true));
+            return Ok((band(0)?, Source::Blob(path, k), None, None, Some(0)));
         }
         return Err(field(
             blob.span(),
@@ -937,7 +944,7 @@ fn resolve_material(
         ));
     };
     match brdf_core::bands::locate(&centres, um) {
-        Ok(Located::Band(b)) => Ok((band(b)?, Source::Blob(path, k), None, None, true)),
+        Ok(Located::Band(b)) => Ok((band(b)?, Source::Blob(path, k), None, None, Some(b))),
         Ok(Located::Between { lower, weight }) => Ok((
             band(lower)?,
             Source::Blob(path, k),
@@ -948,7 +955,7 @@ fn resolve_material(
                 index: lower + 1,
                 weight,
             }),
-            true,
+            Some(lower),
         )),
         Err(_) => Err(field(
             span,

@@ -432,6 +432,12 @@ fn spectral_materials_are_taken_at_the_sensors_wavelength() {
     for (a, b) in sigma(&b065).iter().zip(sigma(&at_065)) {
         assert!((a / b - 1.0).abs() < 1e-6, "{a} {b}");
     }
+    // At a band's centre the band is named (it was "a band of blob material 0").
+    let (_d, b07) = from_blob("wavelength_um = 0.7\n");
+    assert_eq!(
+        b07.unwrap().band_used(0).as_deref(),
+        Some("lambert (band 1 of blob material 0)")
+    );
     let (_d, e) = from_blob("");
     let e = e.unwrap_err().to_string();
     assert!(
