@@ -949,7 +949,7 @@ fn a_two_sided_sheet_is_seen_from_both_sides_by_area() {
         let up = [([0, 1, 2], 0, Origin::Facet(0)), ([0, 2, 3], 0, Origin::Facet(1))];
         let down = [([0, 2, 1], 0, Origin::Facet(2)), ([0, 3, 2], 0, Origin::Facet(3))];
         let sides = [up, down];
-        let tris: Vec<_> = order.iter().flat_map(|&k| sides[k as usize].clone()).collect();
+        let tris: Vec<_> = order.iter().flat_map(|&k| sides[k as usize]).collect();
         let mesh = Mesh::from_triangles("sheet.obj".into(), v.clone(), &tris, vec!["sheet".into()]).unwrap();
         for mode in [Mode::Monostatic, Mode::Bistatic { separation_deg: 20.0 }] {
             let s = scene(
