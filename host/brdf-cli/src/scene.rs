@@ -38,6 +38,10 @@ enum SceneSub {
     /// a PNG or SVG (and, with --csv, the pixels as CSV `column,row,x_m,y_m,lrcs,range_m`:
     /// x_m, y_m the pixel's centre on the image's right and up axes through the mesh origin).
     Image(ImageCmd),
+    /// Joins the CSVs of `brdf scene lrcs --shard K/N` (every shard, in order) into the CSV
+    /// of one run, byte for byte; refuses shards that are missing, repeated, out of order, of
+    /// another scene or sweep, or with another header.
+    Merge(MergeCmd),
 }
 
 /// `brdf scene image`.
@@ -106,6 +110,24 @@ pub struct LrcsCmd {
     /// unless given).
     #[arg(long)]
     supersample: Option<usize>,
+    /// Only shard K of N of the sweep (0 <= K < N): of its aspects in order, those from K x
+    /// total / N up to (K + 1) x total / N, for a job array; `brdf scene merge` joins the
+    /// shards' CSVs into one run's. CSV only.
+    #[arg(long, value_parser = crate::common::parse_shard)]
+    shard: Option<(usize, usize)>,
+}
+
+/// `brdf scene merge`.
+#[derive(Debug, Args)]
+pub struct MergeCmd {
+    /// Scene file (TOML) the shards were computed from.
+    scene: PathBuf,
+    /// The shards' CSVs, shard 0 first.
+    #[arg(required = true)]
+    shards: Vec<PathBuf>,
+    /// Write the CSV here instead of standard output.
+    #[arg(short = 'o', long)]
+    output: Option<PathBuf>,
 }
 
 /// What part of a facet counts in σ.
@@ -148,6 +170,7 @@ impl SceneCmd {
             SceneSub::Domain(c) => c.run(),
             SceneSub::Profile(c) => c.run(),
             SceneSub::Image(c) => c.run(),
+            SceneSub::Merge(c) => c.run(),
         }
     }
 }
@@ -157,7 +180,16 @@ impl LrcsCmd {
         if let Some(plot) = &self.plot {
             brdf_plot::check_path(plot)?; // before the sweep, not after it
         }
-        let scene = load(&self.scene)?;
+        let mut scene = load(&self.scene)?;
+        if let Some((k, n)) = self.shard {
+            if self.json || self.plot.is_some() {
+                anyhow::bail!(
+                    "--shard writes CSV for `brdf scene merge`; --json and --plot describe the whole \
+                     sweep: run them without --shard"
+                );
+            }
+            scene = scene.with_shard(k, n).map_err(anyhow::Error::msg)?;
+        }
         for (flag, out) in [("-o", &self.output), ("--plot", &self.plot)] {
             if let Some(out) = out {
                 crate::common::not_an_input(flag, out, scene.files())?;
@@ -449,6 +481,85 @@ impl ProfileCmd {
             }
         }
         out.flush().context("cannot write the output")?;
+        Ok(())
+    }
+}
+
+impl MergeCmd {
+    fn run(self) -> Result<()> {
+        let scene = load(&self.scene)?;
+        if let Some(out) = &self.output {
+            crate::common::not_an_input("-o", out, scene.files())?;
+            if let Some(s) = self.shards.iter().find(|s| crate::common::same_file(out, s)) {
+                anyhow::bail!("-o names the shard {}", s.display());
+            }
+        }
+        let aspects = scene.aspects();
+        let n = self.shards.len();
+        let mut header: Option<String> = None;
+        let mut rows = Vec::with_capacity(aspects.len());
+        for (k, path) in self.shards.iter().enumerate() {
+            let text = brdf_fit::data::read_input(path)
+                .with_context(|| format!("cannot read shard {}", path.display()))?;
+            let mut lines = text.lines();
+            let head = lines
+                .next()
+                .with_context(|| format!("{}: empty: not a shard's CSV", path.display()))?;
+            match &header {
+                None => header = Some(head.to_owned()),
+                Some(h) if h != head => anyhow::bail!(
+                    "{}: line 1: header `{head}` is not the first shard's `{h}` (another scene or \
+                     another list of wavelengths?)",
+                    path.display()
+                ),
+                Some(_) => {}
+            }
+            // Shard k of n holds exactly these aspects, in order.
+            let want = &aspects[Scene::shard_range(k, n, aspects.len())];
+            let mut got = 0;
+            for (j, line) in lines.enumerate() {
+                let at = |what: String| anyhow::anyhow!("{}: line {}: {what}", path.display(), j + 2);
+                let mut cols = line.split(',');
+                let mut angle = |name: &str| -> Result<f64> {
+                    let t = cols.next().unwrap_or("");
+                    t.parse::<f64>()
+                        .map_err(|_| at(format!("{name} `{t}` is not a number")))
+                };
+                let (az, el) = (angle("azimuth")?, angle("elevation")?);
+                let Some(a) = want.get(j) else {
+                    return Err(at(format!(
+                        "shard {k} of {n} holds {} aspects of the sweep's {}; this row is one more \
+                         (shards out of order, repeated, or of another sweep?)",
+                        want.len(),
+                        aspects.len()
+                    )));
+                };
+                if (az, el) != (a.azimuth_deg, a.elevation_deg) {
+                    return Err(at(format!(
+                        "aspect ({az}, {el}) where shard {k} of {n} holds ({}, {}) (shards out of \
+                         order, or of another sweep?)",
+                        a.azimuth_deg, a.elevation_deg
+                    )));
+                }
+                rows.push(line.to_owned());
+                got += 1;
+            }
+            if got != want.len() {
+                anyhow::bail!(
+                    "{}: {got} aspects where shard {k} of {n} holds {} (a shard cut short, or the \
+                     shards of another split?)",
+                    path.display(),
+                    want.len()
+                );
+            }
+        }
+        let mut out = sink(&self.output)?;
+        writeln!(out, "{}", header.unwrap_or_default())?;
+        for r in rows {
+            writeln!(out, "{r}")?;
+        }
+        out.flush().context("cannot write the output")?;
+        eprintln!("{}: {n} shards, {} aspects", self.scene.display(), aspects.len());
         Ok(())
     }
 }

@@ -329,6 +329,8 @@ pub struct Scene {
     /// materials there, in scene order (the first's are `materials`); empty otherwise.
     /// [`crate::lrcs::lrcs`] gives σ at each (`AspectSigma::by_wavelength`).
     pub spectrum: Vec<(f64, Vec<SceneMaterial>)>,
+    /// Shard `k` of `n` of the sweep ([`Scene::with_shard`]), or the whole sweep.
+    shard: Option<(usize, usize)>,
 }
 
 impl std::fmt::Debug for Scene {
@@ -428,7 +430,31 @@ impl Scene {
             occluder,
             wavelength_um: None,
             spectrum: Vec::new(),
+            shard: None,
         })
+    }
+
+    /// The scene with its sweep cut to shard `k` of `n` (for job arrays): of the sweep's `N`
+    /// aspects in order, those from `k N / n` up to `(k + 1) N / n`, so that the shards' rows
+    /// in shard order are one run's rows, each computed alike (`brdf scene merge` joins them).
+    /// Refused when `k >= n` or there are more shards than aspects.
+    pub fn with_shard(mut self, k: usize, n: usize) -> Result<Scene, String> {
+        let total = self.sensor.aspects().len();
+        if n == 0 || k >= n {
+            return Err(format!("shard {k}/{n}: need 0 <= K < N"));
+        }
+        if n > total {
+            return Err(format!(
+                "shard {k}/{n}: {n} shards of {total} aspects would leave some empty; give at most {total}"
+            ));
+        }
+        self.shard = Some((k, n));
+        Ok(self)
+    }
+
+    /// The aspects of shard `k` of `n` among `total`: `[k total / n, (k + 1) total / n)`.
+    pub fn shard_range(k: usize, n: usize, total: usize) -> std::ops::Range<usize> {
+        k * total / n..(k + 1) * total / n
     }
 
     /// [`Scene::load`] with the file named in the error, as every command reports a scene it
@@ -629,9 +655,13 @@ impl Scene {
         }
     }
 
-    /// Every aspect of the sweep.
+    /// Every aspect of the sweep, in order (of its shard only, with [`Scene::with_shard`]).
     pub fn aspects(&self) -> Vec<Aspect> {
-        self.sensor.aspects()
+        let all = self.sensor.aspects();
+        match self.shard {
+            None => all,
+            Some((k, n)) => all[Scene::shard_range(k, n, all.len())].to_vec(),
+        }
     }
 
     /// What material `m` is: its model (`six`, `six + table`), or between two bands at the

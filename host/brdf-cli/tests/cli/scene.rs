@@ -563,3 +563,100 @@ fn lrcs_by_area_states_each_aspects_bound() {
     let bad = brdf(&["scene", "lrcs", &scene(), "--pixels", "256"]);
     assert!(String::from_utf8_lossy(&bad.stderr).contains("set the resolution of --visibility area"));
 }
+
+/// `--shard K/N` for job arrays: the shards' CSVs, merged in order, are one run's CSV byte for
+/// byte (by centroids and by area); merge refuses a missing, repeated or reordered shard, a
+/// shard of another split, another header, and --shard with --json or --plot.
+#[test]
+fn shards_merge_into_one_runs_csv_byte_for_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    for extra in [&[][..], &["--visibility", "area", "--pixels", "32"][..]] {
+        let whole = ok(&brdf(&[&["scene", "lrcs", &scene()][..], extra].concat()));
+        let shards: Vec<String> = (0..3)
+            .map(|k| {
+                let p = dir.path().join(format!("s{k}.csv"));
+                let shard = format!("{k}/3");
+                ok(&brdf(
+                    &[
+                        &[
+                            "scene",
+                            "lrcs",
+                            &scene(),
+                            "--shard",
+                            &shard,
+                            "-o",
+                            p.to_str().unwrap(),
+                        ][..],
+                        extra,
+                    ]
+                    .concat(),
+                ));
+                p.to_str().unwrap().to_owned()
+            })
+            .collect();
+        let s: Vec<&str> = shards.iter().map(String::as_str).collect();
+        let merged = ok(&brdf(&[&["scene", "merge", &scene()][..], &s[..]].concat()));
+        assert_eq!(merged, whole, "{extra:?}");
+        // The shards split the 216 aspects 72 each, in order.
+        let rows = |p: &str| std::fs::read_to_string(p).unwrap().lines().count() - 1;
+        assert_eq!(s.iter().map(|p| rows(p)).collect::<Vec<_>>(), [72, 72, 72]);
+        for (bad, says) in [
+            (vec![s[0], s[1]], "72 aspects where shard 0 of 2 holds 108"),
+            (vec![s[0], s[2], s[1]], "where shard 1 of 3 holds"),
+            (vec![s[0], s[0], s[2]], "where shard 1 of 3 holds"),
+            (
+                vec![s[0], s[1], s[2], s[2]],
+                "shard 0 of 4 holds 54 aspects of the sweep's 216; this row is one more",
+            ),
+        ] {
+            let out = brdf(&[&["scene", "merge", &scene()][..], &bad[..]].concat());
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(!out.status.success() && err.contains(says), "{bad:?}: {err}");
+        }
+    }
+    // Another split's shards, another header.
+    let two = dir.path().join("two.csv");
+    ok(&brdf(&[
+        "scene",
+        "lrcs",
+        &scene(),
+        "--shard",
+        "0/2",
+        "-o",
+        two.to_str().unwrap(),
+    ]));
+    let s1 = dir.path().join("s1.csv");
+    let out = brdf(&[
+        "scene",
+        "merge",
+        &scene(),
+        two.to_str().unwrap(),
+        s1.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let other = dir.path().join("other.csv");
+    let text = std::fs::read_to_string(&s1)
+        .unwrap()
+        .replacen("lrcs", "lrcs_0.55um", 1);
+    std::fs::write(&other, text).unwrap();
+    let s0 = dir.path().join("s0.csv");
+    let out = brdf(&[
+        "scene",
+        "merge",
+        &scene(),
+        s0.to_str().unwrap(),
+        other.to_str().unwrap(),
+        s0.to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("is not the first shard's"));
+    for (args, says) in [
+        (vec!["--shard", "3/3"], "need 0 <= K < N"),
+        (vec!["--shard", "0/217"], "give at most 216"),
+        (vec!["--shard", "0/2", "--json"], "--shard writes CSV"),
+        (vec!["--shard", "0/2", "--plot", "p.png"], "--shard writes CSV"),
+    ] {
+        let out = brdf(&[&["scene", "lrcs", &scene()][..], &args[..]].concat());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(says), "{args:?}: {err}");
+    }
+}
