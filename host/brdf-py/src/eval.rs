@@ -36,7 +36,10 @@ pub(crate) fn radians<T: Float>(deg: &[f64]) -> Vec<T> {
 pub(crate) const MAX_THREADS: usize = 256;
 
 /// Where an evaluation runs: every core (rayon's global pool), this thread alone, or a pool of
-/// a given size (made once per size and kept).
+/// a given size. One such pool is kept for the next call of the same size; a call of another
+/// size replaces it, and a replaced pool's threads end when the calls running in it return:
+/// asking for many sizes in turn leaves one pool, not one per size (a pool kept per size let
+/// threads=2..256 start 33,000 threads and starve the machine).
 pub(crate) enum Threads {
     All,
     One,
@@ -46,8 +49,8 @@ pub(crate) enum Threads {
 impl Threads {
     /// 0: all cores; 1: one thread; `n`: a pool of `n` (at most [`MAX_THREADS`]).
     pub(crate) fn new(threads: usize) -> PyResult<Threads> {
-        static POOLS: std::sync::Mutex<std::collections::BTreeMap<usize, std::sync::Arc<rayon::ThreadPool>>> =
-            std::sync::Mutex::new(std::collections::BTreeMap::new());
+        type Kept = Option<(usize, std::sync::Arc<rayon::ThreadPool>)>;
+        static KEPT: std::sync::Mutex<Kept> = std::sync::Mutex::new(None);
         match threads {
             0 => Ok(Threads::All),
             1 => Ok(Threads::One),
@@ -55,17 +58,21 @@ impl Threads {
                 "threads {n}: at most {MAX_THREADS}"
             ))),
             n => {
-                let mut pools = POOLS.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                if let Some(p) = pools.get(&n) {
-                    return Ok(Threads::Pool(p.clone()));
+                let mut kept = KEPT.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                if let Some((size, p)) = kept.as_ref() {
+                    if *size == n {
+                        return Ok(Threads::Pool(p.clone()));
+                    }
                 }
+                // The old pool goes first, so that its threads and the new ones never add up.
+                *kept = None;
                 let p = std::sync::Arc::new(
                     rayon::ThreadPoolBuilder::new()
                         .num_threads(n)
                         .build()
                         .map_err(|e| PyValueError::new_err(format!("threads {n}: {e}")))?,
                 );
-                pools.insert(n, p.clone());
+                *kept = Some((n, p.clone()));
                 Ok(Threads::Pool(p))
             }
         }

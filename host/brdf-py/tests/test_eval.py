@@ -1,6 +1,8 @@
 """`brdf.eval` and friends: the CLI's values bit for bit, broadcasting, dtypes, errors."""
 
 import csv
+import os
+import time
 import io
 
 import numpy as np
@@ -215,6 +217,22 @@ def test_eval_fit_errors_are_the_cli_messages(cli, tmp_path):
         assert str(e.value) in p.stderr, (str(e.value), p.stderr)
     with pytest.raises(ValueError, match="index: `-1` is not a whole number >= 0"):
         brdf.eval_fit(batch, 10, 20, 30, index=-1)
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="counts threads through /proc")
+def test_many_thread_counts_leave_one_pool():
+    def threads():
+        with open("/proc/self/status") as f:
+            return next(int(line.split()[1]) for line in f if line.startswith("Threads:"))
+
+    x = np.linspace(0.0, 80.0, 20_000)
+    brdf.eval("lambert", "rho0=0.5", x, x, x, threads=3)
+    before = threads()
+    # Each size replaced the last: a pool kept per size started 2 + ... + 60 = 1,829 threads.
+    for n in range(2, 61):
+        brdf.eval("lambert", "rho0=0.5", x, x, x, threads=n)
+    time.sleep(0.5)  # replaced pools' threads end
+    assert threads() <= before + 60, (before, threads())
 
 
 def test_flags_and_counts_of_the_wrong_type_are_refused():
