@@ -154,69 +154,162 @@ fn same_optimum(kind: ModelKind, a: &LmResult, best: &LmResult) -> bool {
 }
 
 /// Points above which the global search runs on a subsample of [`SEARCH_POINTS`] points
-/// (stratified by reading, see [`search_sample`]) and only the final polish sees them all.
+/// (drawn by weight and reading, see [`search_sample`]) and only the final polish sees them
+/// all.
 ///
 /// A pass over 16,384 points costs about 0.2 ms, so the search (a few thousand passes) takes
 /// about a second whatever the file's size, and the polish on all points (tens of passes,
 /// on all cores) adds about 50 ns per point per pass.
 pub const SEARCH_POINTS: usize = 16_384;
 
+/// Largest relative difference, at the optimum, between the search subsample's cost and the
+/// share of every point's it stands for ([`SearchSample::scale`]) for a large fit to be called
+/// converged. For Gaussian noise the subsample's 16,384 draws estimate the share to about 1%
+/// (the relative spread of `r^2`, sqrt 2, over sqrt 16,384); 10% is far beyond that, and is
+/// what a handful of heavy points missed by the draws gives.
+pub const SAMPLE_COST_REL: f64 = 0.1;
+
 /// Fits `problem` with `opts`.
 ///
 /// Up to [`SEARCH_POINTS`] points the search of the module docs runs on every point. Above,
 /// it runs on [`search_sample`]'s subsample, and its optimum is polished on every point; the
-/// fit is "converged" when the search on the subsample met every test of the module docs and
-/// the polish on every point met its convergence test. The outcome's cost is every point's;
-/// its `chain_costs` are the subsample's; `search.sample` says how many points the search saw.
+/// fit is "converged" when the search on the subsample met every test of the module docs, the
+/// subsample's cost at the final point is within [`SAMPLE_COST_REL`] of the share of every
+/// point's it stands for, and the polish on every point met its convergence test. The
+/// outcome's cost is every point's; its `chain_costs` are the subsample's; `search.sample`
+/// says how many points the search saw. Under a robust loss with points of unequal weight the
+/// search runs on every point (a subsample's factors would change which points are outliers).
 pub fn fit(problem: &Problem, opts: &FitOptions) -> FitOutcome {
     let started = Instant::now();
-    let mut out = if problem.len() <= SEARCH_POINTS {
-        fit_points(problem, opts)
-    } else {
-        let sample = problem.subset(&search_sample(problem, SEARCH_POINTS));
-        let mut out = fit_points(&sample, opts);
-        let (lo, hi) = problem.bounds();
-        let r = minimise(problem, &out.q, &lo, &hi, opts.lm);
-        out.q = r.q;
-        out.params = to_natural(out.kind, &r.q[..out.kind.param_count()]);
-        out.cost = r.cost;
-        out.evals += r.evals;
-        out.search.sample = Some(sample.len());
-        if out.search.not_converged.is_none() && !problem.stopped() && !r.converged {
-            out.search.not_converged =
-                Some("the polish on every point stopped at its iteration limit".to_owned());
+    let drawn = (problem.len() > SEARCH_POINTS).then(|| search_sample(problem, SEARCH_POINTS));
+    // A robust loss is not linear in a point's weight: a subsample standing for other points
+    // than it holds (factors other than 1) would move its outliers, so it searches them all.
+    let drawn = drawn.filter(|d| problem.loss().is_linear() || d.factors.iter().all(|&f| f == 1.0));
+    let mut out = match drawn {
+        None => fit_points(problem, opts),
+        Some(drawn) => {
+            let sample = drawn.problem(problem);
+            let mut out = fit_points(&sample, opts);
+            let (lo, hi) = problem.bounds();
+            let r = minimise(problem, &out.q, &lo, &hi, opts.lm);
+            out.q = r.q;
+            out.params = to_natural(out.kind, &r.q[..out.kind.param_count()]);
+            out.cost = r.cost;
+            out.evals += r.evals;
+            out.search.sample = Some(sample.len());
+            // The subsample must stand for the data where the search ended: its cost there
+            // within SAMPLE_COST_REL of its share of every point's (a few draws in the wrong
+            // places misled the search, and the polish cannot leave the basin it was handed).
+            let (estimate, share) = (sample.cost(&r.q), drawn.scale * r.cost);
+            if out.search.not_converged.is_none() && !problem.stopped() {
+                if !((estimate - share).abs() <= SAMPLE_COST_REL * share) {
+                    out.search.not_converged = Some(format!(
+                        "the search's subsample does not stand for the data at the optimum (its cost \
+                     {estimate:e} against the {share:e} it stands for): the search may have missed \
+                     the optimum"
+                    ));
+                } else if !r.converged {
+                    out.search.not_converged =
+                        Some("the polish on every point stopped at its iteration limit".to_owned());
+                }
+            }
+            if problem.stopped() {
+                out.search.not_converged = Some("the fit was stopped before its search ended".to_owned());
+            }
+            out.converged = out.search.not_converged.is_none();
+            out
         }
-        if problem.stopped() {
-            out.search.not_converged = Some("the fit was stopped before its search ended".to_owned());
-        }
-        out.converged = out.search.not_converged.is_none();
-        out
     };
     out.seconds = started.elapsed().as_secs_f64();
     out
 }
 
-/// `m` of `problem`'s points for the global search, stratified by reading: the points sorted
-/// by their reading (ties by index) fall into `m` strata of equal count, and one point is
-/// drawn from each by a fixed generator, so that the subsample spans the readings from the
-/// darkest to the peak as the whole data do (the peak's few points included) and is the
-/// same for every seed. Indices ascending; all points when there are at most `m`.
-pub fn search_sample(problem: &Problem, m: usize) -> Vec<usize> {
-    let n = problem.len();
-    if n <= m {
-        return (0..n).collect();
+/// A subsample of a problem's points for the global search ([`search_sample`]): the points,
+/// ascending, and the factor on each one's squared residual.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SearchSample {
+    /// Indices of the points, ascending.
+    pub indices: Vec<usize>,
+    /// Factor on each point's squared residual: the share of the whole data's cost it
+    /// stands for, all 1 when every point weighs alike ([`Problem::importance`]).
+    pub factors: Vec<f64>,
+    /// The subsample's cost estimates this times the whole data's (under the linear loss, or
+    /// with every factor 1): `m / sum u`.
+    pub scale: f64,
+}
+
+impl SearchSample {
+    /// The problem on the subsample, each point weighted by its factor.
+    pub fn problem(&self, problem: &Problem) -> Problem {
+        problem.subset_scaled(&self.indices, &self.factors)
     }
-    let mut order: Vec<usize> = (0..n).collect();
+}
+
+/// `m` of `problem`'s points for the global search, drawn so that the subsample's cost
+/// stands for the whole data's at every parameter set (a stratified, probability-
+/// proportional-to-size sample): each point weighs [`Problem::importance`] `u_i`; a point
+/// weighing at least `1/m` of the rest is taken for certain (heavy weights, small sigmas, an
+/// absolute residual's peak); the others, sorted by reading (ties by index), fall into strata
+/// of equal total weight, and one point is drawn from each with chance proportional to its
+/// weight by a fixed generator (the same subsample for every seed). Each point's squared
+/// residual is weighted by the weight it stands for over its own, times `m / sum u` (so all 1
+/// when every point weighs alike: strata of equal count, the peak's and the darkest always
+/// drawn from). All points, factors 1, when there are at most `m`.
+pub fn search_sample(problem: &Problem, m: usize) -> SearchSample {
+    let n = problem.len();
+    if n <= m || m == 0 {
+        return SearchSample {
+            indices: (0..n).collect(),
+            factors: vec![1.0; n],
+            scale: 1.0,
+        };
+    }
+    let mut u: Vec<f64> = (0..n).map(|i| problem.importance(i)).collect();
+    if u.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+        u = vec![1.0; n]; // (readings and weights are checked finite and above zero)
+    }
+    let total: f64 = u.iter().sum();
+    let scale = m as f64 / total;
+    let mut picked: Vec<(usize, f64)> = Vec::with_capacity(m);
+    // The certain: heaviest first, while one weighs at least the rest's share of a draw.
+    let mut by_weight: Vec<usize> = (0..n).collect();
+    by_weight.sort_unstable_by(|&a, &b| u[b].total_cmp(&u[a]).then(a.cmp(&b)));
+    let (mut rest, mut draws) = (total, m);
+    let mut certain = vec![false; n];
+    for &i in &by_weight {
+        if draws == 0 || u[i] * (draws as f64) < rest {
+            break;
+        }
+        certain[i] = true;
+        picked.push((i, scale));
+        rest -= u[i];
+        draws -= 1;
+    }
+    // The rest, by reading, systematically: the draws at `(k + r) step` along the running
+    // sum of weights, one per stratum (no point weighs a whole step, so none twice).
+    let mut order: Vec<usize> = (0..n).filter(|&i| !certain[i]).collect();
     order.sort_unstable_by(|&a, &b| problem.target(a).total_cmp(&problem.target(b)).then(a.cmp(&b)));
-    let mut rng = Pcg64Mcg::seed_from_u64(0x5EA5_C4ED_5A3B_1E00);
-    let mut picked: Vec<usize> = (0..m)
-        .map(|k| {
-            let (lo, hi) = (k * n / m, (k + 1) * n / m);
-            order[lo + ((unit(&mut rng) * (hi - lo) as f64) as usize).min(hi - lo - 1)]
-        })
-        .collect();
-    picked.sort_unstable();
-    picked
+    if draws > 0 && !order.is_empty() {
+        let rest: f64 = order.iter().map(|&i| u[i]).sum();
+        let step = rest / draws as f64;
+        let mut rng = Pcg64Mcg::seed_from_u64(0x5EA5_C4ED_5A3B_1E00);
+        let mut next = unit(&mut rng) * step;
+        let (mut run, mut k) = (0.0, 0);
+        for &i in &order {
+            run += u[i];
+            if k < draws && run > next {
+                picked.push((i, scale * step / u[i]));
+                k += 1;
+                next = (k as f64 + unit(&mut rng)) * step;
+            }
+        }
+    }
+    picked.sort_unstable_by_key(|p| p.0);
+    SearchSample {
+        indices: picked.iter().map(|p| p.0).collect(),
+        factors: picked.iter().map(|p| p.1).collect(),
+        scale,
+    }
 }
 
 /// The fit of the module docs on every point of `problem`.

@@ -429,15 +429,40 @@ impl Problem {
 
     /// The problem on the points `indices` only (in that order), everything else alike.
     pub fn subset(&self, indices: &[usize]) -> Problem {
+        self.subset_scaled(indices, &vec![1.0; indices.len()])
+    }
+
+    /// [`Problem::subset`] with point `indices[k]`'s squared residual weighted by
+    /// `factors[k]` (its residual by the square root): a subsample standing for more points
+    /// than it holds ([`crate::fit::search_sample`]).
+    pub fn subset_scaled(&self, indices: &[usize], factors: &[f64]) -> Problem {
         Problem {
             pts: indices.iter().map(|&i| self.pts[i]).collect(),
             y: indices.iter().map(|&i| self.y[i]).collect(),
             d: indices.iter().map(|&i| self.d[i]).collect(),
-            w: indices.iter().map(|&i| self.w[i]).collect(),
+            w: indices
+                .iter()
+                .zip(factors)
+                .map(|(&i, &f)| if f == 1.0 { self.w[i] } else { self.w[i] * f.sqrt() })
+                .collect(),
             irls: indices.iter().map(|&i| self.irls[i]).collect(),
             stop: self.stop.clone(),
             ..*self
         }
+    }
+
+    /// How much point `i` can weigh in the cost: its squared residual were the model off by
+    /// its reading's size (the noise floor's, for a dark reading): `(s_i max(|y_i|, floor))^2`
+    /// with `s_i` the point's [`Problem::projection_scale`] — its weight (or sigma) squared
+    /// for relative and log residuals, times the squared reading for absolute ones.
+    pub fn importance(&self, i: usize) -> f64 {
+        let y = self.y[i].abs().max(self.floor);
+        let s = match self.residual {
+            Residual::Absolute => self.w[i] * y,
+            Residual::Relative => self.w[i] * y / self.d[i],
+            Residual::Log => self.w[i],
+        };
+        s * s
     }
 
     /// Residual `r_i` (weighted, in the residual form) of model value `f` at point `i`.

@@ -263,9 +263,15 @@ fn shared_cost(problems: &[&Problem], nl: &[f64]) -> (f64, Vec<[f64; 2]>) {
 }
 
 /// Nelder–Mead on `f` over the unit cube (coordinates clamped into it), from `x0`; returns the
-/// best point, its value, and whether the simplex met the tolerance (not the iteration limit
-/// or a stop).
-fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], stop: &dyn Fn() -> bool) -> (Vec<f64>, f64, bool) {
+/// best point, its value, and whether the simplex met the tolerance — the simplex's values
+/// within `tol` of the best, relative, and its size under 1e-9 — (not the iteration limit or
+/// a stop).
+fn nelder_mead(
+    f: &dyn Fn(&[f64]) -> f64,
+    x0: &[f64],
+    tol: f64,
+    stop: &dyn Fn() -> bool,
+) -> (Vec<f64>, f64, bool) {
     let d = x0.len();
     let clamp = |x: Vec<f64>| -> Vec<f64> { x.into_iter().map(|v| v.clamp(0.0, 1.0)).collect() };
     let mut simplex: Vec<(Vec<f64>, f64)> = Vec::with_capacity(d + 1);
@@ -287,7 +293,7 @@ fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], stop: &dyn Fn() -> bool) -
             .iter()
             .flat_map(|(x, _)| x.iter().zip(&simplex[0].0).map(|(a, b)| (a - b).abs()))
             .fold(0.0_f64, f64::max);
-        if (worst - best).abs() <= 1e-13 * best.abs().max(f64::MIN_POSITIVE) && size < 1e-9 {
+        if (worst - best).abs() <= tol * best.abs().max(f64::MIN_POSITIVE) && size < 1e-9 {
             met = true;
             break;
         }
@@ -330,6 +336,11 @@ fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], stop: &dyn Fn() -> bool) -
     (x, fx, met)
 }
 
+/// Relative spread of the simplex's values under which the shape polish has converged, for
+/// small data (the summed cost's rounding sets it for large data: see [`share`]); far below
+/// [`AGREEMENT`], so that two polishes that met it and agree are one optimum.
+pub const SIMPLEX_TOL: f64 = 1e-13;
+
 /// The shared-shape fit of `problems` (the bands of one measurement, same model and settings)
 /// from their own fits `own` (one outcome per band): one outcome per band, each with its
 /// weights at the best shape, and the summed cost there.
@@ -356,6 +367,11 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
         shared_cost(problems, &to_nl(u)).0
     };
     let stop = || problems.iter().any(|p| p.stopped());
+    // The summed cost of n points carries rounding up to about n epsilon of itself: a
+    // tolerance of 1e-13 alone was below it from some 80,000 points (two bands of 40,000)
+    // and a fit that had reached the optimum met the iteration limit instead.
+    let points: usize = problems.iter().map(|p| p.len()).sum();
+    let tol = SIMPLEX_TOL.max(points as f64 * f64::EPSILON);
     // Candidates: every band's own shape, ranked by the summed cost.
     let mut candidates: Vec<(Vec<f64>, f64)> = own
         .iter()
@@ -386,8 +402,8 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
             .take(STARTS)
             .map(|(u, _)| {
                 // Restarted once from its own end: a simplex that collapsed early moves on.
-                let (u1, _, _) = nelder_mead(&f, u, &stop);
-                nelder_mead(&f, &u1, &stop)
+                let (u1, _, _) = nelder_mead(&f, u, tol, &stop);
+                nelder_mead(&f, &u1, tol, &stop)
             })
             .collect()
     };
@@ -568,12 +584,12 @@ mod tests {
     #[test]
     fn nelder_mead_finds_a_smooth_minimum_in_the_box() {
         let f = |x: &[f64]| (x[0] - 0.3).powi(2) + 10.0 * (x[1] - 0.7).powi(2) + 1.0;
-        let (x, fx, met) = nelder_mead(&f, &[0.9, 0.1], &|| false);
+        let (x, fx, met) = nelder_mead(&f, &[0.9, 0.1], SIMPLEX_TOL, &|| false);
         assert!(met && (fx - 1.0).abs() < 1e-12, "{fx}");
         assert!((x[0] - 0.3).abs() < 1e-5 && (x[1] - 0.7).abs() < 1e-5, "{x:?}");
         // A minimum outside the box ends on its face.
         let g = |x: &[f64]| (x[0] + 1.0).powi(2) + (x[1] - 0.5).powi(2);
-        let (x, _, _) = nelder_mead(&g, &[0.5, 0.5], &|| false);
+        let (x, _, _) = nelder_mead(&g, &[0.5, 0.5], SIMPLEX_TOL, &|| false);
         assert!(x[0] == 0.0 && (x[1] - 0.5).abs() < 1e-5, "{x:?}");
     }
 }

@@ -627,6 +627,21 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         .filter(|(r, &v)| !r.contains(v))
         .map(|(r, v)| format!("{} = {v} is not {}", r.name, r.text))
         .collect();
+    let unc = uncertainty(
+        problem,
+        outcome,
+        distinct_directions(dataset, outcome.kind, k + 1),
+    );
+    // A profile refit below the optimum: the search missed it, whatever it said.
+    let (mut converged, mut search) = (outcome.converged, outcome.search.clone());
+    if let Some(c) = unc.refit_below {
+        converged = false;
+        search.not_converged = Some(format!(
+            "a profile refit of the report (one parameter held, the others refitted) reached cost \
+             {c:e}, below the optimum's {:e}: the search missed the optimum",
+            outcome.cost
+        ));
+    }
     FitReport {
         dataset: dataset.name.clone(),
         model: kind,
@@ -648,16 +663,12 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         seed: opts.seed,
         cost: outcome.cost,
         evals: outcome.evals,
-        converged: outcome.converged,
-        search: outcome.search.clone(),
+        converged,
+        search,
         loss: problem.loss(),
         brightening: problem.brightening(),
         influence: influence(dataset, problem, outcome, opts),
-        uncertainty: uncertainty(
-            problem,
-            outcome,
-            distinct_directions(dataset, outcome.kind, k + 1),
-        ),
+        uncertainty: unc,
         energy: energy_of(kind, params, &energy::checked_incidences(&incidences)),
         outside_ranges,
         fitted_table: None,

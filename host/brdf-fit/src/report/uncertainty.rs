@@ -27,6 +27,11 @@ pub struct Uncertainty {
     pub params: Ordered<ParamUncertainty>,
     /// Correlation matrix of the parameters (paper order); `None` where undefined.
     pub correlation: Vec<Vec<Option<f64>>>,
+    /// The least cost a profile refit reached when it lies below the optimum's (by more than
+    /// [`crate::fit::AGREEMENT`]): with one parameter held the others found a better point, so
+    /// the search missed the optimum ([`crate::report::report`] then withdraws "converged").
+    #[serde(skip)]
+    pub refit_below: Option<f64>,
 }
 
 /// A parameter is called undetermined when its standard error exceeds this fraction of
@@ -64,7 +69,7 @@ pub fn distinct_directions(d: &Dataset, kind: ModelKind, limit: usize) -> usize 
 }
 
 /// The profile test of parameter `j`: the least rise of `2 (cost - cost_min) / s2` over refits
-/// with `q_j` held at half, twice and each end of its box. On a large problem (`sample` given,
+/// with `q_j` held at half, twice and each end of its box, and the least cost they reached. On a large problem (`sample` given,
 /// see [`crate::fit::SEARCH_POINTS`]) each refit starts on the subsample and is finished on
 /// every point from there: the rise is every point's, at a few passes over them.
 pub(crate) fn profile_rise(
@@ -73,7 +78,7 @@ pub(crate) fn profile_rise(
     outcome: &FitOutcome,
     j: usize,
     s2: f64,
-) -> Option<f64> {
+) -> Option<(f64, f64)> {
     let kind = outcome.kind;
     let (lo, hi) = problem.bounds();
     let log_param = matches!(kind, ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five) && j == 1;
@@ -111,9 +116,9 @@ pub(crate) fn profile_rise(
                 start = crate::lm::minimise(sample, &start, &flo, &fhi, lm).q;
             }
             let r = crate::lm::minimise(problem, &start, &flo, &fhi, lm);
-            Some(2.0 * (r.cost - outcome.cost).max(0.0) / s2)
+            Some((2.0 * (r.cost - outcome.cost).max(0.0) / s2, r.cost))
         })
-        .reduce_with(f64::min)
+        .reduce_with(|a, b| (a.0.min(b.0), a.1.min(b.1)))
 }
 
 /// `x` with six significant digits and no trailing zeros (1000, not 999.9999999999998).
@@ -331,8 +336,8 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome, distinct: usize) -> 
     let d = natural_per_internal(kind, &outcome.q);
     // Profile refits of every parameter that gets a standard error, all in parallel.
     let sample = (problem.len() > crate::fit::SEARCH_POINTS)
-        .then(|| problem.subset(&crate::fit::search_sample(problem, crate::fit::SEARCH_POINTS)));
-    let rises: Vec<Option<f64>> = (0..p)
+        .then(|| crate::fit::search_sample(problem, crate::fit::SEARCH_POINTS).problem(problem));
+    let refits: Vec<Option<(f64, f64)>> = (0..p)
         .into_par_iter()
         .map(|j| {
             let estimated = note[j].is_none() && cov[j][j].is_finite() && cov[j][j] >= 0.0;
@@ -343,6 +348,12 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome, distinct: usize) -> 
             }
         })
         .collect();
+    let rises: Vec<Option<f64>> = refits.iter().map(|r| r.map(|r| r.0)).collect();
+    let refit_below = refits
+        .iter()
+        .filter_map(|r| r.map(|r| r.1))
+        .filter(|&c| c < outcome.cost * (1.0 - crate::fit::AGREEMENT))
+        .reduce(f64::min);
     let mut params = Vec::with_capacity(p);
     for j in 0..p {
         let value = outcome.params[j];
@@ -411,5 +422,6 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome, distinct: usize) -> 
     Uncertainty {
         params: Ordered(params),
         correlation,
+        refit_below,
     }
 }
