@@ -202,7 +202,9 @@ pub fn fit(problem: &Problem, opts: &FitOptions) -> FitOutcome {
             // places misled the search, and the polish cannot leave the basin it was handed).
             let (estimate, share) = (sample.cost(&r.q), drawn.scale * r.cost);
             if out.search.not_converged.is_none() && !problem.stopped() {
-                if !((estimate - share).abs() <= SAMPLE_COST_REL * share) {
+                // (A NaN difference stands for nothing either.)
+                let stands = (estimate - share).abs() <= SAMPLE_COST_REL * share;
+                if !stands {
                     out.search.not_converged = Some(format!(
                         "the search's subsample does not stand for the data at the optimum (its cost \
                      {estimate:e} against the {share:e} it stands for): the search may have missed \
