@@ -66,7 +66,7 @@ impl AspectProfile {
         (self.first_bin as f64 + j as f64 + 0.5) * bin_m
     }
 
-    /// [`Profile::range_m`] rounded to a millionth of a bin in decimal significant digits,
+    /// [`AspectProfile::range_m`] rounded to a millionth of a bin in decimal significant digits,
     /// for printing (-1.95, not -1.9500000000000002): neighbouring bins stay apart at every
     /// bin width and range (a fixed nanometre merged bins of 2e-10 m and overflowed at 1e300).
     pub fn range_label(&self, j: usize, bin_m: f64) -> f64 {
