@@ -267,10 +267,13 @@ pub fn search_sample(problem: &Problem, m: usize) -> SearchSample {
         };
     }
     let mut u: Vec<f64> = (0..n).map(|i| problem.importance(i)).collect();
-    if u.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-        u = vec![1.0; n]; // (readings and weights are checked finite and above zero)
+    let mut total: f64 = u.iter().sum();
+    if !(total.is_finite() && total > 0.0) || u.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+        // Weights beyond what f64 sums (each is checked finite and above zero): drawn as if
+        // alike, which the test at the optimum then judges.
+        u = vec![1.0; n];
+        total = n as f64;
     }
-    let total: f64 = u.iter().sum();
     let scale = m as f64 / total;
     let mut picked: Vec<(usize, f64)> = Vec::with_capacity(m);
     // The certain: heaviest first, while one weighs at least the rest's share of a draw.

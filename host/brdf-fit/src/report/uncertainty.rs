@@ -69,9 +69,10 @@ pub fn distinct_directions(d: &Dataset, kind: ModelKind, limit: usize) -> usize 
 }
 
 /// The profile test of parameter `j`: the least rise of `2 (cost - cost_min) / s2` over refits
-/// with `q_j` held at half, twice and each end of its box, and the least cost they reached. On a large problem (`sample` given,
-/// see [`crate::fit::SEARCH_POINTS`]) each refit starts on the subsample and is finished on
-/// every point from there: the rise is every point's, at a few passes over them.
+/// with `q_j` held at half, twice and each end of its box, and the least cost they reached.
+/// On a large problem (`sample` given, see [`crate::fit::SEARCH_POINTS`]) each refit starts on
+/// the subsample and is finished on every point from there: the rise is every point's, at a
+/// few passes over them.
 pub(crate) fn profile_rise(
     problem: &Problem,
     sample: Option<&Problem>,
