@@ -533,13 +533,17 @@ impl Problem {
         let s = if self.len() < PARALLEL_POINTS {
             self.cost_sum(q, 0..self.len())
         } else {
-            let blocks: Vec<f64> = (0..self.len().div_ceil(BLOCK))
-                .into_par_iter()
-                .map(|b| self.cost_sum(q, b * BLOCK..((b + 1) * BLOCK).min(self.len())))
-                .collect();
-            blocks.into_iter().sum()
+            self.over_blocks(|r| self.cost_sum(q, r)).into_iter().sum()
         };
         0.5 * s
+    }
+
+    /// `f` over the points in blocks of [`BLOCK`], on all cores, the results in block order.
+    fn over_blocks<T: Send>(&self, f: impl Fn(std::ops::Range<usize>) -> T + Sync) -> Vec<T> {
+        (0..self.len().div_ceil(BLOCK))
+            .into_par_iter()
+            .map(|b| f(b * BLOCK..((b + 1) * BLOCK).min(self.len())))
+            .collect()
     }
 
     /// `sum rho(r_i^2)` over the points in `range`.
@@ -569,11 +573,9 @@ impl Problem {
         let sums = if self.len() < PARALLEL_POINTS {
             self.normal_sums(q, 0..self.len())
         } else {
-            let blocks: Vec<Sums> = (0..self.len().div_ceil(BLOCK))
-                .into_par_iter()
-                .map(|b| self.normal_sums(q, b * BLOCK..((b + 1) * BLOCK).min(self.len())))
-                .collect();
-            blocks.into_iter().fold(Sums::default(), Sums::add)
+            self.over_blocks(|r| self.normal_sums(q, r))
+                .into_iter()
+                .fold(Sums::default(), Sums::add)
         };
         let n = self.dim();
         (*jtj, *jtr) = (sums.jtj, sums.jtr);
@@ -678,12 +680,8 @@ impl Problem {
         if self.len() < PARALLEL_POINTS {
             return self.gram_sum(q, 0..self.len());
         }
-        let blocks: Vec<[[f64; MAX_PARAMS]; MAX_PARAMS]> = (0..self.len().div_ceil(BLOCK))
-            .into_par_iter()
-            .map(|b| self.gram_sum(q, b * BLOCK..((b + 1) * BLOCK).min(self.len())))
-            .collect();
         let mut jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
-        for g in blocks {
+        for g in self.over_blocks(|r| self.gram_sum(q, r)) {
             for a in 0..MAX_PARAMS {
                 for b in 0..MAX_PARAMS {
                     jtj[a][b] += g[a][b];
