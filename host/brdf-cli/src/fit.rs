@@ -332,7 +332,7 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
     if let Some(m) = s.sample {
         writeln!(
             out,
-            "  the search ran on {m} of the {} points (stratified by reading); the polish on all of them",
+            "  the search ran on {m} of the {} points (drawn by weight and reading); the polish on all of them",
             r.n
         )?;
     }

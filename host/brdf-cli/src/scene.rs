@@ -40,7 +40,9 @@ enum SceneSub {
     Image(ImageCmd),
     /// Joins the CSVs of `brdf scene lrcs --shard K/N` (every shard, in order) into the CSV
     /// of one run, byte for byte; refuses shards that are missing, repeated, out of order, of
-    /// another scene or sweep, or with another header.
+    /// another sweep, with another header than this scene writes, or with rows that are not
+    /// numbers. A shard of another scene with the same sweep and columns, or run with another
+    /// --visibility, cannot be told from its CSV: keep each job array's shards together.
     Merge(MergeCmd),
 }
 
@@ -115,6 +117,20 @@ pub struct LrcsCmd {
     /// shards' CSVs into one run's. CSV only.
     #[arg(long, value_parser = crate::common::parse_shard)]
     shard: Option<(usize, usize)>,
+}
+
+/// The header of `brdf scene lrcs`'s CSV: `azimuth,elevation,lrcs`, or one column per
+/// wavelength of a list (`lrcs_0.55um`).
+fn lrcs_header(scene: &Scene) -> String {
+    if scene.spectrum.is_empty() {
+        return "azimuth,elevation,lrcs".to_owned();
+    }
+    let columns: Vec<String> = scene
+        .spectrum
+        .iter()
+        .map(|(um, _)| format!("lrcs_{}um", brdf_fit::data::wavelength_text(*um)))
+        .collect();
+    format!("azimuth,elevation,{}", columns.join(","))
 }
 
 /// `brdf scene merge`.
@@ -286,18 +302,12 @@ impl LrcsCmd {
             let j = LrcsReport::new(self.scene.display().to_string(), &scene, &result);
             writeln!(out, "{}", serde_json::to_string_pretty(&j)?)?;
         } else if scene.spectrum.is_empty() {
-            writeln!(out, "azimuth,elevation,lrcs")?;
+            writeln!(out, "{}", lrcs_header(&scene))?;
             for a in &result.aspects {
                 writeln!(out, "{},{},{}", a.azimuth, a.elevation, a.lrcs)?;
             }
         } else {
-            // One column per wavelength of the list: `lrcs_0.55um`.
-            let columns: Vec<String> = scene
-                .spectrum
-                .iter()
-                .map(|(um, _)| format!("lrcs_{}um", brdf_fit::data::wavelength_text(*um)))
-                .collect();
-            writeln!(out, "azimuth,elevation,{}", columns.join(","))?;
+            writeln!(out, "{}", lrcs_header(&scene))?;
             for a in &result.aspects {
                 let values: Vec<String> = a.by_wavelength.iter().map(f64::to_string).collect();
                 writeln!(out, "{},{},{}", a.azimuth, a.elevation, values.join(","))?;
@@ -496,7 +506,8 @@ impl MergeCmd {
         }
         let aspects = scene.aspects();
         let n = self.shards.len();
-        let mut header: Option<String> = None;
+        let header = lrcs_header(&scene);
+        let width = header.split(',').count();
         let mut rows = Vec::with_capacity(aspects.len());
         for (k, path) in self.shards.iter().enumerate() {
             let text = brdf_fit::data::read_input(path)
@@ -505,14 +516,13 @@ impl MergeCmd {
             let head = lines
                 .next()
                 .with_context(|| format!("{}: empty: not a shard's CSV", path.display()))?;
-            match &header {
-                None => header = Some(head.to_owned()),
-                Some(h) if h != head => anyhow::bail!(
-                    "{}: line 1: header `{head}` is not the first shard's `{h}` (another scene or \
-                     another list of wavelengths?)",
-                    path.display()
-                ),
-                Some(_) => {}
+            if head != header {
+                anyhow::bail!(
+                    "{}: line 1: header `{head}` is not the `{header}` {} writes (a shard of \
+                     another scene, or of another list of wavelengths?)",
+                    path.display(),
+                    self.scene.display()
+                );
             }
             // Shard k of n holds exactly these aspects, in order.
             let want = &aspects[Scene::shard_range(k, n, aspects.len())];
@@ -526,6 +536,14 @@ impl MergeCmd {
                         .map_err(|_| at(format!("{name} `{t}` is not a number")))
                 };
                 let (az, el) = (angle("azimuth")?, angle("elevation")?);
+                // Every field a number, as many as the header names.
+                let fields = line.split(',').count();
+                if fields != width {
+                    return Err(at(format!("{fields} fields where the header names {width}")));
+                }
+                if let Some(t) = line.split(',').skip(2).find(|t| t.parse::<f64>().is_err()) {
+                    return Err(at(format!("sigma `{t}` is not a number")));
+                }
                 let Some(a) = want.get(j) else {
                     return Err(at(format!(
                         "shard {k} of {n} holds {} aspects of the sweep's {}; this row is one more \
@@ -554,7 +572,7 @@ impl MergeCmd {
             }
         }
         let mut out = sink(&self.output)?;
-        writeln!(out, "{}", header.unwrap_or_default())?;
+        writeln!(out, "{header}")?;
         for r in rows {
             writeln!(out, "{r}")?;
         }

@@ -169,6 +169,11 @@ pub const SEARCH_POINTS: usize = 16_384;
 /// what a handful of heavy points missed by the draws gives.
 pub const SAMPLE_COST_REL: f64 = 0.1;
 
+/// Under a robust loss the search runs on a subsample only when every point's factor
+/// ([`SearchSample::factors`]) is within this of 1: a residual then moves by under 0.5%, far
+/// inside the loss's scale, and no point changes between inlier and outlier.
+pub const ROBUST_FACTOR_REL: f64 = 0.01;
+
 /// Fits `problem` with `opts`.
 ///
 /// Up to [`SEARCH_POINTS`] points the search of the module docs runs on every point. Above,
@@ -178,13 +183,16 @@ pub const SAMPLE_COST_REL: f64 = 0.1;
 /// point's it stands for, and the polish on every point met its convergence test. The
 /// outcome's cost is every point's; its `chain_costs` are the subsample's; `search.sample`
 /// says how many points the search saw. Under a robust loss with points of unequal weight the
-/// search runs on every point (a subsample's factors would change which points are outliers).
+/// search runs on every point (a subsample's factors would change which points are outliers;
+/// [`ROBUST_FACTOR_REL`]).
 pub fn fit(problem: &Problem, opts: &FitOptions) -> FitOutcome {
     let started = Instant::now();
     let drawn = (problem.len() > SEARCH_POINTS).then(|| search_sample(problem, SEARCH_POINTS));
     // A robust loss is not linear in a point's weight: a subsample standing for other points
-    // than it holds (factors other than 1) would move its outliers, so it searches them all.
-    let drawn = drawn.filter(|d| problem.loss().is_linear() || d.factors.iter().all(|&f| f == 1.0));
+    // than it holds (factors away from 1) would move its outliers, so it searches them all.
+    let drawn = drawn.filter(|d| {
+        problem.loss().is_linear() || d.factors.iter().all(|&f| (f - 1.0).abs() <= ROBUST_FACTOR_REL)
+    });
     let mut out = match drawn {
         None => fit_points(problem, opts),
         Some(drawn) => {
@@ -267,10 +275,24 @@ pub fn search_sample(problem: &Problem, m: usize) -> SearchSample {
         };
     }
     let mut u: Vec<f64> = (0..n).map(|i| problem.importance(i)).collect();
+    // A reading of 0 under absolute residuals weighs 0 by this measure (its residual is the
+    // model's whole value): it is drawn like the lightest other point, not never (and the
+    // others are not drawn as if alike because of it).
+    let lightest = u
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    for v in &mut u {
+        if !(v.is_finite() && *v > 0.0) {
+            *v = if lightest.is_finite() { lightest } else { 1.0 };
+        }
+    }
     let mut total: f64 = u.iter().sum();
-    if !(total.is_finite() && total > 0.0) || u.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-        // Weights beyond what f64 sums (each is checked finite and above zero): drawn as if
-        // alike, which the test at the optimum then judges.
+    let alike = u.iter().all(|&v| v == u[0]);
+    if alike || !total.is_finite() {
+        // Every point alike (or weights beyond what f64 sums, drawn as if alike, which the
+        // test at the optimum then judges): strata of equal count, each point for itself.
         u = vec![1.0; n];
         total = n as f64;
     }
@@ -303,7 +325,9 @@ pub fn search_sample(problem: &Problem, m: usize) -> SearchSample {
         for &i in &order {
             run += u[i];
             if k < draws && run > next {
-                picked.push((i, scale * step / u[i]));
+                // Exactly 1 for points alike (`m/n * n/m` rounds otherwise).
+                let factor = if alike { 1.0 } else { scale * step / u[i] };
+                picked.push((i, factor));
                 k += 1;
                 next = (k as f64 + unit(&mut rng)) * step;
             }

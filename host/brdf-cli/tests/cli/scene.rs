@@ -648,7 +648,35 @@ fn shards_merge_into_one_runs_csv_byte_for_byte() {
         other.to_str().unwrap(),
         s0.to_str().unwrap(),
     ]);
-    assert!(String::from_utf8_lossy(&out.stderr).contains("is not the first shard's"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("is not the `azimuth,elevation,lrcs`"));
+    // A row with a field dropped or not a number (it was copied through).
+    let s2 = dir.path().join("s2.csv");
+    for (edit, says) in [
+        ("drop", "2 fields where the header names 3"),
+        ("word", "sigma `hello`"),
+    ] {
+        let text = std::fs::read_to_string(&s1).unwrap();
+        let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+        let angles: Vec<String> = lines[4].split(',').take(2).map(str::to_owned).collect();
+        lines[4] = match edit {
+            "drop" => angles.join(","),
+            _ => format!("{},hello", angles.join(",")),
+        };
+        std::fs::write(&other, lines.join("\n") + "\n").unwrap();
+        let out = brdf(&[
+            "scene",
+            "merge",
+            &scene(),
+            s0.to_str().unwrap(),
+            other.to_str().unwrap(),
+            s2.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains("line 5") && err.contains(says),
+            "{edit}: {err}"
+        );
+    }
     for (args, says) in [
         (vec!["--shard", "3/3"], "need 0 <= K < N"),
         (vec!["--shard", "0/217"], "give at most 216"),

@@ -111,6 +111,59 @@ fn heavy_rows_are_always_in_the_search_sample() {
     assert_eq!(out.search.sample, None);
 }
 
+/// One zero reading under absolute residuals weighed 0 and turned the whole draw to "alike"
+/// (the peak no longer certain, and the fit not converged); points alike got factors of
+/// 0.9999999999999999 at some sizes (13% of them), and a robust loss then searched every point.
+#[test]
+fn a_zero_reading_and_points_alike_keep_the_subsample() {
+    // 60,008 points: one of the sizes whose `m/n * n/m` rounds below 1.
+    let mut data = hemisphere(
+        ModelKind::Six,
+        &TRUE,
+        &[0.0, 20.0, 40.0, 60.0, 70.0],
+        0.75,
+        1.0,
+        0.02,
+        5,
+    )
+    .unwrap();
+    data.points.truncate(60_008);
+    let relative = Problem::from_dataset(ModelKind::Six, Residual::Relative, &data);
+    let sample = search_sample(&relative, SEARCH_POINTS);
+    assert!(
+        sample.factors.iter().all(|&f| f == 1.0),
+        "points alike stand for themselves"
+    );
+    let huber = relative.clone().with_loss(brdf_fit::Loss {
+        kind: brdf_fit::LossKind::Huber,
+        scale: 1.0,
+    });
+    let out = fit(
+        &huber,
+        &FitOptions {
+            chains: 4,
+            ..FitOptions::default()
+        },
+    );
+    assert_eq!(
+        out.search.sample,
+        Some(SEARCH_POINTS),
+        "a robust loss on points alike"
+    );
+    // Absolute residuals: the brightest points are certain, with or without a zero reading.
+    let absolute = |data: &brdf_fit::Dataset| {
+        let p = Problem::with_floor(ModelKind::Six, Residual::Absolute, &data.points, 0.0);
+        let s = search_sample(&p, SEARCH_POINTS);
+        let peak = (0..p.len())
+            .max_by(|&a, &b| p.target(a).total_cmp(&p.target(b)))
+            .unwrap();
+        (s.indices.contains(&peak), s.factors.iter().any(|&f| f != 1.0))
+    };
+    assert_eq!(absolute(&data), (true, true));
+    data.points[101].brdf = 0.0;
+    assert_eq!(absolute(&data), (true, true), "one zero reading");
+}
+
 #[test]
 fn the_search_sample_spans_the_readings_and_is_fixed() {
     let data = hemisphere(ModelKind::Six, &TRUE, &[10.0, 60.0], 1.0, 1.0, 0.02, 5).unwrap();
