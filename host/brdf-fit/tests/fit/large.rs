@@ -1,5 +1,5 @@
 //! Large measurements: above `SEARCH_POINTS` points the global search runs on a subsample
-//! stratified by reading and the polish on every point. A hemisphere of a glossy surface
+//! drawn by weight and reading and the polish on every point. A hemisphere of a glossy surface
 //! (21,840 points, 2% noise) must reach a cost no worse than its true parameters', say that the
 //! search saw a subsample, and converge; the subsample must span the readings.
 
