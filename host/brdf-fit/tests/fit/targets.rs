@@ -188,3 +188,49 @@ fn seed_test_detects_a_weak_global_search() {
         "the weak search should miss the optimum from some seeds"
     );
 }
+
+/// A search too weak to find the optimum (no grid, one short chain, no hops) calls itself
+/// converged on its own tests; the report's profile refits then find a lower cost with one
+/// parameter held, and the report withdraws "converged", saying why. Real-data cases and
+/// seeds where that happens must exist (or the check is never exercised), and every report
+/// whose refits went below its optimum must say not converged.
+#[test]
+fn a_profile_refit_below_the_optimum_withdraws_converged() {
+    use brdf_fit::anneal::AnnealOptions;
+    let weak = |seed| FitOptions {
+        seed,
+        chains: 1,
+        min_chains: 1,
+        agree: 1,
+        hops: 0,
+        grid_starts: 0,
+        lobe_probes: 0,
+        anneal: AnnealOptions {
+            evals: 30,
+            screen: 10,
+            ..AnnealOptions::default()
+        },
+        ..FitOptions::default()
+    };
+    let cases = crate::real_data_cases::cases();
+    let mut caught = 0;
+    for case in cases.iter().take(4) {
+        let problem = Problem::from_dataset(ModelKind::Six, Residual::Relative, &case.data);
+        for seed in 0..6 {
+            let opts = weak(seed);
+            let out = fit(&problem, &opts);
+            let r = report(&case.data, &problem, &out, &opts);
+            if let Some(c) = r.uncertainty.refit_below {
+                assert!(c < out.cost);
+                assert!(!r.converged, "{} seed {seed}", case.name);
+                let why = r.search.not_converged.as_deref().unwrap_or("");
+                assert!(why.contains("a profile refit of the report"), "{why}");
+                caught += usize::from(out.converged);
+            }
+        }
+    }
+    assert!(
+        caught > 0,
+        "no weak search called itself converged below a refit: the check was not exercised"
+    );
+}
