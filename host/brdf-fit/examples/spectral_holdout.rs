@@ -16,7 +16,7 @@ use std::path::Path;
 
 use brdf_core::{AnyModel, Brdf, ModelKind};
 use brdf_fit::fitted_table::trimmed_rms_rel;
-use brdf_fit::holdout::{median, nearest_neighbours, raised_for_ln, split, OUTER_FOLDS};
+use brdf_fit::holdout::{median, raised_for_ln, split, Neighbours, OUTER_FOLDS};
 use brdf_fit::import::{import, Format, Pick};
 use brdf_fit::noise::{floor_for, FloorChoice};
 use brdf_fit::spectral::BandShape;
@@ -84,11 +84,11 @@ fn main() {
                     };
                     let ms = of(fits_shared[b].as_ref().expect("shared fit"));
                     let mo = of(fits_own[b].as_ref().expect("band fit"));
-                    let raised = raised_for_ln(&train[b].points);
+                    let raised = Neighbours::new(&raised_for_ln(&train[b].points));
                     (
                         rel(&|p| ms.eval_angles(p.theta_i, p.theta_r, p.phi)),
                         rel(&|p| mo.eval_angles(p.theta_i, p.theta_r, p.phi)),
-                        rel(&|p| nearest_neighbours(&raised, p)),
+                        rel(&|p| raised.predict(p)),
                     )
                 })
                 .collect();

@@ -13,7 +13,7 @@ use std::path::Path;
 
 use brdf_core::{AnyModel, Brdf, ModelKind};
 use brdf_fit::fitted_table::{trimmed_rms_rel, FittedTable, SHAPES};
-use brdf_fit::holdout::{bundled, nearest_neighbours, split, OUTER_FOLDS};
+use brdf_fit::holdout::{bundled, split, Neighbours, OUTER_FOLDS};
 use brdf_fit::{Dataset, FitSettings, Point};
 use rayon::prelude::*;
 
@@ -62,7 +62,8 @@ fn main() {
                     test.iter().map(|p| (pred(p) / p.brdf - 1.0).abs()).collect()
                 };
                 et += trimmed_rms_rel(&rel(&|p| base_f(p) * table.eval(p.theta_i, p.theta_r, p.phi)));
-                en += trimmed_rms_rel(&rel(&|p| nearest_neighbours(&train, p)));
+                let nn = Neighbours::new(&train);
+                en += trimmed_rms_rel(&rel(&|p| nn.predict(p)));
             }
             let k = OUTER_FOLDS as f64;
             (

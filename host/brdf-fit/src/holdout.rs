@@ -77,29 +77,55 @@ pub fn raised_for_ln(points: &[Point]) -> Vec<Point> {
 /// # Panics
 /// If `train` is empty.
 pub fn nearest_neighbours(train: &[Point], q: &Point) -> f64 {
-    let fq = features(q);
-    let mut best: Vec<(f64, f64)> = Vec::with_capacity(NEIGHBOURS + 1);
-    for p in train {
-        let f = features(p);
-        let d = f
-            .iter()
-            .zip(&fq)
-            .map(|(a, b)| (a - b) * (a - b))
-            .sum::<f64>()
-            .sqrt();
-        if best.len() < NEIGHBOURS || d < best[best.len() - 1].0 {
-            best.push((d, p.brdf.ln()));
-            best.sort_by(|a, b| a.0.total_cmp(&b.0));
-            best.truncate(NEIGHBOURS);
+    Neighbours::new(train).predict(q)
+}
+
+/// The yardstick's training points with their coordinates computed once, for predicting many
+/// points (each [`Neighbours::predict`] is [`nearest_neighbours`]'s value, bit for bit: the
+/// coordinates were recomputed for every training point of every query, about half the time
+/// of `brdf select`'s yardstick).
+#[derive(Clone, Debug)]
+pub struct Neighbours {
+    features: Vec<[f64; 4]>,
+    ln: Vec<f64>,
+}
+
+impl Neighbours {
+    /// The training points (readings above zero: see [`raised_for_ln`]).
+    pub fn new(train: &[Point]) -> Neighbours {
+        Neighbours {
+            features: train.iter().map(features).collect(),
+            ln: train.iter().map(|p| p.brdf.ln()).collect(),
         }
     }
-    if best[0].0 < 1e-12 {
-        return best[0].1.exp();
+
+    /// Inverse-distance interpolation of `ln f` between the [`NEIGHBOURS`] nearest training
+    /// points (the first found of equally near ones), or the reading of a training point at
+    /// the same coordinates.
+    pub fn predict(&self, q: &Point) -> f64 {
+        let fq = features(q);
+        let mut best: Vec<(f64, f64)> = Vec::with_capacity(NEIGHBOURS + 1);
+        for (f, &ln) in self.features.iter().zip(&self.ln) {
+            let d = f
+                .iter()
+                .zip(&fq)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+                .sqrt();
+            if best.len() < NEIGHBOURS || d < best[best.len() - 1].0 {
+                best.push((d, ln));
+                best.sort_by(|a, b| a.0.total_cmp(&b.0));
+                best.truncate(NEIGHBOURS);
+            }
+        }
+        if best[0].0 < 1e-12 {
+            return best[0].1.exp();
+        }
+        let (num, den) = best
+            .iter()
+            .fold((0.0, 0.0), |(n, d), &(dist, ly)| (n + ly / dist, d + 1.0 / dist));
+        (num / den).exp()
     }
-    let (num, den) = best
-        .iter()
-        .fold((0.0, 0.0), |(n, d), &(dist, ly)| (n + ly / dist, d + 1.0 / dist));
-    (num / den).exp()
 }
 
 /// The bundled measurements under `root` (`data/measured`), one dataset per channel or

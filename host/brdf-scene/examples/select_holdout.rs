@@ -11,7 +11,7 @@ use std::path::Path;
 use brdf_core::fitted::{Corrected, FittedTable};
 use brdf_core::{AnyModel, Brdf, ModelKind};
 use brdf_fit::fitted_table::trimmed_rms_rel;
-use brdf_fit::holdout::{bundled, nearest_neighbours, split, OUTER_FOLDS};
+use brdf_fit::holdout::{bundled, split, Neighbours, OUTER_FOLDS};
 use brdf_fit::report::FittedModel;
 use brdf_fit::Dataset;
 use brdf_fit::{FitRequest, FitSettings};
@@ -69,10 +69,11 @@ fn main() {
             };
             let (e, chosen) = chosen_error(&train, &test);
             ec += e;
+            let nn = Neighbours::new(&train.points);
             en += trimmed_rms_rel(
                 &test
                     .iter()
-                    .map(|p| (nearest_neighbours(&train.points, p) / p.brdf - 1.0).abs())
+                    .map(|p| (nn.predict(p) / p.brdf - 1.0).abs())
                     .collect::<Vec<_>>(),
             );
             if !names.contains(&chosen) {

@@ -14,7 +14,7 @@ use std::path::Path;
 use brdf_core::fitted::{Corrected, FittedTable};
 use brdf_core::{AnyModel, Brdf, ModelKind};
 use brdf_fit::fitted_table::trimmed_rms_rel;
-use brdf_fit::holdout::{bundled, nearest_neighbours};
+use brdf_fit::holdout::{bundled, Neighbours};
 use brdf_fit::{Dataset, FitRequest, FitSettings, Point};
 use brdf_scene::represent::{table_rung_over, TABLE_MIN_POINTS};
 
@@ -69,10 +69,11 @@ fn main() {
         };
         let (l, lt) = errors(ModelKind::Lambert, &train, &test);
         let (g, gt) = errors(ModelKind::Ggx, &train, &test);
+        let knn = Neighbours::new(&train.points);
         let nn = trimmed_rms_rel(
             &test
                 .iter()
-                .map(|p| (nearest_neighbours(&train.points, p) / p.brdf - 1.0).abs())
+                .map(|p| (knn.predict(p) / p.brdf - 1.0).abs())
                 .collect::<Vec<_>>(),
         );
         println!(

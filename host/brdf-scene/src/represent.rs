@@ -305,7 +305,7 @@ fn cross_validate(
 }
 
 /// The yardstick of the held-out errors: four-nearest-neighbour interpolation of `ln f`
-/// (`brdf_fit::holdout::nearest_neighbours`) of each fold's points from the other folds' —
+/// (`brdf_fit::holdout::Neighbours`) of each fold's points from the other folds' —
 /// the same folds and the same floored relative error as the representations, so that a
 /// representation's `cv_rms_rel` above it says the data hold detail the representation
 /// misses. Training readings at or below zero are raised to the smallest positive training
@@ -328,14 +328,14 @@ fn knn_yardstick(domain: &Dataset, floor: f64) -> Option<f64> {
                 .filter(|(_, &g)| g != f)
                 .map(|(p, _)| *p)
                 .collect();
-            let train = brdf_fit::holdout::raised_for_ln(&kept);
+            let train = brdf_fit::holdout::Neighbours::new(&brdf_fit::holdout::raised_for_ln(&kept));
             domain
                 .points
                 .iter()
                 .zip(&fold)
                 .filter(|(_, &g)| g == f)
                 .map(|(p, _)| {
-                    let v = brdf_fit::holdout::nearest_neighbours(&train, p);
+                    let v = train.predict(p);
                     floored_relative(v, p.brdf, floor).abs()
                 })
                 .collect::<Vec<f64>>()
