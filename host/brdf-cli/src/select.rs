@@ -449,9 +449,7 @@ impl SelectCmd {
             }
         }
         let scene = brdf_scene::scene::Scene::open(path)?;
-        scene
-            .one_wavelength("selecting (a blob holds one representation per material)")
-            .map_err(anyhow::Error::msg)?;
+        brdf_scene::select::selectable(&scene).map_err(anyhow::Error::msg)?;
         if let Some(out) = &self.output {
             crate::common::not_an_input("-o", out, scene.files())?;
         }

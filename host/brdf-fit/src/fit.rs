@@ -195,42 +195,42 @@ pub fn fit(problem: &Problem, opts: &FitOptions) -> FitOutcome {
     });
     let mut out = match drawn {
         None => fit_points(problem, opts),
-        Some(drawn) => {
-            let sample = drawn.problem(problem);
-            let mut out = fit_points(&sample, opts);
-            let (lo, hi) = problem.bounds();
-            let r = minimise(problem, &out.q, &lo, &hi, opts.lm);
-            out.q = r.q;
-            out.params = to_natural(out.kind, &r.q[..out.kind.param_count()]);
-            out.cost = r.cost;
-            out.evals += r.evals;
-            out.search.sample = Some(sample.len());
-            // The subsample must stand for the data where the search ended: its cost there
-            // within SAMPLE_COST_REL of its share of every point's (a few draws in the wrong
-            // places misled the search, and the polish cannot leave the basin it was handed).
-            let (estimate, share) = (sample.cost(&r.q), drawn.scale * r.cost);
-            if out.search.not_converged.is_none() && !problem.stopped() {
-                // (A NaN difference stands for nothing either.)
-                let stands = (estimate - share).abs() <= SAMPLE_COST_REL * share;
-                if !stands {
-                    out.search.not_converged = Some(format!(
-                        "the search's subsample does not stand for the data at the optimum (its cost \
-                     {estimate:e} against the {share:e} it stands for): the search may have missed \
-                     the optimum"
-                    ));
-                } else if !r.converged {
-                    out.search.not_converged =
-                        Some("the polish on every point stopped at its iteration limit".to_owned());
-                }
-            }
-            if problem.stopped() {
-                out.search.not_converged = Some("the fit was stopped before its search ended".to_owned());
-            }
-            out.converged = out.search.not_converged.is_none();
-            out
-        }
+        Some(drawn) => fit_sampled(problem, &drawn, opts),
     };
     out.seconds = started.elapsed().as_secs_f64();
+    out
+}
+
+/// The search on `drawn`'s subsample of `problem`, polished on every point (see [`fit`]).
+fn fit_sampled(problem: &Problem, drawn: &SearchSample, opts: &FitOptions) -> FitOutcome {
+    let sample = drawn.problem(problem);
+    let mut out = fit_points(&sample, opts);
+    let (lo, hi) = problem.bounds();
+    let r = minimise(problem, &out.q, &lo, &hi, opts.lm);
+    out.q = r.q;
+    out.params = to_natural(out.kind, &r.q[..out.kind.param_count()]);
+    out.cost = r.cost;
+    out.evals += r.evals;
+    out.search.sample = Some(sample.len());
+    // The subsample must stand for the data where the search ended: its cost there within
+    // SAMPLE_COST_REL of its share of every point's (a few draws in the wrong places misled
+    // the search, and the polish cannot leave the basin it was handed). A NaN difference
+    // stands for nothing either.
+    let (estimate, share) = (sample.cost(&r.q), drawn.scale * r.cost);
+    let stands = (estimate - share).abs() <= SAMPLE_COST_REL * share;
+    if problem.stopped() {
+        out.search.not_converged = Some("the fit was stopped before its search ended".to_owned());
+    } else if out.search.not_converged.is_none() && !stands {
+        out.search.not_converged = Some(format!(
+            "the search's subsample does not stand for the data at the optimum (its cost \
+             {estimate:e} against the {share:e} it stands for): the search may have missed the \
+             optimum"
+        ));
+    } else if out.search.not_converged.is_none() && !r.converged {
+        out.search.not_converged =
+            Some("the polish on every point stopped at its iteration limit".to_owned());
+    }
+    out.converged = out.search.not_converged.is_none();
     out
 }
 

@@ -20,7 +20,7 @@ pub const PARALLEL_POINTS: usize = 65_536;
 pub const BLOCK: usize = 8 * CHUNK;
 
 /// Partial sums of one pass: `sum rho`, `J^T r`, the lower triangle of `J^T J`.
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy)]
 struct Sums {
     cost: f64,
     jtj: [[f64; MAX_PARAMS]; MAX_PARAMS],
@@ -427,14 +427,10 @@ impl Problem {
         p
     }
 
-    /// The problem on the points `indices` only (in that order), everything else alike.
-    pub fn subset(&self, indices: &[usize]) -> Problem {
-        self.subset_scaled(indices, &vec![1.0; indices.len()])
-    }
-
-    /// [`Problem::subset`] with point `indices[k]`'s squared residual weighted by
-    /// `factors[k]` (its residual by the square root): a subsample standing for more points
-    /// than it holds ([`crate::fit::search_sample`]).
+    /// The problem on the points `indices` only (in that order), everything else alike, with
+    /// point `indices[k]`'s squared residual weighted by `factors[k]` (its residual by the
+    /// square root): a subsample standing for more points than it holds
+    /// ([`crate::fit::search_sample`]).
     pub fn subset_scaled(&self, indices: &[usize], factors: &[f64]) -> Problem {
         Problem {
             pts: indices.iter().map(|&i| self.pts[i]).collect(),
@@ -443,7 +439,7 @@ impl Problem {
             w: indices
                 .iter()
                 .zip(factors)
-                .map(|(&i, &f)| if f == 1.0 { self.w[i] } else { self.w[i] * f.sqrt() })
+                .map(|(&i, &f)| self.w[i] * f.sqrt())
                 .collect(),
             irls: indices.iter().map(|&i| self.irls[i]).collect(),
             stop: self.stop.clone(),
@@ -530,20 +526,21 @@ impl Problem {
     /// `0.5 * sum C^2 rho(r_i^2 / C^2)` (`0.5 * sum r_i^2` for the linear loss) at internal
     /// parameters `q`; infinite where a log residual sees `f <= 0`.
     pub fn cost(&self, q: &[f64]) -> f64 {
-        let s = if self.len() < PARALLEL_POINTS {
-            self.cost_sum(q, 0..self.len())
-        } else {
-            self.over_blocks(|r| self.cost_sum(q, r)).into_iter().sum()
-        };
-        0.5 * s
+        0.5 * self.pass(|r| self.cost_sum(q, r), |a, b| a + b)
     }
 
-    /// `f` over the points in blocks of [`BLOCK`], on all cores, the results in block order.
-    fn over_blocks<T: Send>(&self, f: impl Fn(std::ops::Range<usize>) -> T + Sync) -> Vec<T> {
-        (0..self.len().div_ceil(BLOCK))
+    /// `f` over every point: below [`PARALLEL_POINTS`] in one range on this thread, above in
+    /// blocks of [`BLOCK`] on all cores, their results joined by `add` in block order (the
+    /// same bits whatever the thread count).
+    fn pass<T: Send>(&self, f: impl Fn(std::ops::Range<usize>) -> T + Sync, add: impl Fn(T, T) -> T) -> T {
+        if self.len() < PARALLEL_POINTS {
+            return f(0..self.len());
+        }
+        let blocks: Vec<T> = (0..self.len().div_ceil(BLOCK))
             .into_par_iter()
             .map(|b| f(b * BLOCK..((b + 1) * BLOCK).min(self.len())))
-            .collect()
+            .collect();
+        blocks.into_iter().reduce(add).expect("at least one block")
     }
 
     /// `sum rho(r_i^2)` over the points in `range`.
@@ -570,13 +567,7 @@ impl Problem {
         jtj: &mut [[f64; MAX_PARAMS]; MAX_PARAMS],
         jtr: &mut [f64; MAX_PARAMS],
     ) -> f64 {
-        let sums = if self.len() < PARALLEL_POINTS {
-            self.normal_sums(q, 0..self.len())
-        } else {
-            self.over_blocks(|r| self.normal_sums(q, r))
-                .into_iter()
-                .fold(Sums::default(), Sums::add)
-        };
+        let sums = self.pass(|r| self.normal_sums(q, r), Sums::add);
         let n = self.dim();
         (*jtj, *jtr) = (sums.jtj, sums.jtr);
         for a in 0..n {
@@ -677,18 +668,17 @@ impl Problem {
     /// Above [`PARALLEL_POINTS`] points, on all cores in blocks added in order (the same bits
     /// whatever the thread count).
     pub fn jacobian_gram(&self, q: &[f64]) -> [[f64; MAX_PARAMS]; MAX_PARAMS] {
-        if self.len() < PARALLEL_POINTS {
-            return self.gram_sum(q, 0..self.len());
-        }
-        let mut jtj = [[0.0; MAX_PARAMS]; MAX_PARAMS];
-        for g in self.over_blocks(|r| self.gram_sum(q, r)) {
-            for a in 0..MAX_PARAMS {
-                for b in 0..MAX_PARAMS {
-                    jtj[a][b] += g[a][b];
+        self.pass(
+            |r| self.gram_sum(q, r),
+            |mut a, b| {
+                for (ra, rb) in a.iter_mut().zip(&b) {
+                    for (x, y) in ra.iter_mut().zip(rb) {
+                        *x += y;
+                    }
                 }
-            }
-        }
-        jtj
+                a
+            },
+        )
     }
 
     /// `J^T J` over the rows in `range`.

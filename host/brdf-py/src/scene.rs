@@ -192,9 +192,7 @@ pub(crate) fn select_scene<'py>(
     use brdf_scene::select::{select, SelectOptions};
     check_budget(budget).map_err(PyValueError::new_err)?;
     let scene = scene_at(&path)?;
-    scene
-        .one_wavelength("selecting (a blob holds one representation per material)")
-        .map_err(PyValueError::new_err)?;
+    brdf_scene::select::selectable(&scene).map_err(PyValueError::new_err)?;
     let opts = SelectOptions {
         budget,
         fit: FitOptions {

@@ -322,6 +322,13 @@ fn drafts(
     out
 }
 
+/// Whether `scene` can be selected for: at one wavelength only (a blob holds one
+/// representation per material); the error names the scene (`brdf select --scene`,
+/// `brdf.select_scene`).
+pub fn selectable(scene: &Scene) -> Result<(), String> {
+    scene.one_wavelength("selecting (a blob holds one representation per material)")
+}
+
 /// Chooses, per material of `scene`, the cheapest representation within `opts.budget` over
 /// the queries of `domain` (from [`crate::queries::collect_queries`]), and encodes the chosen set.
 pub fn select(scene: &Scene, domain: &SceneQueries, opts: &SelectOptions) -> SceneSelection {

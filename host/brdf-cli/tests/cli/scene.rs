@@ -595,7 +595,7 @@ fn shards_merge_into_one_runs_csv_byte_for_byte() {
             })
             .collect();
         let s: Vec<&str> = shards.iter().map(String::as_str).collect();
-        let merged = ok(&brdf(&[&["scene", "merge", &scene()][..], &s[..]].concat()));
+        let merged = ok(&merge(&s));
         assert_eq!(merged, whole, "{extra:?}");
         // The shards split the 216 aspects 72 each, in order.
         let rows = |p: &str| std::fs::read_to_string(p).unwrap().lines().count() - 1;
@@ -609,9 +609,7 @@ fn shards_merge_into_one_runs_csv_byte_for_byte() {
                 "shard 0 of 4 holds 54 aspects of the sweep's 216; this row is one more",
             ),
         ] {
-            let out = brdf(&[&["scene", "merge", &scene()][..], &bad[..]].concat());
-            let err = String::from_utf8_lossy(&out.stderr);
-            assert!(!out.status.success() && err.contains(says), "{bad:?}: {err}");
+            refused(&merge(&bad), says);
         }
     }
     // Another split's shards, another header.
@@ -626,36 +624,25 @@ fn shards_merge_into_one_runs_csv_byte_for_byte() {
         two.to_str().unwrap(),
     ]));
     let s1 = dir.path().join("s1.csv");
-    let out = brdf(&[
-        "scene",
-        "merge",
-        &scene(),
-        two.to_str().unwrap(),
-        s1.to_str().unwrap(),
-    ]);
-    assert!(!out.status.success());
+    refused(
+        &merge(&[two.to_str().unwrap(), s1.to_str().unwrap()]),
+        "where shard 1 of 2 holds",
+    );
     let other = dir.path().join("other.csv");
     let text = std::fs::read_to_string(&s1)
         .unwrap()
         .replacen("lrcs", "lrcs_0.55um", 1);
     std::fs::write(&other, text).unwrap();
-    let s0 = dir.path().join("s0.csv");
-    let out = brdf(&[
-        "scene",
-        "merge",
-        &scene(),
-        s0.to_str().unwrap(),
-        other.to_str().unwrap(),
-        s0.to_str().unwrap(),
-    ]);
-    assert!(String::from_utf8_lossy(&out.stderr).contains("is not the `azimuth,elevation,lrcs`"));
+    let (s0, s2) = (dir.path().join("s0.csv"), dir.path().join("s2.csv"));
+    let (s0, s1, s2) = (s0.to_str().unwrap(), s1.to_str().unwrap(), s2.to_str().unwrap());
+    let other_s = other.to_str().unwrap();
+    refused(&merge(&[s0, other_s, s2]), "is not the `azimuth,elevation,lrcs`");
     // A row with a field dropped or not a number (it was copied through).
-    let s2 = dir.path().join("s2.csv");
     for (edit, says) in [
         ("drop", "2 fields where the header names 3"),
         ("word", "sigma `hello`"),
     ] {
-        let text = std::fs::read_to_string(&s1).unwrap();
+        let text = std::fs::read_to_string(s1).unwrap();
         let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
         let angles: Vec<String> = lines[4].split(',').take(2).map(str::to_owned).collect();
         lines[4] = match edit {
@@ -663,28 +650,39 @@ fn shards_merge_into_one_runs_csv_byte_for_byte() {
             _ => format!("{},hello", angles.join(",")),
         };
         std::fs::write(&other, lines.join("\n") + "\n").unwrap();
-        let out = brdf(&[
-            "scene",
-            "merge",
-            &scene(),
-            s0.to_str().unwrap(),
-            other.to_str().unwrap(),
-            s2.to_str().unwrap(),
-        ]);
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(
-            !out.status.success() && err.contains("line 5") && err.contains(says),
-            "{edit}: {err}"
-        );
+        refused(&merge(&[s0, other_s, s2]), says);
+        refused(&merge(&[s0, other_s, s2]), "line 5");
     }
+    // -o onto a shard or the scene would destroy an input.
+    refused(&merge(&[s0, s1, s2, "-o", s1]), "-o names the shard");
+    refused(&merge(&[s0, s1, s2, "-o", &scene()]), "-o");
     for (args, says) in [
         (vec!["--shard", "3/3"], "need 0 <= K < N"),
         (vec!["--shard", "0/217"], "give at most 216"),
         (vec!["--shard", "0/2", "--json"], "--shard writes CSV"),
         (vec!["--shard", "0/2", "--plot", "p.png"], "--shard writes CSV"),
+        (vec!["--shard", "1/0"], "need 0 <= K < N"),
+        (vec!["--shard=-1/3"], "is not a shard index"),
+        (vec!["--shard", "1/nan"], "is not a shard count"),
+        (vec!["--shard", ""], "is not of the form K/N"),
     ] {
-        let out = brdf(&[&["scene", "lrcs", &scene()][..], &args[..]].concat());
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success() && err.contains(says), "{args:?}: {err}");
+        refused(
+            &brdf(&[&["scene", "lrcs", &scene()][..], &args[..]].concat()),
+            says,
+        );
     }
+}
+
+/// `brdf scene merge` of the bundled scene with `args` (shards, options).
+fn merge(args: &[&str]) -> std::process::Output {
+    brdf(&[&["scene", "merge", &scene()][..], args].concat())
+}
+
+/// A run that failed saying `says`.
+fn refused(out: &std::process::Output, says: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains(says),
+        "wanted `{says}`: {err}"
+    );
 }

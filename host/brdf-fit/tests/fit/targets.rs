@@ -149,25 +149,31 @@ fn kr_is_within_10_percent_or_flagged_for_every_noise_draw() {
     println!("kr flagged as undetermined in {flagged}/{total} fits");
 }
 
+/// One short annealing chain polished by LM, no grid, hops or probes: a search too weak to
+/// find the optimum from every seed.
+fn weak_search(seed: u64) -> FitOptions {
+    FitOptions {
+        seed,
+        chains: 1,
+        agree: 1,
+        min_chains: 1,
+        anneal: brdf_fit::anneal::AnnealOptions {
+            evals: 21,
+            screen: 20,
+            ..brdf_fit::anneal::AnnealOptions::default()
+        },
+        ..FitOptions::without_verification()
+    }
+}
+
 /// The 100-seed test has teeth: on khaki data with 1% noise the default engine reaches one
 /// optimum from every seed, while a single LM polish from a screened random start without
 /// annealing does not.
 #[test]
 fn seed_test_detects_a_weak_global_search() {
-    use brdf_fit::anneal::AnnealOptions;
     let data = synth::in_plane(ModelKind::Six, &KHAKI, &[0.0, 10.0, 30.0], 2.5, 0.01, 7).unwrap();
     let problem = Problem::from_dataset(ModelKind::Six, Residual::Relative, &data);
-    let weak = FitOptions {
-        chains: 1,
-        agree: 1,
-        min_chains: 1,
-        anneal: AnnealOptions {
-            evals: 21,
-            screen: 20,
-            ..AnnealOptions::default()
-        },
-        ..FitOptions::without_verification()
-    };
+    let weak = weak_search(0);
     let run = |base: FitOptions| -> Vec<f64> {
         (0..100)
             .map(|seed| fit(&problem, &FitOptions { seed, ..base }).cost)
@@ -196,28 +202,12 @@ fn seed_test_detects_a_weak_global_search() {
 /// whose refits went below its optimum must say not converged.
 #[test]
 fn a_profile_refit_below_the_optimum_withdraws_converged() {
-    use brdf_fit::anneal::AnnealOptions;
-    let weak = |seed| FitOptions {
-        seed,
-        chains: 1,
-        min_chains: 1,
-        agree: 1,
-        hops: 0,
-        grid_starts: 0,
-        lobe_probes: 0,
-        anneal: AnnealOptions {
-            evals: 30,
-            screen: 10,
-            ..AnnealOptions::default()
-        },
-        ..FitOptions::default()
-    };
     let cases = crate::real_data_cases::cases();
     let mut caught = 0;
     for case in cases.iter().take(4) {
         let problem = Problem::from_dataset(ModelKind::Six, Residual::Relative, &case.data);
         for seed in 0..6 {
-            let opts = weak(seed);
+            let opts = weak_search(seed);
             let out = fit(&problem, &opts);
             let r = report(&case.data, &problem, &out, &opts);
             if let Some(c) = r.uncertainty.refit_below {
