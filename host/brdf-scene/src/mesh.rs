@@ -15,6 +15,7 @@ use std::fmt;
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 
+use rayon::slice::ParallelSliceMut;
 use thiserror::Error;
 
 /// Largest coordinate magnitude accepted, m: a thousand times the observable universe, and
@@ -358,16 +359,32 @@ impl Mesh {
         }
         // Weld bit-identical positions, -0 and 0 as one (exporters write `-0.000000`: a
         // corner split in two opened a closed shell, and its winding went unchecked).
-        let mut map: HashMap<[u64; 3], u32> = HashMap::new();
+        // Sorted by position then index, each run's first index stands for the run; ids are
+        // given in the order of first use (a hash map of a million positions cost seconds).
+        let key = |v: &[f64; 3]| [v[0] + 0.0, v[1] + 0.0, v[2] + 0.0].map(f64::to_bits);
+        let mut order: Vec<([u64; 3], u32)> = vertices
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (key(v), i as u32))
+            .collect();
+        order.par_sort_unstable();
+        let mut first = vec![0u32; vertices.len()];
+        for run in order.chunk_by(|x, y| x.0 == y.0) {
+            for &(_, i) in run {
+                first[i as usize] = run[0].1;
+            }
+        }
+        drop(order);
         let mut welded: Vec<[f64; 3]> = Vec::new();
-        let mut remap = Vec::with_capacity(vertices.len());
-        for v in &vertices {
-            let key = [v[0] + 0.0, v[1] + 0.0, v[2] + 0.0].map(f64::to_bits);
-            let id = *map.entry(key).or_insert_with(|| {
+        let mut remap = vec![0u32; vertices.len()];
+        for (i, v) in vertices.iter().enumerate() {
+            let f = first[i] as usize;
+            remap[i] = if f == i {
                 welded.push(*v);
                 (welded.len() - 1) as u32
-            });
-            remap.push(id);
+            } else {
+                remap[f]
+            };
         }
         let mut facets = Vec::with_capacity(triangles.len());
         let mut origins = Vec::with_capacity(triangles.len());
@@ -678,17 +695,31 @@ impl Mesh {
             let v = f.vertices;
             [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])]
         };
-        // Undirected edge -> (facets using it, first facet, its direction).
-        type Edge = (u32, u32);
-        let mut undirected: HashMap<Edge, (u32, usize, Edge)> = HashMap::new();
+        // Each facet's edge `e` is use `3k + e`. Sorted by undirected edge then use, each run
+        // is one edge: how many facets use it, and its first use (first facet, its direction).
+        let n = self.facets.len();
+        let mut order: Vec<(u64, u32)> = Vec::with_capacity(3 * n);
         for (k, f) in self.facets.iter().enumerate() {
-            for (a, b) in edges(f) {
-                undirected.entry((a.min(b), a.max(b))).or_insert((0, k, (a, b))).0 += 1;
+            for (e, (a, b)) in edges(f).into_iter().enumerate() {
+                let key = (u64::from(a.min(b)) << 32) | u64::from(a.max(b));
+                order.push((key, (3 * k + e) as u32));
             }
         }
+        order.par_sort_unstable();
+        let mut uses = vec![0u32; 3 * n];
+        let mut first_use = vec![0u32; 3 * n];
+        for run in order.chunk_by(|x, y| x.0 == y.0) {
+            for &(_, u) in run {
+                uses[u as usize] = run.len() as u32;
+                first_use[u as usize] = run[0].1;
+            }
+        }
+        drop(order);
+        let edge_of = |u: u32| edges(&self.facets[u as usize / 3])[u as usize % 3];
         for (k, f) in self.facets.iter().enumerate() {
-            for (a, b) in edges(f) {
-                let (uses, first, dir) = undirected[&(a.min(b), a.max(b))];
+            for (e, (a, b)) in edges(f).into_iter().enumerate() {
+                let u = 3 * k + e;
+                let (uses, first, dir) = (uses[u], first_use[u] as usize / 3, edge_of(first_use[u]));
                 if uses == 2 && first != k && dir == (a, b) {
                     return Err(MeshError::Winding {
                         file: file(),
@@ -701,7 +732,6 @@ impl Mesh {
             }
         }
         // Shells: facets connected through shared edges (union-find).
-        let n = self.facets.len();
         let mut parent: Vec<usize> = (0..n).collect();
         fn root(p: &mut [usize], mut i: usize) -> usize {
             while p[i] != i {
@@ -710,9 +740,9 @@ impl Mesh {
             }
             i
         }
-        for (k, f) in self.facets.iter().enumerate() {
-            for (a, b) in edges(f) {
-                let first = undirected[&(a.min(b), a.max(b))].1;
+        for k in 0..n {
+            for e in 0..3 {
+                let first = first_use[3 * k + e] as usize / 3;
                 let (ra, rb) = (root(&mut parent, k), root(&mut parent, first));
                 if ra != rb {
                     parent[ra] = rb;
@@ -741,10 +771,8 @@ impl Mesh {
                     hi[r][c] = hi[r][c].max(q[c]);
                 }
             }
-            for (a, b) in edges(f) {
-                if undirected[&(a.min(b), a.max(b))].0 != 2 {
-                    open[r] = true;
-                }
+            if uses[3 * k..3 * k + 3].iter().any(|&u| u != 2) {
+                open[r] = true;
             }
         }
         for k in 0..n {

@@ -86,9 +86,9 @@ impl QueryBatch {
 pub fn aspect_queries(scene: &Scene, aspect: &Aspect, stack: &mut Vec<usize>) -> Vec<QueryBatch> {
     let (v, s) = (aspect.receiver(), aspect.source(scene.sensor.mode));
     let mono = scene.sensor.mode == Mode::Monostatic;
+    let occluder = scene.occluder();
     facing_queries(scene, aspect, |k, f| {
-        !(scene.occluder.blocked(f.centroid, v, k, stack)
-            || !mono && scene.occluder.blocked(f.centroid, s, k, stack))
+        !(occluder.blocked(f.centroid, v, k, stack) || !mono && occluder.blocked(f.centroid, s, k, stack))
     })
 }
 

@@ -28,6 +28,7 @@
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use brdf_core::bands::Located;
 use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
@@ -320,8 +321,9 @@ pub struct Scene {
     pub facet_material: Vec<u32>,
     /// Sensor.
     pub sensor: Sensor,
-    /// The BVH for occlusion rays.
-    pub occluder: Occluder,
+    /// The BVH for occlusion rays, built on first use ([`Scene::occluder`]: visibility by
+    /// area never needs it).
+    occluder: OnceLock<Occluder>,
     /// The sensor's wavelength, µm (`[sensor] wavelength_um`): the band of each spectral
     /// material used (the first of a list).
     pub wavelength_um: Option<f64>,
@@ -420,18 +422,22 @@ impl Scene {
                 });
             }
         }
-        let occluder = Occluder::new(&mesh);
         Ok(Scene {
             file,
             mesh,
             materials,
             facet_material,
             sensor,
-            occluder,
+            occluder: OnceLock::new(),
             wavelength_um: None,
             spectrum: Vec::new(),
             shard: None,
         })
+    }
+
+    /// The BVH for occlusion rays (built on the first call).
+    pub fn occluder(&self) -> &Occluder {
+        self.occluder.get_or_init(|| Occluder::new(&self.mesh))
     }
 
     /// The scene with its sweep cut to shard `k` of `n` (for job arrays): of the sweep's `N`
