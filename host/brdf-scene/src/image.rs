@@ -140,6 +140,7 @@ impl View {
 }
 
 /// A depth buffer of `nx` × `ny` samples of side `step` from `(x0, y0)` (the lower left).
+#[derive(Default)]
 struct Buffer {
     nx: usize,
     ny: usize,
@@ -152,23 +153,68 @@ struct Buffer {
     front: Vec<bool>,
 }
 
+/// The vertices of `scene` in `view` ([`View::project`]) into `out`, and their extent in the
+/// image plane.
+fn project_all(scene: &Scene, view: &View, out: &mut Vec<[f64; 3]>) -> ([f64; 2], [f64; 2]) {
+    out.clear();
+    out.extend(scene.mesh.vertices.iter().map(|&p| view.project(p)));
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for q in out.iter() {
+        for k in 0..2 {
+            lo[k] = lo[k].min(q[k]);
+            hi[k] = hi[k].max(q[k]);
+        }
+    }
+    (lo, hi)
+}
+
+/// `bounds` widened by `margin` each side.
+fn widen((lo, hi): ([f64; 2], [f64; 2]), margin: f64) -> ([f64; 2], [f64; 2]) {
+    ([lo[0] - margin, lo[1] - margin], [hi[0] + margin, hi[1] + margin])
+}
+
+/// The smallest index `i >= 0` with `i >= v` (`v` finite or infinite; a call to `ceil` costs
+/// more than the rest of a small triangle).
+fn ceil_index(v: f64) -> usize {
+    if v > 0.0 {
+        let t = v as usize;
+        if (t as f64) < v {
+            t + 1
+        } else {
+            t
+        }
+    } else {
+        0
+    }
+}
+
 impl Buffer {
-    /// Every facet of `scene` rasterised in `view` over its projected extent.
-    fn draw(scene: &Scene, view: &View, step: f64, bounds: ([f64; 2], [f64; 2])) -> Buffer {
+    /// Every facet of `scene` rasterised in `view` over `bounds`, reusing this buffer's
+    /// memory; `projected` holds the vertices in `view` ([`project_all`]) and is turned into
+    /// sample coordinates.
+    fn draw(
+        &mut self,
+        scene: &Scene,
+        view: &View,
+        step: f64,
+        bounds: ([f64; 2], [f64; 2]),
+        projected: &mut [[f64; 3]],
+    ) {
         let ([x0, y0], [x1, y1]) = bounds;
         let nx = (((x1 - x0) / step).ceil() as usize).max(1);
         let ny = (((y1 - y0) / step).ceil() as usize).max(1);
-        let mut b = Buffer {
-            nx,
-            ny,
-            x0,
-            y0,
-            step,
-            depth: vec![f64::INFINITY; nx * ny],
-            facet: vec![u32::MAX; nx * ny],
-            front: vec![false; nx * ny],
-        };
-        let projected: Vec<[f64; 3]> = scene.mesh.vertices.iter().map(|&p| view.project(p)).collect();
+        (self.nx, self.ny, self.x0, self.y0, self.step) = (nx, ny, x0, y0, step);
+        self.depth.clear();
+        self.depth.resize(nx * ny, f64::INFINITY);
+        self.facet.clear();
+        self.facet.resize(nx * ny, u32::MAX);
+        self.front.clear();
+        self.front.resize(nx * ny, false);
+        // Sample coordinates: centre of sample (i, j) at (i + 0.5, j + 0.5); once per vertex,
+        // not once per facet using it.
+        for p in projected.iter_mut() {
+            *p = [(p[0] - x0) / step, (p[1] - y0) / step, p[2]];
+        }
         for (k, f) in scene.mesh.facets.iter().enumerate() {
             // A closed shell's facet seen from behind lies behind one of its front faces.
             let front = v3::dot(f.normal, view.d) > 0.0;
@@ -176,21 +222,18 @@ impl Buffer {
                 continue;
             }
             let [a, bb, c] = f.vertices.map(|i| projected[i as usize]);
-            b.triangle(k as u32, front, a, bb, c);
+            self.triangle(k as u32, front, a, bb, c);
         }
-        b
     }
 
-    /// Rasterises one triangle: every sample centre inside it (edges by the top-left rule:
-    /// a centre on an edge shared by two triangles belongs to one) at its interpolated depth,
-    /// where nearer than what the sample holds.
+    /// Rasterises one triangle given in sample coordinates: every sample centre inside it
+    /// (edges by the top-left rule: a centre on an edge shared by two triangles belongs to
+    /// one) at its interpolated depth, where nearer than what the sample holds.
     fn triangle(&mut self, id: u32, front: bool, a: [f64; 3], b: [f64; 3], c: [f64; 3]) {
         // Depths compared with a facet seen from behind set back (see [`FRONT_TIE_SAMPLES`]).
         let tie = FRONT_TIE_SAMPLES * self.step;
         let behind = |z: f64, front: bool| if front { z } else { z + tie };
-        // Sample coordinates: centre of sample (i, j) at (i + 0.5, j + 0.5).
-        let to = |p: [f64; 3]| [(p[0] - self.x0) / self.step, (p[1] - self.y0) / self.step, p[2]];
-        let (mut a, mut b, c) = (to(a), to(b), to(c));
+        let (mut a, mut b, c) = (a, b, c);
         let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
         if area == 0.0 || !area.is_finite() {
             return; // seen edge-on: no projected area
@@ -199,38 +242,51 @@ impl Buffer {
             std::mem::swap(&mut a, &mut b);
         }
         let area = area.abs();
-        // Sample coordinates are at least 0 here (the buffer spans every vertex), so
-        // truncation is the floor (a call to `floor` costs more than the rest of a small
-        // triangle); one column or row more than the ceiling is harmless (the exact test
-        // decides).
-        let lo_x = a[0].min(b[0]).min(c[0]).max(0.0) as usize;
-        let hi_x = (a[0].max(b[0]).max(c[0]).max(0.0) as usize + 1).min(self.nx);
-        let lo_y = a[1].min(b[1]).min(c[1]).max(0.0) as usize;
-        let hi_y = (a[1].max(b[1]).max(c[1]).max(0.0) as usize + 1).min(self.ny);
+        // The sample centres in the triangle's box: `i + 0.5` from its least to its greatest
+        // `x`. Subtracting 0.5 and truncating are monotone, so no centre in the box is left
+        // out (at most one more each side is tried; the exact test decides); most facets of
+        // a fine mesh hold no centre at all and end here.
+        let (min_x, max_x) = (a[0].min(b[0]).min(c[0]), a[0].max(b[0]).max(c[0]));
+        let (min_y, max_y) = (a[1].min(b[1]).min(c[1]), a[1].max(b[1]).max(c[1]));
+        if !(max_x >= 0.5 && max_y >= 0.5) {
+            return;
+        }
+        let lo_x = ceil_index(min_x - 0.5);
+        let hi_x = ((max_x - 0.5) as usize).saturating_add(1).min(self.nx);
+        let lo_y = ceil_index(min_y - 0.5);
+        let hi_y = ((max_y - 0.5) as usize).saturating_add(1).min(self.ny);
+        if lo_x >= hi_x || lo_y >= hi_y {
+            return;
+        }
         let (ea, eb, ec) = (Edge::new(b, c), Edge::new(c, a), Edge::new(a, b));
         for j in lo_y..hi_y {
             let y = j as f64 + 0.5;
-            // This row's span: where the row's centre line crosses the edges, a sample wider
-            // each side (the exact test below decides); not the whole bounding box, which a
-            // long thin facet across the image makes thousands of times larger.
-            let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-            for (p, q) in [(a, b), (b, c), (c, a)] {
-                if (p[1] - y) * (q[1] - y) <= 0.0 {
-                    let (x0, x1) = if q[1] == p[1] {
-                        (p[0], q[0])
-                    } else {
-                        let x = p[0] + (y - p[1]) * (q[0] - p[0]) / (q[1] - p[1]);
-                        (x, x)
-                    };
-                    x_lo = x_lo.min(x0.min(x1));
-                    x_hi = x_hi.max(x0.max(x1));
+            // A wide box: this row's span, where the row's centre line crosses the edges, a
+            // sample wider each side (the exact test below decides); not the whole box, which
+            // a long thin facet across the image makes thousands of times larger.
+            let (from, to) = if hi_x - lo_x <= NARROW_BOX_SAMPLES {
+                (lo_x, hi_x)
+            } else {
+                let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                for (p, q) in [(a, b), (b, c), (c, a)] {
+                    if (p[1] - y) * (q[1] - y) <= 0.0 {
+                        let (x0, x1) = if q[1] == p[1] {
+                            (p[0], q[0])
+                        } else {
+                            let x = p[0] + (y - p[1]) * (q[0] - p[0]) / (q[1] - p[1]);
+                            (x, x)
+                        };
+                        x_lo = x_lo.min(x0.min(x1));
+                        x_hi = x_hi.max(x0.max(x1));
+                    }
                 }
-            }
-            if x_lo > x_hi {
-                continue;
-            }
-            let from = (x_lo - 1.5).max(lo_x as f64) as usize;
-            let to = ((x_hi + 1.5).max(0.0) as usize + 1).min(hi_x);
+                if x_lo > x_hi {
+                    continue;
+                }
+                let from = (x_lo - 1.5).max(lo_x as f64) as usize;
+                let to = ((x_hi + 1.5).max(0.0) as usize + 1).min(hi_x);
+                (from, to)
+            };
             for i in from..to {
                 let x = i as f64 + 0.5;
                 let (wa, wb, wc) = (ea.at(x, y), eb.at(x, y), ec.at(x, y));
@@ -255,6 +311,10 @@ impl Buffer {
             .then(|| j as usize * self.nx + i as usize)
     }
 }
+
+/// A triangle's box at most this many samples wide is tried whole, row by row, without
+/// working out where each row crosses its edges (which costs more than trying them).
+const NARROW_BOX_SAMPLES: usize = 4;
 
 /// One edge `p -> q` of a counter-clockwise triangle, for its edge function: positive inside.
 /// It is evaluated from the edge's lower endpoint (x, then y) whichever way it is traversed,
@@ -305,21 +365,66 @@ impl Edge {
     }
 }
 
-/// The projected extent of the mesh in `view`, widened by `margin`.
-fn bounds(scene: &Scene, view: &View, margin: f64) -> ([f64; 2], [f64; 2]) {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for &p in &scene.mesh.vertices {
-        let q = view.project(p);
-        for k in 0..2 {
-            lo[k] = lo[k].min(q[k]);
-            hi[k] = hi[k].max(q[k]);
+/// Memory one image needs, kept between the images of a sweep (one per thread): the projected
+/// vertices, the depth buffers and the per-facet terms (each aspect resets only the entries
+/// it wrote).
+#[derive(Default)]
+pub(crate) struct Scratch {
+    projected: Vec<[f64; 3]>,
+    receiver: Buffer,
+    source: Buffer,
+    /// Per facet facing both: 4 pi f_r cos(theta_i).
+    per_facet: Vec<f64>,
+    /// Per facet facing both: its whole σ, 4 pi f_r cos(theta_i) cos(theta_r) A.
+    whole: Vec<f64>,
+    /// Facets outside their material's fitted-table coverage.
+    outside: Vec<bool>,
+    /// Per facet facing both: the tangent of its angle to the source (see
+    /// [`SHADOW_SLACK_SAMPLES`]).
+    slope: Vec<f64>,
+    /// Facets some sample sees lit.
+    seen: Vec<bool>,
+    /// The facets whose entries above the last image wrote.
+    touched: Vec<u32>,
+    values: Vec<f64>,
+    /// Pixel column of each sample column (`usize::MAX` beyond the image).
+    column: Vec<usize>,
+}
+
+impl Scratch {
+    /// Per-facet entries for `n` facets, all zero.
+    fn reset(&mut self, n: usize) {
+        if self.per_facet.len() != n {
+            *self = Scratch {
+                per_facet: vec![0.0; n],
+                whole: vec![0.0; n],
+                outside: vec![false; n],
+                slope: vec![0.0; n],
+                seen: vec![false; n],
+                ..std::mem::take(self)
+            };
         }
+        for &k in &self.touched {
+            let k = k as usize;
+            (self.per_facet[k], self.whole[k], self.slope[k]) = (0.0, 0.0, 0.0);
+            (self.outside[k], self.seen[k]) = (false, false);
+        }
+        self.touched.clear();
     }
-    ([lo[0] - margin, lo[1] - margin], [hi[0] + margin, hi[1] + margin])
 }
 
 /// The laser image of `scene` at `aspect`, each material's exact model (f64).
 pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<LaserImage, ImageError> {
+    image_with(scene, aspect, options, &mut Scratch::default())
+}
+
+/// [`image`] in `scratch`'s memory.
+pub(crate) fn image_with(
+    scene: &Scene,
+    aspect: &Aspect,
+    options: &ImageOptions,
+    scratch: &mut Scratch,
+) -> Result<LaserImage, ImageError> {
     scene.one_wavelength("an image").map_err(ImageError::Refused)?;
     let (n, k) = (options.pixels, options.supersample);
     if !(1..=MAX_PIXELS).contains(&n) {
@@ -338,29 +443,34 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
             "{n} pixels x {k} samples each way: {samples} samples, more than {MAX_SAMPLES}"
         )));
     }
+    let facets = scene.mesh.facets.len();
+    scratch.reset(facets);
     let v = aspect.receiver();
     let s = aspect.source(scene.sensor.mode);
     let view = View::towards(v);
-    let (lo, hi) = bounds(scene, &view, 0.0);
-    let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(f64::MIN_POSITIVE);
-    let pixel = extent / n as f64;
+    let extent = project_all(scene, &view, &mut scratch.projected);
+    let (lo, hi) = extent;
+    let size = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(f64::MIN_POSITIVE);
+    let pixel = size / n as f64;
     // One pixel of margin each side, so outlines lie inside the image.
-    let (lo, hi) = bounds(scene, &view, pixel);
+    let (lo, hi) = widen(extent, pixel);
     let width = (((hi[0] - lo[0]) / pixel).round() as usize).max(1);
     let height = (((hi[1] - lo[1]) / pixel).round() as usize).max(1);
     let step = pixel / k as f64;
     let hi = [lo[0] + width as f64 * pixel, lo[1] + height as f64 * pixel];
-    let buffer = Buffer::draw(scene, &view, step, (lo, hi));
-    // Per facet facing both: 4 pi f_r cos(theta_i), by material.
-    let mut per_facet = vec![0.0f64; scene.mesh.facets.len()];
-    // Per facet facing both: its whole σ, 4 pi f_r cos(theta_i) cos(theta_r) A.
-    let mut whole = vec![0.0f64; scene.mesh.facets.len()];
-    // Facets outside their material's fitted-table coverage.
-    let mut outside = vec![false; scene.mesh.facets.len()];
-    // Per facet facing both: the tangent of its angle to the source (see
-    // [`SHADOW_SLACK_SAMPLES`]).
-    let mut slope = vec![0.0f64; scene.mesh.facets.len()];
-    let mut values = Vec::new();
+    scratch
+        .receiver
+        .draw(scene, &view, step, (lo, hi), &mut scratch.projected);
+    let Scratch {
+        per_facet,
+        whole,
+        outside,
+        slope,
+        seen,
+        touched,
+        values,
+        ..
+    } = scratch;
     for (batch, m) in facing_queries(scene, aspect, |_, _| true)
         .iter()
         .zip(&scene.materials)
@@ -368,16 +478,11 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
         values.clear();
         values.resize(batch.len(), 0.0);
         let e = m.evaluator();
-        eval_batch(
-            &e,
-            &batch.cos_theta_i,
-            &batch.cos_theta_r,
-            &batch.cos_phi,
-            &mut values,
-        );
+        eval_batch(&e, &batch.cos_theta_i, &batch.cos_theta_r, &batch.cos_phi, values);
         let table = e.fitted_table();
         for j in 0..batch.len() {
             let k = batch.facet[j] as usize;
+            touched.push(batch.facet[j]);
             per_facet[k] = 4.0 * PI * values[j] * batch.cos_theta_i[j];
             whole[k] = per_facet[k] * batch.cos_theta_r[j] * scene.mesh.facets[k].area;
             let ci = batch.cos_theta_i[j];
@@ -393,11 +498,11 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
         }
     }
     // Bistatic: the source's depth buffer at the same sample size decides what it lights.
+    let sv = View::towards(s);
     let source = match scene.sensor.mode {
         Mode::Monostatic => None,
         Mode::Bistatic { .. } => {
-            let sv = View::towards(s);
-            let b = bounds(scene, &sv, pixel);
+            let b = widen(project_all(scene, &sv, &mut scratch.projected), pixel);
             let (nx, ny) = ((b.1[0] - b.0[0]) / step, (b.1[1] - b.0[1]) / step);
             if nx.ceil() * ny.ceil() > MAX_SAMPLES as f64 {
                 return Err(ImageError::Refused(format!(
@@ -407,9 +512,11 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
                     ny.ceil()
                 )));
             }
-            Some((Buffer::draw(scene, &sv, step, b), sv))
+            scratch.source.draw(scene, &sv, step, b, &mut scratch.projected);
+            Some(&scratch.source)
         }
     };
+    let buffer = &scratch.receiver;
     // The surface point a sample sees.
     let point = |at: usize| {
         let (i, j) = (at % buffer.nx, at / buffer.nx);
@@ -421,7 +528,7 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
         )
     };
     let lit = |at: usize, id: u32| -> bool {
-        let Some((sb, sv)) = &source else { return true };
+        let Some(sb) = source else { return true };
         // Where the source sees the sample's point.
         let q = sv.project(point(at));
         match sb.at(q[0], q[1]) {
@@ -438,22 +545,31 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
     let mut outline_sigma = 0.0;
     let mut by_material = vec![0.0; scene.materials.len()];
     let mut outside_coverage = vec![0.0; scene.materials.len()];
-    let mut seen = vec![false; scene.mesh.facets.len()];
+    let mut facets_seen = 0;
+    // Pixel of each sample column (a division per sample costs more than its work).
+    let column = &mut scratch.column;
+    column.clear();
+    column.extend((0..buffer.nx).map(|si| if si / k < width { si / k } else { usize::MAX }));
     for sj in 0..buffer.ny {
+        // Pixel row, from the top.
+        let py = sj / k;
+        if py >= height {
+            continue;
+        }
+        let row = (height - 1 - py) * width;
         for si in 0..buffer.nx {
             let at = sj * buffer.nx + si;
             let id = buffer.facet[at];
             if id == u32::MAX {
                 continue;
             }
-            // Pixel (row from the top).
-            let (px, py) = (si / k, sj / k);
-            if px >= width || py >= height {
+            let px = column[si];
+            if px == usize::MAX {
                 continue;
             }
-            let pix = (height - 1 - py) * width + px;
+            let pix = row + px;
             // Range as `brdf scene profile` measures it: bistatic, half the extra path.
-            range_sum[pix] += match &source {
+            range_sum[pix] += match source {
                 None => buffer.depth[at],
                 Some(_) => 0.5 * (buffer.depth[at] - v3::dot(point(at), s)),
             };
@@ -468,7 +584,10 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
             if outside[id as usize] {
                 outside_coverage[m] += g * area;
             }
-            seen[id as usize] = true;
+            if !seen[id as usize] {
+                seen[id as usize] = true;
+                facets_seen += 1;
+            }
             // On an outline: a neighbouring sample sees nothing, or a surface that does not
             // continue this one (another facet whose depth jumps by more than a sample).
             let near = |t: usize| {
@@ -505,7 +624,7 @@ pub fn image(scene: &Scene, aspect: &Aspect, options: &ImageOptions) -> Result<L
         range,
         outline_sigma,
         by_material,
-        facets_seen: seen.iter().filter(|s| **s).count(),
+        facets_seen,
         outside_coverage,
     })
 }

@@ -289,11 +289,11 @@ pub fn lrcs_by_area(
     let aspects: Vec<Result<Option<AspectSigma>, crate::image::ImageError>> = scene
         .aspects()
         .par_iter()
-        .map(|a| {
+        .map_init(crate::image::Scratch::default, |scratch, a| {
             if stop.requested() {
                 return Ok(None);
             }
-            let img = crate::image::image(scene, a, options)?;
+            let img = crate::image::image_with(scene, a, options, scratch)?;
             progress();
             Ok(Some(AspectSigma {
                 azimuth: a.azimuth_deg,
