@@ -20,7 +20,7 @@ use std::f64::consts::PI;
 
 use crate::eval::eval_batch;
 use crate::mesh::v3;
-use crate::queries::facing_queries;
+use crate::queries::{facing_queries_into, QueryBatch};
 use crate::scene::{Aspect, Mode, Scene};
 
 /// Most pixels along an image's longer side.
@@ -387,6 +387,7 @@ pub(crate) struct Scratch {
     /// The facets whose entries above the last image wrote.
     touched: Vec<u32>,
     values: Vec<f64>,
+    queries: Vec<QueryBatch>,
     /// Pixel column of each sample column (`usize::MAX` beyond the image).
     column: Vec<usize>,
 }
@@ -469,12 +470,11 @@ pub(crate) fn image_with(
         seen,
         touched,
         values,
+        queries,
         ..
     } = scratch;
-    for (batch, m) in facing_queries(scene, aspect, |_, _| true)
-        .iter()
-        .zip(&scene.materials)
-    {
+    facing_queries_into(scene, aspect, |_, _| true, queries);
+    for (batch, m) in queries.iter().zip(&scene.materials) {
         values.clear();
         values.resize(batch.len(), 0.0);
         let e = m.evaluator();

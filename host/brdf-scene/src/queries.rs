@@ -97,12 +97,32 @@ pub fn aspect_queries(scene: &Scene, aspect: &Aspect, stack: &mut Vec<usize>) ->
 pub fn facing_queries(
     scene: &Scene,
     aspect: &Aspect,
-    mut keep: impl FnMut(usize, &crate::mesh::Facet) -> bool,
+    keep: impl FnMut(usize, &crate::mesh::Facet) -> bool,
 ) -> Vec<QueryBatch> {
+    let mut out = Vec::new();
+    facing_queries_into(scene, aspect, keep, &mut out);
+    out
+}
+
+/// [`facing_queries`] into `out`, whose batches' memory is reused (a sweep's per-thread
+/// scratch).
+pub fn facing_queries_into(
+    scene: &Scene,
+    aspect: &Aspect,
+    mut keep: impl FnMut(usize, &crate::mesh::Facet) -> bool,
+    out: &mut Vec<QueryBatch>,
+) {
     let v = aspect.receiver();
     let s = aspect.source(scene.sensor.mode);
     let mono = scene.sensor.mode == Mode::Monostatic;
-    let mut out = vec![QueryBatch::default(); scene.materials.len()];
+    out.resize_with(scene.materials.len(), QueryBatch::default);
+    for b in out.iter_mut() {
+        b.cos_theta_i.clear();
+        b.cos_theta_r.clear();
+        b.cos_phi.clear();
+        b.weight.clear();
+        b.facet.clear();
+    }
     for (k, f) in scene.mesh.facets.iter().enumerate() {
         let n = f.normal;
         let (mu_i, mu_r) = (v3::dot(n, s), v3::dot(n, v));
@@ -120,7 +140,6 @@ pub fn facing_queries(
         b.weight.push(4.0 * PI * mu_i * mu_r * f.area);
         b.facet.push(k as u32);
     }
-    out
 }
 
 /// `cos phi` between the projections of `s` and `v` on the plane with normal `n`; 1 where
