@@ -292,7 +292,7 @@ impl EvalBench {
             Vec::new()
         } else {
             device_counts().unwrap_or_else(|e| {
-                eprintln!("device instructions not counted: {e}");
+                eprintln_lossy!("device instructions not counted: {e}");
                 Vec::new()
             })
         };
@@ -363,7 +363,7 @@ impl EvalBench {
                     }
                     add("numpy f64".into(), 1, ns, &values);
                 }
-                Err(why) => eprintln!("numpy peer: SKIPPED ({why})"),
+                Err(why) => eprintln_lossy!("numpy peer: SKIPPED ({why})"),
             }
         }
 
@@ -499,7 +499,7 @@ impl EvalBench {
             self.out.display()
         );
         if self.json {
-            eprintln!("{text}");
+            eprintln_lossy!("{text}");
         } else {
             println!("{text}");
         }

@@ -345,7 +345,7 @@ impl CheckCmd {
             if dirs.iter().all(|d| d.1.is_empty()) {
                 // Only a file can leave a material without directions: say so, a silent
                 // pass of the other materials read as a pass of all of them.
-                eprintln!(
+                eprintln_lossy!(
                     "note: material {m} ({}) not checked: {} has no direction of it",
                     mat.kind.name(),
                     file.as_ref().map_or("the sample", |_| "the directions file")

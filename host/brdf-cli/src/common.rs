@@ -137,10 +137,10 @@ impl EngineArgs {
         for f in files {
             let loaded = load_csv(f, opts).with_context(|| format!("cannot use {}", f.display()))?;
             for s in &loaded.skipped {
-                eprintln!("{}: skipped line {}: {}", f.display(), s.line, s.reason);
+                eprintln_lossy!("{}: skipped line {}: {}", f.display(), s.line, s.reason);
             }
             if !loaded.skipped.is_empty() {
-                eprintln!("{}: {} line(s) skipped", f.display(), loaded.skipped.len());
+                eprintln_lossy!("{}: {} line(s) skipped", f.display(), loaded.skipped.len());
             }
             out.extend(loaded.datasets);
         }
@@ -268,7 +268,7 @@ pub fn parse_list(text: &str) -> Result<Vec<f64>> {
 /// Writes an encoded blob (`brdf_fit::pack`) to `output`, saying what was written.
 pub fn write_blob(packed: &brdf_fit::pack::Packed, output: &std::path::Path) -> Result<()> {
     std::fs::write(output, &packed.bytes).with_context(|| format!("cannot write {}", output.display()))?;
-    eprintln!(
+    eprintln_lossy!(
         "wrote {} ({} bytes, {} materials, sequence {}, CRC {:#010x})",
         output.display(),
         packed.bytes.len(),

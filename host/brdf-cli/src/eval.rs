@@ -155,7 +155,7 @@ impl EvalCmd {
                 }
                 if self.wavelength.is_some() {
                     // As a scene takes a grey material at its wavelength.
-                    eprintln!(
+                    eprintln_lossy!(
                         "note: --wavelength: the fit of {shown} has no band: it is the same at every wavelength"
                     );
                 }
@@ -343,7 +343,7 @@ impl EvalCmd {
             writer.write_chunk(&chunk, values.iter().map(|&v| text(v)))?;
         }
         if let Some(line) = first_outside {
-            eprintln!(
+            eprintln_lossy!(
                 "warning: {outside} of {rows} directions (the first on line {line} of {}) lie outside \
                  the fitted table's coverage: its measurements did not inform them, and the table \
                  extrapolates there",

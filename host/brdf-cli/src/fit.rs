@@ -83,7 +83,7 @@ impl FitCmd {
         // with --skip-invalid, leaves out (and lists) the datasets it cannot fit.
         let (datasets, skipped) = brdf_fit::fittable(&settings, datasets, self.engine.skip_invalid)?;
         for s in &skipped {
-            eprintln!("{s}");
+            eprintln_lossy!("{s}");
         }
         let mut csv = match &self.output {
             Some(path) => {
@@ -115,7 +115,7 @@ impl FitCmd {
                 written.push(r.clone());
             }
             if let Some(note) = r.noise_floor.as_ref().and_then(|f| f.note.as_ref()) {
-                eprintln!("warning: {}: {note}", r.dataset);
+                eprintln_lossy!("warning: {}: {note}", r.dataset);
             }
             if let (Some(w), Some(path)) = (csv.as_mut(), &self.output) {
                 w.row(r)

@@ -10,9 +10,9 @@ use brdf_fit::import::{import, Format, Pick};
 pub fn import_reporting(path: &Path, format: Format, pick: Pick) -> Result<brdf_fit::import::Imported> {
     let imp = import(path, format, pick).with_context(|| format!("cannot import {}", path.display()))?;
     for r in &imp.rejects {
-        eprintln!("{}: rejected line {}: {}", path.display(), r.line, r.reason);
+        eprintln_lossy!("{}: rejected line {}: {}", path.display(), r.line, r.reason);
     }
-    eprintln!(
+    eprintln_lossy!(
         "{}: {} rows in, {} points out, {} rejected",
         path.display(),
         imp.rows_in,

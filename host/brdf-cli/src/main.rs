@@ -1,5 +1,16 @@
 //! `brdf`: evaluate the six-parameter BRDF model family from the command line.
 
+/// `eprintln!` that never fails the command: a write to standard error that fails (a pipe
+/// whose reader has gone) is dropped, and the command goes on. `eprintln!` panics there
+/// instead (exit 101, and whatever standard output had still to print lost). Every line this
+/// binary writes to standard error goes through here (`clippy.toml` refuses `eprintln!`).
+macro_rules! eprintln_lossy {
+    ($($arg:tt)*) => {{
+        use ::std::io::Write as _;
+        let _ = ::std::writeln!(::std::io::stderr(), $($arg)*);
+    }};
+}
+
 mod angles;
 mod bench;
 mod bench_fit;
@@ -84,7 +95,7 @@ fn main() -> std::process::ExitCode {
         // A closed pipe (`brdf eval ... | head`) is the reader's choice, not an error.
         Err(err) if is_broken_pipe(&err) => std::process::ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {}", message(&err));
+            eprintln_lossy!("error: {}", message(&err));
             std::process::ExitCode::FAILURE
         }
     }

@@ -41,7 +41,7 @@ impl PackCmd {
             sequence: self.sequence,
             table_nodes: self.table_nodes,
         };
-        let packed = pack(&sources, &options, |n| eprintln!("{}", n.text))?;
+        let packed = pack(&sources, &options, |n| eprintln_lossy!("{}", n.text))?;
         write_blob(&packed, &self.output)
     }
 }

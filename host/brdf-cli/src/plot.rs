@@ -113,7 +113,7 @@ impl PlotCmd {
             PlotKind::Residuals => brdf_plot::residuals(&self.output, &title, data, &curves[0])?,
             PlotKind::Spectrum => unreachable!("drawn by `spectrum` above"),
         }
-        eprintln!("wrote {}", self.output.display());
+        eprintln_lossy!("wrote {}", self.output.display());
         Ok(())
     }
 
@@ -127,7 +127,7 @@ impl PlotCmd {
             bail!("--models: name a model");
         };
         if self.models.len() > 1 {
-            eprintln!(
+            eprintln_lossy!(
                 "note: spectrum draws the first model, {}; the others are not fitted",
                 model.name()
             );
@@ -135,7 +135,7 @@ impl PlotCmd {
         let settings = self.engine.settings(model)?;
         let (datasets, skipped) = brdf_fit::fittable(&settings, datasets, self.engine.skip_invalid)?;
         for s in &skipped {
-            eprintln!("{s}");
+            eprintln_lossy!("{s}");
         }
         let reports = brdf_fit::fit_all(&settings, &datasets)?;
         let spectra = brdf_fit::spectral::spectra(&reports);
@@ -159,7 +159,7 @@ impl PlotCmd {
         let title = self.title.clone().unwrap_or_else(|| s.measurement.clone());
         brdf_plot::spectrum(&self.output, &title, s)?;
         crate::fit::write_spectrum(&mut std::io::stdout().lock(), s)?;
-        eprintln!("wrote {}", self.output.display());
+        eprintln_lossy!("wrote {}", self.output.display());
         Ok(())
     }
 }

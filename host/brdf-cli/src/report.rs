@@ -98,7 +98,7 @@ impl ReportCmd {
             // readings at or below zero have none of: they are left out, and said so.
             let dark = imp.dark_readings();
             if dark > 0 {
-                eprintln!(
+                eprintln_lossy!(
                     "{}: {dark} reading(s) at or below zero left out of the report (positive readings only)",
                     path.display()
                 );
@@ -347,7 +347,7 @@ impl ReportCmd {
             &self.out.join("results.json"),
             (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
         )?;
-        eprintln!("wrote {} datasets to {}", entries.len(), self.out.display());
+        eprintln_lossy!("wrote {} datasets to {}", entries.len(), self.out.display());
         Ok(())
     }
 

@@ -241,7 +241,7 @@ impl LrcsCmd {
             .fold((f64::INFINITY, 0.0f64), |(lo, hi), a| {
                 (lo.min(a.lrcs), hi.max(a.lrcs))
             });
-        eprintln!(
+        eprintln_lossy!(
             "{}: {} facets, {} aspects in {:.2} s; sigma from {lo:.4e} to {hi:.4e} m^2",
             self.scene.display(),
             scene.mesh.facets.len(),
@@ -262,7 +262,7 @@ impl LrcsCmd {
             } else {
                 format!("{b:.4e} m^2 where sigma is 0")
             };
-            eprintln!(
+            eprintln_lossy!(
                 "visibility by area ({} pixels, {}x{} samples each): sampling bound {worst} \
                  (azimuth {}, elevation {})",
                 self.pixels.unwrap_or(256),
@@ -273,13 +273,13 @@ impl LrcsCmd {
             );
         }
         if result.aspects.iter().all(|a| a.facets_seen == 0) && self.visibility == Visibility::Area {
-            eprintln!(
+            eprintln_lossy!(
                 "warning: no sample of any aspect sees a lit facet, so sigma is 0 everywhere (each \
                  aspect's sampling bound says how much may be missing): are the target's parts \
                  thinner than a sample (give more --pixels), or is the mesh wound inside out?"
             );
         } else if result.aspects.iter().all(|a| a.facets_seen == 0) {
-            eprintln!(
+            eprintln_lossy!(
                 "warning: no facet faces the sensor at any aspect, so sigma is 0 everywhere: is \
                  the mesh wound inside out (facets are counter-clockwise seen from outside), or \
                  does the sweep see only back faces?"
@@ -288,7 +288,7 @@ impl LrcsCmd {
         for (k, m) in scene.materials.iter().enumerate() {
             let share = result.outside_coverage(k);
             if m.table.is_some() && share > 0.0 {
-                eprintln!(
+                eprintln_lossy!(
                     "warning: material {k} ({}, a fitted table): {:.1}% of its sigma over the sweep comes \
                      from directions its measurements did not cover (the table's smoothness term \
                      extrapolated there)",
@@ -346,7 +346,7 @@ impl LrcsCmd {
             };
             let title = format!("Laser radar cross-section of {} ({mode})", self.scene.display());
             brdf_plot::polar(plot, &title, "sigma / m^2", &curves)?;
-            eprintln!("wrote {}", plot.display());
+            eprintln_lossy!("wrote {}", plot.display());
         }
         Ok(())
     }
@@ -403,7 +403,7 @@ impl ImageCmd {
             .zip(&scene.materials)
             .map(|(b, m)| b.sigma(&m.evaluator(), &mut Vec::new()))
             .fold(0.0, |s, x| s + x);
-        eprintln!(
+        eprintln_lossy!(
             "{}: azimuth {}, elevation {}: {} x {} pixels of {:.4} m ({}x{} samples each) in {seconds:.2} s; \
              sigma {:.6e} m^2 by the area seen (sampling bound {:.2e}), {centroid:.6e} by facet centroids",
             self.scene.display(),
@@ -432,7 +432,7 @@ impl ImageCmd {
             range: &img.range,
         };
         brdf_plot::laser_image(&self.output, &title, &pixels)?;
-        eprintln!("wrote {}", self.output.display());
+        eprintln_lossy!("wrote {}", self.output.display());
         if let Some(path) = &self.csv {
             let mut out = sink(&Some(path.clone()))?;
             writeln!(out, "column,row,x_m,y_m,lrcs,range_m")?;
@@ -449,7 +449,7 @@ impl ImageCmd {
                 writeln!(out, "{col},{row},{x},{y},{s},{r}")?;
             }
             out.flush().context("cannot write the CSV")?;
-            eprintln!("wrote {}", path.display());
+            eprintln_lossy!("wrote {}", path.display());
         }
         Ok(())
     }
@@ -474,7 +474,7 @@ impl ProfileCmd {
         let profiles = profile(&scene, &options, &|| bar.inc(1))?;
         bar.finish_and_clear();
         let rows: usize = profiles.iter().map(|p| p.sigma.len()).sum();
-        eprintln!(
+        eprintln_lossy!(
             "{}: {} facets, {n} aspects, {rows} range bins of {} m{} in {:.2} s",
             self.scene.display(),
             scene.mesh.facets.len(),
@@ -577,7 +577,7 @@ impl MergeCmd {
             writeln!(out, "{r}")?;
         }
         out.flush().context("cannot write the output")?;
-        eprintln!("{}: {n} shards, {} aspects", self.scene.display(), aspects.len());
+        eprintln_lossy!("{}: {n} shards, {} aspects", self.scene.display(), aspects.len());
         Ok(())
     }
 }
@@ -596,7 +596,7 @@ impl DomainCmd {
         let n = brdf_scene::queries::write_csv_streamed(&scene, out, &|| bar.inc(1))
             .context("cannot write the queries")?;
         bar.finish_and_clear();
-        eprintln!("{}: {n} queries over {aspects} aspects", self.scene.display());
+        eprintln_lossy!("{}: {n} queries over {aspects} aspects", self.scene.display());
         Ok(())
     }
 }

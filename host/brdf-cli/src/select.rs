@@ -104,7 +104,7 @@ impl SelectCmd {
         }
         let d = &one_dataset(&data.display().to_string(), datasets).map_err(|e| anyhow!(e))?;
         let (max_i, max_r) = self.limits();
-        let (kept, s) = self.select_one(d, &|note| eprintln!("{note}"))?;
+        let (kept, s) = self.select_one(d, &|note| eprintln_lossy!("{note}"))?;
         let domain = &kept.domain;
         match (&self.output, &s.material) {
             (Some(path), Some((m, table))) => write_blob(
@@ -126,11 +126,11 @@ impl SelectCmd {
             std::fs::write(path, text + "\n").with_context(|| format!("cannot write {}", path.display()))?;
         }
         for n in &s.notes {
-            eprintln!("{n}");
+            eprintln_lossy!("{n}");
         }
         warn_floor(&s);
         if s.chosen.is_some() && !s.within_budget {
-            eprintln!("warning: {}", s.reason);
+            eprintln_lossy!("warning: {}", s.reason);
         }
         let (reports, reprs, reason) = (&s.candidates, &s.representations, &s.reason);
         let stdout = std::io::stdout();
@@ -233,7 +233,7 @@ impl SelectCmd {
 /// shown are small however far off the fit is), as `brdf fit` warns of it.
 fn warn_floor(s: &brdf_scene::represent::DataSelection) {
     if let Some(note) = s.noise_floor.as_ref().and_then(|f| f.note.as_ref()) {
-        eprintln!("warning: {}: {note}", s.dataset);
+        eprintln_lossy!("warning: {}: {note}", s.dataset);
     }
 }
 
@@ -298,7 +298,7 @@ impl SelectCmd {
         let bar = crate::progress::bar(order.len(), "bands");
         let mut selections = Vec::with_capacity(order.len());
         for (_, d) in &order {
-            let (_, s) = self.select_one(d, &|note| bar.suspend(|| eprintln!("{note}")))?;
+            let (_, s) = self.select_one(d, &|note| bar.suspend(|| eprintln_lossy!("{note}")))?;
             bar.inc(1);
             selections.push(s);
         }
@@ -320,14 +320,14 @@ impl SelectCmd {
         }
         for s in &selections {
             for n in &s.notes {
-                eprintln!("{}: {n}", s.dataset);
+                eprintln_lossy!("{}: {n}", s.dataset);
             }
             warn_floor(s);
         }
         let short: Vec<&brdf_fit::Dataset> = order.iter().map(|(_, d)| *d).collect();
         let missed = selections.iter().filter(|s| !s.within_budget).count();
         if missed > 0 {
-            eprintln!(
+            eprintln_lossy!(
                 "warning: {missed} of {} bands: nothing meets the {}% budget; the most accurate chosen",
                 selections.len(),
                 brdf_core::Compact(100.0 * self.budget)
@@ -479,7 +479,7 @@ impl SelectCmd {
                 )
             })?;
             std::fs::write(o, blob).with_context(|| format!("cannot write {}", o.display()))?;
-            eprintln!(
+            eprintln_lossy!(
                 "wrote {} ({} bytes, {} materials in scene order)",
                 o.display(),
                 blob.len(),

@@ -912,3 +912,53 @@ fn devices_and_pipes_are_refused_as_inputs() {
         "{err}"
     );
 }
+
+/// Runs `brdf args` with standard error a pipe whose reading end is already closed (as in
+/// `brdf ... 2>&1 >/dev/null | head -c1` once `head` has left): every write to it fails.
+fn with_stderr_closed(args: &[&str]) -> Output {
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    brdf()
+        .args(crate::with_firmware(args))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::from(writer))
+        .output()
+        .unwrap()
+}
+
+/// Before: every `eprintln!` panicked on a closed standard error (exit 101): `brdf pack`
+/// after writing its blob, `brdf fit` at its first warning, with nothing on standard output.
+/// Now lines for standard error are dropped and the command goes on; an error still exits 1.
+#[test]
+fn a_closed_standard_error_loses_the_messages_not_the_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let fit = fit_json(dir.path(), "p.json", "lambert", &[("rho0", 0.5)]);
+    let blob = dir.path().join("x.blob");
+    let out = with_stderr_closed(&[
+        "pack",
+        fit.to_str().unwrap(),
+        "-o",
+        blob.to_str().unwrap(),
+        "--table-nodes",
+        "256",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "pack");
+    assert!(std::fs::metadata(&blob).unwrap().len() > 0);
+
+    // A fit whose skipped lines are listed on standard error before its report.
+    let data = dir.path().join("d.csv");
+    let mut rows = String::from("theta_i,theta_r,phi,brdf\n");
+    for (ti, tr) in [(0, 10), (10, 20), (20, 30), (30, 40)] {
+        rows.push_str(&format!("{ti},{tr},0,0.15\n"));
+    }
+    rows.push_str("10,20,0,abc\n");
+    std::fs::write(&data, rows).unwrap();
+    let data = data.to_str().unwrap();
+    let out = with_stderr_closed(&["fit", "--model", "lambert", "--skip-invalid", data]);
+    assert_eq!(out.status.code(), Some(0), "fit");
+    let report = text(&out.stdout);
+    assert!(report.contains("rho0"), "{report}");
+
+    let out = with_stderr_closed(&["fit", "/nonexistent/a.csv"]);
+    assert_eq!(out.status.code(), Some(1), "a failing command");
+}
