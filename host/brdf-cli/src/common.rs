@@ -118,7 +118,7 @@ impl EngineArgs {
         Ok(FitSettings::from_options(&self.request(kind))?)
     }
 
-    /// Loads every file; lists skipped rows on standard error.
+    /// Loads every file; lists skipped rows and the reader's warnings on standard error.
     pub fn load(&self, files: &[PathBuf]) -> Result<Vec<Dataset>> {
         let opts = LoadOptions {
             skip_invalid: self.skip_invalid,
@@ -141,6 +141,9 @@ impl EngineArgs {
             }
             if !loaded.skipped.is_empty() {
                 eprintln_lossy!("{}: {} line(s) skipped", f.display(), loaded.skipped.len());
+            }
+            for w in &loaded.warnings {
+                eprintln_lossy!("warning: {w}");
             }
             out.extend(loaded.datasets);
         }

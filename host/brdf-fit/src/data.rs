@@ -46,6 +46,15 @@ pub struct Dataset {
 /// took 327 s of report).
 pub const MAX_INCIDENCE_GROUPS: usize = 90;
 
+/// Zeniths all below this many degrees look like radians ([`Dataset::radians_warning`]): a
+/// zenith in radians is below pi/2.
+pub const RADIANS_ZENITH_MAX_DEG: f64 = std::f64::consts::FRAC_PI_2;
+
+/// ... unless none is above this many degrees: a measurement at or near normal incidence only
+/// (a sensor's boresight, within a degree) is read as written. A hemisphere in radians
+/// reaches well past 1 (57 degrees).
+pub const RADIANS_SPAN_MIN_DEG: f64 = 1.0;
+
 impl Dataset {
     /// The points grouped by incidence, ascending: `(theta_i, point indices)`. Each distinct
     /// incidence (within 1e-9 rad) is a group, `theta_i` its value; when there are more than
@@ -79,6 +88,32 @@ impl Dataset {
         bins
     }
 
+    /// Why the zeniths look like radians written in a degree column, or `None`. The rule:
+    /// every `theta_i` and `theta_r` (as written, in degrees) is below
+    /// [`RADIANS_ZENITH_MAX_DEG`] (pi/2: a radian zenith is at most that) and at least one is
+    /// above [`RADIANS_SPAN_MIN_DEG`] (so a set at or near normal incidence only, all within
+    /// one degree, is not taken for radians). A hemisphere in radians fitted as degrees raised
+    /// no warning and came out 35% off.
+    pub fn radians_warning(&self) -> Option<String> {
+        let (mut largest, mut all_below) = (0.0_f64, !self.points.is_empty());
+        for p in &self.points {
+            for z in [p.theta_i.to_degrees(), p.theta_r.to_degrees()] {
+                largest = largest.max(z);
+                all_below &= z < RADIANS_ZENITH_MAX_DEG;
+            }
+        }
+        (all_below && largest > RADIANS_SPAN_MIN_DEG).then(|| {
+            format!(
+                "{}: every theta_i and theta_r is below {:.4} (pi/2), the largest {}: the angle \
+                 columns are degrees, and these look like radians (convert them with degrees = \
+                 radians * 180 / pi)",
+                self.name,
+                RADIANS_ZENITH_MAX_DEG,
+                brdf_core::Compact(largest)
+            )
+        })
+    }
+
     /// Distinct incidence angles (radians), ascending.
     pub fn incidences(&self) -> Vec<f64> {
         let mut v: Vec<f64> = self.points.iter().map(|p| p.theta_i).collect();
@@ -104,6 +139,9 @@ pub struct Loaded {
     pub datasets: Vec<Dataset>,
     /// Lines skipped under `skip_invalid` (always empty otherwise).
     pub skipped: Vec<Skipped>,
+    /// What is doubtful but read as written, one line each (a dataset whose zeniths look
+    /// like radians: [`Dataset::radians_warning`]); `brdf` prints them as warnings.
+    pub warnings: Vec<String>,
 }
 
 /// How to read a file.
@@ -155,6 +193,18 @@ pub enum DataError {
         file: String,
         /// Column name.
         column: String,
+    },
+    /// A header names a column of [`COLUMNS`] in another case (`Sample`, `Theta_i`): column
+    /// names are matched exactly, so it would be missing or, for an optional column,
+    /// silently ignored (samples 1e4 apart in brightness fitted as one).
+    #[error("{file}: line 1: column `{column}` must be spelt `{expected}` (column names are lower case)")]
+    MisspeltColumn {
+        /// File path.
+        file: String,
+        /// The column as written.
+        column: String,
+        /// The column it names.
+        expected: &'static str,
     },
     /// The header has both `sigma` and `weight`, or both `theta_r` and `theta_s`.
     #[error("{file}: line 1: columns `{a}` and `{b}` cannot be used together")]
@@ -381,6 +431,20 @@ impl RowError {
     }
 }
 
+/// Every column the canonical CSV reads, spelt as the header must spell it; any other column
+/// is ignored (a column that differs from one of these only in case is refused).
+pub const COLUMNS: [&str; 9] = [
+    "theta_i",
+    "theta_r",
+    "phi",
+    "brdf",
+    "theta_s",
+    "sigma",
+    "weight",
+    "sample",
+    "wavelength",
+];
+
 /// Column positions of one file.
 struct Columns {
     theta_i: usize,
@@ -406,6 +470,13 @@ fn find_columns(file: &str, headers: &csv::StringRecord) -> Result<Columns, Data
             return Err(DataError::DuplicateColumn {
                 file: file.to_owned(),
                 column: h.to_owned(),
+            });
+        }
+        if let Some(&expected) = COLUMNS.iter().find(|c| h != **c && h.eq_ignore_ascii_case(c)) {
+            return Err(DataError::MisspeltColumn {
+                file: file.to_owned(),
+                column: h.to_owned(),
+                expected,
             });
         }
     }
@@ -597,8 +668,13 @@ pub fn load_csv(path: &Path, opts: LoadOptions) -> Result<Loaded, DataError> {
             },
             points,
         })
-        .collect();
-    Ok(Loaded { datasets, skipped })
+        .collect::<Vec<Dataset>>();
+    let warnings = datasets.iter().filter_map(Dataset::radians_warning).collect();
+    Ok(Loaded {
+        datasets,
+        skipped,
+        warnings,
+    })
 }
 
 /// Opens an input file: a regular file (or a link to one) only. A device, a directory or a
@@ -838,6 +914,10 @@ mod tests {
         zero_sigma: "theta_i,theta_r,phi,brdf,sigma\n0,0,0,1,0\n" => "column sigma: 0 is outside [1e-100, 1e100] (above 0";
         zero_bytes: "" => "empty file";
         theta_s_and_phi: "theta_i,theta_s,phi,brdf\n10,20,77,0.1\n" => "`theta_s` and `phi` cannot be used together";
+        // An optional column in capitals was ignored: two samples fitted as one.
+        capital_sample: "theta_i,theta_r,phi,brdf,Sample\n0,0,0,0.1,A\n" => "line 1: column `Sample` must be spelt `sample`";
+        capital_sigma: "theta_i,theta_r,phi,brdf,SIGMA\n0,0,0,0.1,0.01\n" => "line 1: column `SIGMA` must be spelt `sigma`";
+        capital_theta_i: "Theta_i,theta_r,phi,brdf\n0,0,0,0.1\n" => "line 1: column `Theta_i` must be spelt `theta_i`";
     }
 
     /// Few distinct incidences are one group each; continuous ones are 1-degree bins; every
@@ -946,6 +1026,36 @@ mod tests {
         assert!(l.skipped[0].reason.contains("`bad` is not a number"));
         let total: usize = l.datasets.iter().map(|d| d.points.len()).sum();
         assert_eq!(total + l.skipped.len(), 4, "every row is used or listed");
+    }
+
+    /// Zeniths written in radians (a hemisphere: all below pi/2, most above 1) are read as
+    /// written but warned about; a measurement near normal incidence only, or with one zenith
+    /// at pi/2 degrees or beyond, is not.
+    #[test]
+    fn zeniths_that_look_like_radians_are_warned_about() {
+        let rows = |zeniths: &[(f64, f64)]| {
+            let mut text = "theta_i,theta_r,phi,brdf\n".to_owned();
+            for (ti, tr) in zeniths {
+                text.push_str(&format!("{ti},{tr},0,0.1\n"));
+            }
+            load(&text, LoadOptions::default()).1.unwrap()
+        };
+        let hemisphere: Vec<(f64, f64)> = (0..8)
+            .flat_map(|i| (0..8).map(move |r| (0.15 * f64::from(i), 0.19 * f64::from(r))))
+            .collect();
+        let l = rows(&hemisphere);
+        assert_eq!(l.warnings.len(), 1, "{:?}", l.warnings);
+        assert!(
+            l.warnings[0].contains(&l.datasets[0].name) && l.warnings[0].contains("look like radians"),
+            "{}",
+            l.warnings[0]
+        );
+        // Read as written all the same.
+        assert_eq!(l.datasets[0].points.len(), hemisphere.len());
+        let near_normal = [(0.0, 0.0), (0.0, 0.5), (0.5, RADIANS_SPAN_MIN_DEG)];
+        assert!(rows(&near_normal).warnings.is_empty());
+        let one_beyond = [(0.0, 1.2), (1.0, 1.5), (0.5, RADIANS_ZENITH_MAX_DEG)];
+        assert!(rows(&one_beyond).warnings.is_empty());
     }
 
     /// A band written three ways was three datasets, each fitted on a third of the data; a

@@ -173,6 +173,7 @@ pub(crate) fn load(s: &Settings, paths: &[String]) -> PyResult<(Vec<Dataset>, Ve
         for sk in &loaded.skipped {
             notes.push(format!("{f}: skipped line {}: {}", sk.line, sk.reason));
         }
+        notes.extend(loaded.warnings);
         out.extend(loaded.datasets);
     }
     Ok((out, notes))

@@ -78,6 +78,34 @@ def test_file_errors_carry_the_cli_message(cli, tmp_path):
     assert "line 3: column theta_r" in str(e.value)
 
 
+def test_a_known_column_in_another_case_is_refused_as_the_cli(cli, tmp_path):
+    # Before: `Sample` was ignored and two samples 1e4 apart were fitted as one.
+    f = tmp_path / "cap.csv"
+    rows = [f"{ti},{tr},0,{v},{s}" for s, v, ti in (("A", 0.15, 0), ("B", 1.5e3, 10)) for tr in (0, 20, 40)]
+    f.write_text("theta_i,theta_r,phi,brdf,Sample\n" + "\n".join(rows) + "\n")
+    p = cli("fit", "--model", "lambert", f, check=False)
+    assert p.returncode != 0
+    with pytest.raises(ValueError, match="line 1: column `Sample` must be spelt `sample`") as e:
+        brdf.fit(str(f), model="lambert")
+    assert str(e.value) in p.stderr
+
+
+def test_zeniths_that_look_like_radians_warn_as_the_cli(cli, tmp_path):
+    # Before: radians in the degree columns were fitted without a word, 35% off.
+    zeniths = np.linspace(0.0, 1.5, 6)
+    for name, scale, warned in (("radians.csv", 1.0, True), ("degrees.csv", np.degrees(1.0), False)):
+        f = tmp_path / name
+        rows = [f"{ti * scale},{tr * scale},0,0.15" for ti in zeniths[:3] for tr in zeniths]
+        f.write_text("theta_i,theta_r,phi,brdf\n" + "\n".join(rows) + "\n")
+        stderr = cli("fit", "--model", "lambert", f).stderr
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            brdf.fit(str(f), model="lambert")
+        said = [str(w.message) for w in caught if "look like radians" in str(w.message)]
+        assert bool(said) == warned and ("look like radians" in stderr) == warned
+        assert all(m in stderr for m in said)
+
+
 def test_unknown_options_raise():
     with pytest.raises(TypeError, match="unknown option"):
         brdf.fit({}, chainz=3)

@@ -950,3 +950,78 @@ fn the_bands_of_a_spectral_file_are_tabulated_and_drawn_against_wavelength() {
         "{err}"
     );
 }
+
+/// Before: `Sample`, `Wavelength`, `Sigma` or `Weight` in capitals were ignored (two samples
+/// 1e4 apart in brightness fitted as one, exit 0) while `Theta_i` was "missing". A column
+/// that differs from a known one only in case is refused, naming file, line and spelling.
+#[test]
+fn a_known_column_in_another_case_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    for (column, spelt) in [
+        ("Sample", "sample"),
+        ("WAVELENGTH", "wavelength"),
+        ("Sigma", "sigma"),
+        ("Weight", "weight"),
+        ("Theta_i", "theta_i"),
+    ] {
+        // The fifth column is the one in another case, or for a required one `sample`.
+        let mut text = if spelt == "theta_i" {
+            format!("{column},theta_r,phi,brdf,sample\n")
+        } else {
+            format!("theta_i,theta_r,phi,brdf,{column}\n")
+        };
+        for (k, (sample, value)) in [("1", 0.15), ("2", 1.5e3)].into_iter().enumerate() {
+            for tr in [0, 20, 40, 60] {
+                text.push_str(&format!("{},{tr},0,{value},{sample}\n", 10 * k));
+            }
+        }
+        let path = dir.path().join(format!("{column}.csv"));
+        std::fs::write(&path, text).unwrap();
+        let out = brdf(&["fit", "--model", "lambert", path.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{column}: accepted");
+        assert!(
+            err.contains(path.to_str().unwrap())
+                && err.contains(&format!("line 1: column `{column}` must be spelt `{spelt}`")),
+            "{column}: {err}"
+        );
+    }
+}
+
+/// Before: a file whose zeniths were written in radians was fitted as degrees without a
+/// word (35% off, exit 0). It is still read as written, with a warning; the same directions
+/// in degrees, and a set at normal incidence only, are not warned about.
+#[test]
+fn zeniths_that_look_like_radians_are_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, scale: f64, zeniths: &[f64]| {
+        let mut text = String::from("theta_i,theta_r,phi,brdf\n");
+        for &ti in &zeniths[..3] {
+            for &tr in zeniths {
+                text.push_str(&format!("{},{},0,0.15\n", ti * scale, tr * scale));
+            }
+        }
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    let radians = [0.0, 0.3, 0.6, 0.9, 1.2, 1.5];
+    let warned = |path: &std::path::Path| {
+        let out = brdf(&["fit", "--model", "lambert", path.to_str().unwrap()]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        err.contains("look like radians") && err.contains(path.to_str().unwrap())
+    };
+    assert!(warned(&write("radians.csv", 1.0, &radians)));
+    assert!(!warned(&write(
+        "degrees.csv",
+        180.0 / std::f64::consts::PI,
+        &radians
+    )));
+    // Normal incidence and views within a degree of it.
+    assert!(!warned(&write(
+        "boresight.csv",
+        1.0,
+        &[0.0, 0.2, 0.4, 0.6, 0.8, 1.0]
+    )));
+}
