@@ -203,16 +203,34 @@ pub fn degrees(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone
     }
 }
 
-/// Parses `2%` or `0.02` into a fraction.
+/// Largest value of a fraction option (`--budget`, `--noise`): 100%. Beyond, an error
+/// budget or a relative noise level is a unit mix-up: `--budget 2` meant 2% and was read as
+/// 200%, `--noise 50` wrote readings of 4e14.
+pub const MAX_FRACTION: f64 = 1.0;
+
+/// Parses `2%` or `0.02` into a fraction in `[0, MAX_FRACTION]`; above, the message says how
+/// to write a percentage.
 pub fn parse_fraction(text: &str) -> Result<f64, String> {
     let t = text.trim();
-    let v = match t.strip_suffix('%') {
+    let percent = t.strip_suffix('%');
+    let v = match percent {
         Some(p) => p.trim().parse::<f64>().map(|v| v / 100.0),
         None => t.parse::<f64>(),
     }
     .map_err(|_| format!("`{text}` is not a fraction (e.g. 2% or 0.02)"))?;
     if !(v.is_finite() && v >= 0.0) {
         return Err(format!("`{text}` must be a non-negative fraction"));
+    }
+    if v > MAX_FRACTION {
+        let most = brdf_core::Compact(100.0 * MAX_FRACTION);
+        return Err(match percent {
+            Some(_) => format!("`{text}` is above {most}%"),
+            None => format!(
+                "`{text}` is a fraction, {}%, above {most}%: for {t} percent write {t}% (or {})",
+                brdf_core::Compact(100.0 * v),
+                brdf_core::Compact(v / 100.0)
+            ),
+        });
     }
     Ok(v)
 }

@@ -26,8 +26,8 @@ fn parse_budget(text: &str) -> Result<f64, String> {
 /// a parameter blob for `brdf flash`.
 #[derive(Debug, Args)]
 pub struct SelectCmd {
-    /// Largest acceptable error, above 0, e.g. 2% or 0.02: the held-out (cross-validated) RMS
-    /// relative error over the data's domain, the largest 2% of the held-out errors left out
+    /// Largest acceptable error, above 0 and at most 100%, e.g. 2% or 0.02: the held-out
+    /// (cross-validated) RMS relative error over the data's domain, the largest 2% of the held-out errors left out
     /// (`rms rel %` of the representations is trimmed alike; the models' is not) (when nothing
     /// meets it, the most accurate
     /// representation is chosen and written, with a warning); with --scene, the worst relative

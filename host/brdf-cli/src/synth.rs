@@ -23,7 +23,7 @@ pub struct SynthCmd {
     /// Incidence angles, degrees, comma-separated.
     #[arg(long, default_value = "0,10,30")]
     theta_i: String,
-    /// Relative noise level, e.g. 2% or 0.02.
+    /// Relative noise level, e.g. 2% or 0.02 (at most 100%).
     #[arg(long, value_parser = parse_fraction, default_value = "0")]
     noise: f64,
     /// Seed of the noise.

@@ -110,6 +110,21 @@ def test_errors_are_the_cli_messages(cli, root, tmp_path):
         brdf.select([str(root / KHAKI), str(root / KHAKI)])
 
 
+def test_a_budget_above_one_is_refused_saying_how_to_write_a_percentage(cli, root):
+    # Before: budget=2 meant 200%, as `brdf select --budget 2` did.
+    p = cli("select", root / KHAKI, "--budget", "2", check=False)
+    assert p.returncode != 0 and "write 2%" in p.stderr
+    calls = (
+        lambda b: brdf.select(str(root / KHAKI), budget=b),
+        lambda b: brdf.select_scene(str(root / "data/scenes/target.toml"), budget=b),
+    )
+    for call in calls:
+        with pytest.raises(ValueError, match=r"budget 2 is a fraction, 200%.* give budget=0\.02"):
+            call(2)
+        with pytest.raises(ValueError, match=r"budget 1\.5 is a fraction, 150%"):
+            call(1.5)
+
+
 @pytest.mark.parametrize(
     "kwargs,match",
     [

@@ -1025,3 +1025,46 @@ fn zeniths_that_look_like_radians_are_warned_about() {
         &[0.0, 0.2, 0.4, 0.6, 0.8, 1.0]
     )));
 }
+
+/// Before: `--budget 2` and `--noise 2` meant 200% (`--noise 50` wrote readings of 4e14). A
+/// fraction above 100% is refused; written without `%`, the message says how to write it.
+#[test]
+fn fractions_above_one_hundred_percent_are_refused() {
+    let synth = |noise: &str| {
+        brdf(&[
+            "synth",
+            "--model",
+            "lambert",
+            "--params",
+            "rho0=0.5",
+            "--theta-i",
+            "0",
+            "--noise",
+            noise,
+        ])
+    };
+    for (noise, want) in [
+        ("2", "for 2 percent write 2% (or 0.02)"),
+        ("50", "for 50 percent write 50%"),
+        ("150%", "`150%` is above 100%"),
+    ] {
+        let out = synth(noise);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(want),
+            "--noise {noise}: {err}"
+        );
+    }
+    for noise in ["2%", "0.02", "100%", "1"] {
+        let out = synth(noise);
+        assert!(
+            out.status.success(),
+            "--noise {noise}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let data = repo("data/khaki-synthetic-inplane.csv");
+    let out = brdf(&["select", &data, "--budget", "2"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("write 2%"), "{err}");
+}

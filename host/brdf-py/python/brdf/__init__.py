@@ -614,7 +614,7 @@ def select(
     ``data`` is one dataset: a path to any file ``brdf fit`` reads (``format=`` and
     ``channel=`` as for :func:`fit`) or a dict / object with arrays ``theta_i``, ``theta_r``,
     ``phi`` (degrees), ``brdf`` (1/sr) and optionally ``sigma`` or ``weight``. ``budget`` is
-    the largest acceptable RMS relative error (a fraction: 0.02 is 2%); the domain keeps the
+    the largest acceptable RMS relative error (a fraction: 0.02 is 2%; at most 1); the domain keeps the
     points with ``theta_i <= max_theta_i`` and ``theta_r <= max_theta_r`` (both default to
     ``max_theta``, degrees); ``allow_nonphysical`` lets the choice fall on a model that is not
     reciprocal or is unbounded at grazing; ``sequence`` is the sequence number of the
@@ -930,7 +930,7 @@ def select_scene(
     scene, *, budget: float = 0.02, seed: int = 1, sequence: int = 1, allow_nonphysical: bool = False
 ) -> SceneSelection:
     """Per material of the scene file ``scene``, the cheapest device representation whose
-    sigma stays within ``budget`` (a fraction: 0.01 is 1%) of the exact model's at every
+    sigma stays within ``budget`` (a fraction: 0.01 is 1%; at most 1) of the exact model's at every
     aspect that sees it, as ``brdf select --scene``; ``seed`` seeds the ladder's fits,
     ``sequence`` is the blob's sequence number and ``allow_nonphysical`` also lets models that
     are not reciprocal or unbounded at grazing be chosen (``--allow-nonphysical``). Raises
