@@ -300,6 +300,33 @@ pub fn write_blob(packed: &brdf_fit::pack::Packed, output: &std::path::Path) -> 
     Ok(())
 }
 
+/// Significant figures of a parameter or a standard error in a table.
+pub const SIGNIFICANT: usize = 6;
+
+/// A parameter or standard error as a table prints it: [`SIGNIFICANT`] significant figures,
+/// positional from 1e-4 to below 1e6 and with an exponent outside (a weight of 2.6e-7 printed
+/// as `0.000000` with six decimals). Width and alignment as given (`{:>14}`).
+#[derive(Clone, Copy, Debug)]
+pub struct Sig(pub f64);
+
+impl std::fmt::Display for Sig {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let v = self.0;
+        let a = v.abs();
+        let text = if !(a.is_finite() && a != 0.0) {
+            format!("{v}")
+        } else if (1e-4..1e6).contains(&a) {
+            // Digits after the point that leave SIGNIFICANT in all.
+            let leading = a.log10().floor() as i64 + 1;
+            let decimals = (SIGNIFICANT as i64 - leading).max(0) as usize;
+            format!("{v:.decimals$}")
+        } else {
+            format!("{v:.*e}", SIGNIFICANT - 1)
+        };
+        f.pad(&text)
+    }
+}
+
 /// Legend entry of a fit (model name and RMS relative error) with its model, for plots.
 pub fn legend(r: &brdf_fit::report::FitReport) -> Result<brdf_plot::Fitted> {
     Ok(brdf_plot::Fitted {
@@ -353,6 +380,40 @@ pub fn not_an_input<'a>(flag: &str, out: &Path, inputs: impl IntoIterator<Item =
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Six significant figures at every magnitude: a small parameter is not `0.000000`, a
+    /// large one no longer than its figures, and the text reads back within half a unit of the
+    /// last figure.
+    #[test]
+    fn table_numbers_keep_their_significant_figures() {
+        for v in [
+            2.5678912e-7,
+            -4.8545e-9,
+            1.23456789e-4,
+            0.5,
+            -3.0,
+            123.456789,
+            999_999.4,
+            1e6,
+            6.02e23,
+        ] {
+            let text = Sig(v).to_string();
+            let back: f64 = text.parse().unwrap();
+            let figures: String = text
+                .split('e')
+                .next()
+                .unwrap()
+                .chars()
+                .filter(char::is_ascii_digit)
+                .collect::<String>()
+                .trim_start_matches('0')
+                .to_owned();
+            assert_eq!(figures.len(), SIGNIFICANT, "{v}: {text}");
+            let half_unit = 0.5 * 10f64.powi(v.abs().log10().floor() as i32 + 1 - SIGNIFICANT as i32);
+            assert!((back - v).abs() <= half_unit * (1.0 + 1e-9), "{v}: {text}");
+        }
+        assert_eq!(format!("{:>8}", Sig(0.0)), "       0");
+    }
 
     /// The help states each default the library applies when an option is not given.
     #[test]

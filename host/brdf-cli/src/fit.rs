@@ -10,7 +10,7 @@ use brdf_fit::request::{EngineKind, BUDGET_EVALS};
 use brdf_fit::{FitError, FitRequest, FitSettings};
 use clap::Args;
 
-use crate::common::{limit, named, parse_shard, EngineArgs};
+use crate::common::{limit, named, parse_shard, EngineArgs, Sig};
 use crate::params::parse_kind;
 
 /// Fit a model to measured data: one joint fit across all incidence angles of each dataset.
@@ -178,7 +178,7 @@ pub fn write_spectrum(out: &mut impl Write, s: &brdf_fit::spectral::Spectrum) ->
     for b in &s.bands {
         write!(out, "  {:>9}", brdf_fit::data::wavelength_text(b.wavelength_um))?;
         for v in &b.params {
-            write!(out, " {:>11.5}", v)?;
+            write!(out, " {:>11}", Sig(*v))?;
         }
         let albedo = b.albedo_normal.map_or("-".to_owned(), |a| format!("{a:.5}"));
         writeln!(out, " {albedo:>11} {:>8.3}%", 100.0 * b.rms_rel)?;
@@ -342,13 +342,13 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
         "param", "value", "std. error"
     )?;
     for (name, u) in &r.uncertainty.params.0 {
-        let se = u.se.map_or("-".to_owned(), |s| format!("{s:.4e}"));
+        let se = u.se.map_or("-".to_owned(), |s| Sig(s).to_string());
         let verdict = if u.determined {
             "yes".to_owned()
         } else {
             format!("NO: {}", u.note.as_deref().unwrap_or(""))
         };
-        writeln!(out, "  {name:<6} {:>14.6} {se:>12}  {verdict}", u.value)?;
+        writeln!(out, "  {name:<6} {:>14} {se:>12}  {verdict}", Sig(u.value))?;
     }
     let m = r.metrics;
     writeln!(

@@ -1068,3 +1068,39 @@ fn fractions_above_one_hundred_percent_are_refused() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("write 2%"), "{err}");
 }
+
+/// Before: the text table printed parameters with six decimals, so a reflectance in other
+/// units (data scaled by 1e-6) read `0.000000` while the JSON held 2e-7. Every parameter
+/// (and standard error) keeps six significant figures, whatever its magnitude.
+#[test]
+fn the_text_table_keeps_small_parameters_significant() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = ok(&["synth", "--model", "six", "--params", &KHAKI, "--noise", "1%"]);
+    let mut lines = text.lines();
+    let mut scaled = format!("{}\n", lines.next().unwrap());
+    for l in lines {
+        let (angles, brdf) = l.rsplit_once(',').unwrap();
+        scaled.push_str(&format!("{angles},{:e}\n", brdf.parse::<f64>().unwrap() * 1e-6));
+    }
+    let path = dir.path().join("scaled.csv");
+    std::fs::write(&path, scaled).unwrap();
+    let path = path.to_str().unwrap();
+    let report: serde_json::Value = serde_json::from_str(&ok(&["fit", "--json", path])).unwrap();
+    let table = ok(&["fit", path]);
+    let params = report["params"].as_object().unwrap();
+    for (name, value) in params {
+        let want = value.as_f64().unwrap();
+        let row = table
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(name.as_str()))
+            .unwrap_or_else(|| panic!("no row {name}: {table}"));
+        let shown: f64 = row.split_whitespace().nth(1).unwrap().parse().unwrap();
+        // Six significant figures: within half a unit of the sixth.
+        assert!(
+            (shown - want).abs() <= 5e-6 * want.abs(),
+            "{name}: {want} shown as {shown}: {row}"
+        );
+    }
+    // The weights (kb, kd) are what the scale moved: the case the table got wrong.
+    assert!(params["kb"].as_f64().unwrap().abs() < 1e-4, "{report}");
+}
