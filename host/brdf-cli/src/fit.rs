@@ -299,7 +299,11 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
     let loss = if r.loss.is_linear() {
         String::new()
     } else {
-        format!(", {} loss at scale {}", r.loss.kind, r.loss.scale)
+        format!(
+            ", {} loss at scale {}",
+            r.loss.kind,
+            brdf_core::Compact(r.loss.scale)
+        )
     };
     writeln!(
         out,

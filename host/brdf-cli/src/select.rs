@@ -141,9 +141,11 @@ impl SelectCmd {
         }
         writeln!(
             out,
-            "{}: {} points with theta_i <= {max_i} deg, theta_r <= {max_r} deg; budget: held-out RMS relative error <= {}%",
+            "{}: {} points with theta_i <= {} deg, theta_r <= {} deg; budget: held-out RMS relative error <= {}%",
             domain.name,
             domain.points.len(),
+            brdf_core::Compact(max_i),
+            brdf_core::Compact(max_r),
             brdf_core::Compact(100.0 * self.budget)
         )?;
         writeln!(
@@ -341,8 +343,10 @@ impl SelectCmd {
         let measurement = brdf_fit::data::split_wavelength(&short[0].name).map_or(String::new(), |(m, _)| m);
         writeln!(
             out,
-            "{measurement}: {} bands, theta_i <= {max_i} deg, theta_r <= {max_r} deg; budget: held-out RMS relative error <= {}% (over each band's noise floor where it has readings at or below zero)",
+            "{measurement}: {} bands, theta_i <= {} deg, theta_r <= {} deg; budget: held-out RMS relative error <= {}% (over each band's noise floor where it has readings at or below zero)",
             selections.len(),
+            brdf_core::Compact(max_i),
+            brdf_core::Compact(max_r),
             brdf_core::Compact(100.0 * self.budget)
         )?;
         writeln!(

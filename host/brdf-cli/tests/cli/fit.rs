@@ -1104,3 +1104,26 @@ fn the_text_table_keeps_small_parameters_significant() {
     // The weights (kb, kd) are what the scale moved: the case the table got wrong.
     assert!(params["kb"].as_f64().unwrap().abs() < 1e-4, "{report}");
 }
+
+/// Before: the report's header printed `--loss-scale 1e-100` as a hundred-digit decimal.
+#[test]
+fn the_header_prints_a_tiny_loss_scale_briefly() {
+    let data = repo("data/khaki-synthetic-inplane.csv");
+    for (scale, shown) in [("1e-100", "1e-100"), ("2.5e99", "2.5e99"), ("0.25", "0.25")] {
+        let text = ok(&[
+            "fit",
+            "--model",
+            "lambert",
+            "--loss",
+            "huber",
+            "--loss-scale",
+            scale,
+            &data,
+        ]);
+        let header = text.lines().next().unwrap();
+        assert!(
+            header.contains(&format!("huber loss at scale {shown},")) && header.len() < 200,
+            "{header}"
+        );
+    }
+}
