@@ -7,7 +7,7 @@
 use std::time::Instant;
 
 use brdf_core::{AnyModel, ModelKind, MAX_PARAMS};
-use brdf_fit::report::{distinct_directions, energy, report, uncertainty};
+use brdf_fit::report::{distinct_rows, energy, report, uncertainty};
 use brdf_fit::{fit, load_csv, FitOptions, LoadOptions, Problem, Residual};
 
 fn main() {
@@ -26,7 +26,7 @@ fn main() {
     std::hint::black_box(uncertainty(
         &problem,
         &outcome,
-        distinct_directions(data, problem.kind(), 7),
+        distinct_rows(data, problem.kind()),
     ));
     let unc = t.elapsed().as_secs_f64();
     let t = Instant::now();

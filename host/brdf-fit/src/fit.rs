@@ -4,7 +4,8 @@
 //!
 //! What "converged" means here (every part must hold):
 //!
-//! 1. The best cost was reached (within [`AGREEMENT`]) by at least [`FitOptions::agree`]
+//! 1. The best cost was reached (within [`AGREEMENT`], or both at the cost's rounding floor,
+//!    [`cost_floor`]) by at least [`FitOptions::agree`]
 //!    independent searches — annealing chains from random starts, or basin-hopping moves
 //!    from a perturbed best point — in the same lobe state: a chain that ended with the lobe
 //!    switched off (`kb = 0`, where `kr`, `b`, `a` have no effect) never counts as agreeing
@@ -101,6 +102,40 @@ impl FitOptions {
 /// Relative cost difference under which two polished searches count as the same optimum.
 pub const AGREEMENT: f64 = 1e-9;
 
+/// Relative error of one model value as the fit computes it, at the rounding level: the
+/// fitting kernels and any other f64 evaluation of the same model (the core's, which made a
+/// synthetic reading, or another formulation) agree within
+/// [`brdf_core::tolerance::F64_REFORMULATION_REL`] (a few dozen roundings of 1.1e-16, the lobe's
+/// `exp` multiplying its argument's by `|b|`). Residuals this small are rounding, not misfit:
+/// see [`cost_floor`].
+pub const VALUE_ROUNDING_REL: f64 = brdf_core::tolerance::F64_REFORMULATION_REL;
+
+/// The cost's rounding floor of `problem`: the cost if every model value were off by
+/// [`VALUE_ROUNDING_REL`] of its reading, `0.5 VALUE_ROUNDING_REL^2 sum_i u_i` with `u_i` the
+/// squared residual of a model off by its whole reading ([`Problem::importance`]: the reading
+/// over its sigma, or times its weight, squared). Costs below it are rounding noise: on
+/// noise-free data every search ends somewhere below it, at costs that differ by factors of
+/// several (1e-30 against 3e-30), and [`AGREEMENT`]'s relative test alone called such a fit
+/// not converged; two costs both below it are one optimum ([`same_cost`]). Noisy data's costs
+/// lie some 1e20 times above it (1% noise: `0.5 sum_i u_i 1e-4`), where it changes nothing.
+pub fn cost_floor(problem: &Problem) -> f64 {
+    let u: f64 = (0..problem.len()).map(|i| problem.importance(i)).sum();
+    0.5 * VALUE_ROUNDING_REL * VALUE_ROUNDING_REL * u
+}
+
+/// Whether the costs `a` and `best` count as the same optimum: within [`AGREEMENT`] of
+/// `best`, or within `floor` (the problem's [`cost_floor`]) of each other.
+pub fn same_cost(a: f64, best: f64, floor: f64) -> bool {
+    let d = (a - best).abs();
+    d <= AGREEMENT * best.abs().max(f64::MIN_POSITIVE) || d <= floor
+}
+
+/// Whether the cost `a` lies below `b` by more than [`same_cost`] allows: a better optimum,
+/// not the same one reached again.
+pub fn below(a: f64, b: f64, floor: f64) -> bool {
+    a < b * (1.0 - AGREEMENT) && b - a > floor
+}
+
 /// How the global search went.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SearchSummary {
@@ -148,9 +183,8 @@ fn lobe_off(kind: ModelKind, q: &[f64; MAX_PARAMS]) -> bool {
     matches!(kind, ModelKind::Six | ModelKind::SixCos2 | ModelKind::Five) && q[0] == 0.0
 }
 
-fn same_optimum(kind: ModelKind, a: &LmResult, best: &LmResult) -> bool {
-    (a.cost - best.cost).abs() <= AGREEMENT * best.cost.abs().max(f64::MIN_POSITIVE)
-        && lobe_off(kind, &a.q) == lobe_off(kind, &best.q)
+fn same_optimum(kind: ModelKind, a: &LmResult, best: &LmResult, floor: f64) -> bool {
+    same_cost(a.cost, best.cost, floor) && lobe_off(kind, &a.q) == lobe_off(kind, &best.q)
 }
 
 /// Points above which the global search runs on a subsample of [`SEARCH_POINTS`] points
@@ -214,10 +248,12 @@ fn fit_sampled(problem: &Problem, drawn: &SearchSample, opts: &FitOptions) -> Fi
     out.search.sample = Some(sample.len());
     // The subsample must stand for the data where the search ended: its cost there within
     // SAMPLE_COST_REL of its share of every point's (a few draws in the wrong places misled
-    // the search, and the polish cannot leave the basin it was handed). A NaN difference
+    // the search, and the polish cannot leave the basin it was handed), or both within the
+    // subsample's rounding floor (noise-free data: both are rounding noise). A NaN difference
     // stands for nothing either.
     let (estimate, share) = (sample.cost(&r.q), drawn.scale * r.cost);
-    let stands = (estimate - share).abs() <= SAMPLE_COST_REL * share;
+    let gap = (estimate - share).abs();
+    let stands = gap <= SAMPLE_COST_REL * share || gap <= cost_floor(&sample);
     if problem.stopped() {
         out.search.not_converged = Some("the fit was stopped before its search ended".to_owned());
     } else if out.search.not_converged.is_none() && !stands {
@@ -413,11 +449,11 @@ impl SearchState {
             .expect("at least one search")
     }
 
-    fn agreeing(&self, kind: ModelKind) -> usize {
+    fn agreeing(&self, kind: ModelKind, floor: f64) -> usize {
         let best = self.best();
         self.found[self.grid_n..]
             .iter()
-            .filter(|f| same_optimum(kind, f, &best))
+            .filter(|f| same_optimum(kind, f, &best, floor))
             .count()
     }
 }
@@ -431,6 +467,8 @@ struct Rules<'a> {
     need: usize,
     max_chains: usize,
     max_hops: usize,
+    /// The problem's [`cost_floor`].
+    floor: f64,
 }
 
 impl Rules<'_> {
@@ -508,7 +546,7 @@ impl Rules<'_> {
                 // (Planning ahead of the first chain with no grid: nothing found yet.)
                 s.hopping = s.chains >= self.opts.min_chains
                     && !s.found.is_empty()
-                    && s.agreeing(kind) >= self.need
+                    && s.agreeing(kind, self.floor) >= self.need
                     && self.probes_done(&s.best(), s.probes);
             }
             Unit::Hop { .. } => {
@@ -522,7 +560,7 @@ impl Rules<'_> {
                 };
                 let before = s.best();
                 s.evals += evals;
-                let improved = r.cost < before.cost * (1.0 - AGREEMENT);
+                let improved = below(r.cost, before.cost, self.floor);
                 s.found.push(r);
                 s.quiet_hops = if improved { 0 } else { s.quiet_hops + 1 };
                 if improved && !self.probes_done(&s.best(), s.probes) {
@@ -551,6 +589,7 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
         max_chains,
         // Hops are cheaper than chains (no annealing); as many as the chain limit.
         max_hops: max_chains.max(opts.hops),
+        floor: cost_floor(problem),
     };
     let (lo, hi) = problem.bounds();
     // The seed-independent part: polish the best nodes of the fixed grid (in parallel, kept
@@ -600,7 +639,7 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
         rules.apply(&mut s, unit, rng, Some(result));
     }
     let best = s.best();
-    let agree_n = s.agreeing(kind);
+    let agree_n = s.agreeing(kind, rules.floor);
     let need = rules.need;
     let not_converged = if problem.stopped() {
         Some("the fit was stopped before its search ended".to_owned())

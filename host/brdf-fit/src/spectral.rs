@@ -16,7 +16,8 @@
 //! 3. each band's report is that of its weights at the best shape.
 //!
 //! "Converged" holds when at least two polishes from different candidates reach the best
-//! `F` within [`crate::fit::AGREEMENT`] and every band's own fit converged; otherwise the
+//! `F` within [`crate::fit::AGREEMENT`] (or both within the summed cost's rounding floor,
+//! [`crate::fit::same_cost`]) and every band's own fit converged; otherwise the
 //! reports say why not. Only with the full engine and least squares: a robust loss (whose
 //! reweighting the shared polish would not see) and the embedded engine fit bands
 //! independently.
@@ -32,7 +33,7 @@ use brdf_core::bands::Located;
 use brdf_core::{ModelKind, MAX_PARAMS};
 use serde::{Deserialize, Serialize};
 
-use crate::fit::{FitOutcome, SearchSummary, AGREEMENT};
+use crate::fit::{cost_floor, same_cost, FitOutcome, SearchSummary};
 use crate::import::SAME_BAND_UM;
 use crate::kernel::{assemble, to_internal, to_natural};
 use crate::problem::{nonlinear_indices, Problem};
@@ -338,7 +339,7 @@ fn nelder_mead(
 
 /// Relative spread of the simplex's values under which the shape polish has converged, for
 /// small data (the summed cost's rounding sets it for large data: see [`share`]); far below
-/// [`AGREEMENT`], so that two polishes that met it and agree are one optimum.
+/// [`crate::fit::AGREEMENT`], so that two polishes that met it and agree are one optimum.
 pub const SIMPLEX_TOL: f64 = 1e-13;
 
 /// The shared-shape fit of `problems` (the bands of one measurement, same model and settings)
@@ -411,10 +412,9 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
         .iter()
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .expect("at least one candidate");
-    let agreeing = polished
-        .iter()
-        .filter(|p| (p.1 - best.1).abs() <= AGREEMENT * best.1.abs().max(f64::MIN_POSITIVE))
-        .count();
+    // The summed cost's rounding floor: shapes that all fit to rounding are one optimum.
+    let floor: f64 = problems.iter().map(|p| cost_floor(p)).sum();
+    let agreeing = polished.iter().filter(|p| same_cost(p.1, best.1, floor)).count();
     let nl = to_nl(&best.0);
     let (_, lins) = shared_cost(problems, &nl);
     let why_not = if stop() {

@@ -28,8 +28,50 @@ pub struct Energy {
     pub albedo: Vec<IncidenceAlbedo>,
     /// Every albedo is at most 1 (at the measured incidences and the fixed ones: a model's
     /// albedo may rise towards grazing beyond the data, as the microfacet model's Fresnel
-    /// term makes it).
+    /// term makes it), and the model's albedo is bounded at grazing (false whenever
+    /// [`Energy::unbounded`] says why not).
     pub albedo_conserves: bool,
+    /// Why the albedo is unbounded at grazing, when [`brdf_core::AnyModel::bounded_at_grazing`]
+    /// says it is (the five-parameter model, Minnaert with `k < 1`, the six-parameter models
+    /// with `c < 0`): past the last incidence checked it grows without bound, so no list of
+    /// albedos at most 1 shows that the model conserves energy (a six-parameter fit with
+    /// `c = -0.1` had 0.80 at 89°, 1.05 at 89.99° and 1.34 at 89.999°).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unbounded: Option<String>,
+}
+
+impl Energy {
+    /// Sets [`Energy::albedo_conserves`] from the albedos and [`Energy::unbounded`]: after
+    /// the albedos were changed (scaled, or of another representation of the model).
+    pub fn recheck(&mut self) {
+        self.albedo_conserves = self.unbounded.is_none() && self.albedo.iter().all(|a| a.albedo <= 1.0);
+    }
+}
+
+/// Why `model`'s albedo is unbounded at grazing (see [`Energy::unbounded`]), or `None` when
+/// [`brdf_core::AnyModel::bounded_at_grazing`] says it is bounded.
+pub fn unbounded_at_grazing(model: &AnyModel<f64>) -> Option<String> {
+    if model.bounded_at_grazing() {
+        return None;
+    }
+    let p = model.to_params();
+    Some(match model.kind() {
+        ModelKind::Six | ModelKind::SixCos2 => format!(
+            "albedo unbounded at grazing: c = {} < 0, and (cos ti cos tr)^c grows without bound \
+             towards the horizon",
+            short(p[5])
+        ),
+        ModelKind::Minnaert => format!(
+            "albedo unbounded at grazing: k = {} < 1, and (cos ti cos tr)^(k - 1) grows without \
+             bound towards the horizon",
+            short(p[1])
+        ),
+        ModelKind::Five => {
+            "albedo unbounded at grazing: the kd / cos ti term grows without bound towards the horizon"
+                .to_owned()
+        }
+        ModelKind::Ggx | ModelKind::Lambert => "albedo unbounded at grazing".to_owned(),
+    })
 }
 
 /// Incidences (degrees) where every fit's albedo is checked besides the measured ones: a fit to
@@ -68,12 +110,15 @@ pub fn energy(model: &AnyModel<f64>, incidences: &[f64]) -> Energy {
             albedo: albedo_batch(&batch, ti, rule),
         })
         .collect();
-    Energy {
+    let mut e = Energy {
         bound,
         bound_conserves: matches!(bound, Some(b) if b <= 1.0),
-        albedo_conserves: albedo.iter().all(|a| a.albedo <= 1.0),
+        albedo_conserves: false,
         albedo,
-    }
+        unbounded: unbounded_at_grazing(model),
+    };
+    e.recheck();
+    e
 }
 
 /// Energy check of a fitted parameter vector (paper order and signs), which may hold linear
@@ -102,7 +147,7 @@ pub fn energy_of(kind: ModelKind, params: &[f64], incidences: &[f64]) -> Energy 
             a.albedo *= scale;
         }
         e.bound_conserves = matches!(e.bound, Some(b) if b <= 1.0);
-        e.albedo_conserves = e.albedo.iter().all(|a| a.albedo <= 1.0);
+        e.recheck();
     }
     e
 }
@@ -124,5 +169,43 @@ mod incidence_tests {
         assert_eq!(thirty, 1, "{all:?}");
         assert!(all.contains(&written) && all.contains(&0.2));
         assert_eq!(all.len(), 2 + ENERGY_INCIDENCES_DEG.len() - 1);
+    }
+
+    /// A six-parameter fit with `c = -0.1` (`--brightening`) was said to conserve energy
+    /// ("all <= 1": 0.80 at 89°) while its albedo grows without bound towards grazing (1.05 at
+    /// 89.99°, 1.34 at 89.999°). The same weights with `c >= 0` are bounded and conserve.
+    #[test]
+    fn an_albedo_unbounded_at_grazing_does_not_conserve_energy() {
+        let measured: Vec<f64> = [0.0, 20.0, 40.0, 60.0].map(f64::to_radians).to_vec();
+        let brightening = [0.05, 1.0, -5.0, 1.0, 0.4, -0.1];
+        let e = energy_of(ModelKind::Six, &brightening, &checked_incidences(&measured));
+        assert!(e.albedo.iter().all(|a| a.albedo <= 1.0), "{e:?}");
+        assert!(!e.albedo_conserves, "{e:?}");
+        let why = e.unbounded.as_deref().unwrap_or("");
+        assert!(
+            why.contains("unbounded at grazing") && why.contains("c = -0.1 < 0"),
+            "{why}"
+        );
+        let grazing = AnyModel::new(ModelKind::Six, &brightening).unwrap();
+        let rule = AlbedoRule::for_model(&grazing);
+        assert!(brdf_core::checks::albedo(&grazing, 89.999f64.to_radians(), rule) > 1.0);
+        // Reports without the field read back as bounded.
+        let mut v = serde_json::to_value(&e).unwrap();
+        v.as_object_mut().unwrap().remove("unbounded");
+        assert_eq!(serde_json::from_value::<Energy>(v).unwrap().unbounded, None);
+
+        for c in [0.0, 0.1] {
+            let mut p = brightening;
+            p[5] = c;
+            let e = energy_of(ModelKind::Six, &p, &checked_incidences(&measured));
+            assert!(e.albedo_conserves && e.unbounded.is_none(), "c = {c}: {e:?}");
+            assert!(!serde_json::to_string(&e).unwrap().contains("unbounded"));
+        }
+        // Scaled weights (above their ranges) keep the verdict.
+        let mut big = brightening;
+        big[4] = 1e6;
+        assert!(energy_of(ModelKind::Six, &big, &measured).unbounded.is_some());
+        let minnaert = energy_of(ModelKind::Minnaert, &[0.5, 0.9], &measured);
+        assert!(!minnaert.albedo_conserves && minnaert.unbounded.unwrap().contains("k = 0.9 < 1"));
     }
 }

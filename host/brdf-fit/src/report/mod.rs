@@ -627,11 +627,7 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         .filter(|(r, &v)| !r.contains(v))
         .map(|(r, v)| format!("{} = {v} is not {}", r.name, r.text))
         .collect();
-    let unc = uncertainty(
-        problem,
-        outcome,
-        distinct_directions(dataset, outcome.kind, k + 1),
-    );
+    let unc = uncertainty(problem, outcome, distinct_rows(dataset, outcome.kind));
     // A profile refit below the optimum: the search missed it, whatever it said.
     let (mut converged, mut search) = (outcome.converged, outcome.search.clone());
     if let Some(c) = unc.refit_below {

@@ -28,7 +28,8 @@ pub struct Uncertainty {
     /// Correlation matrix of the parameters (paper order); `None` where undefined.
     pub correlation: Vec<Vec<Option<f64>>>,
     /// The least cost a profile refit reached when it lies below the optimum's (by more than
-    /// [`crate::fit::AGREEMENT`]): with one parameter held the others found a better point, so
+    /// [`crate::fit::AGREEMENT`] and the cost's rounding floor, [`crate::fit::below`]): with one
+    /// parameter held the others found a better point, so
     /// the search missed the optimum ([`crate::report::report`] then withdraws "converged").
     #[serde(skip)]
     pub refit_below: Option<f64>,
@@ -46,9 +47,6 @@ pub const UNDETERMINED_REL_SE: f64 = 0.5;
 /// data, where the cost is flat from the optimum up to the bound).
 pub const PROFILE_DELTA_CHI2: f64 = 3.84;
 
-/// Smallest rise of `chi^2` when parameter `j` is held at half or twice its value or at a
-/// bound and the others are refitted; `None` if the parameter is zero or no move is
-/// possible.
 /// Distinct direction pairs among the points of `d` to the model `kind`, counted up to
 /// `limit` (`O(n limit)`): the rule of `brdf_core::anneal::distinct_geometries` (`phi` and
 /// `-phi` one pair, and for a reciprocal model a pair and its swap), so that a direction
@@ -66,6 +64,61 @@ pub fn distinct_directions(d: &Dataset, kind: ModelKind, limit: usize) -> usize 
         }
     }
     seen.len()
+}
+
+/// Distinct rows among the points of `d` to the model `kind`: rows that differ in their
+/// direction pair (as [`distinct_directions`] tells pairs apart), reading, sigma or weight.
+/// An exact copy of a row (its pair written the same way or another, with the same reading,
+/// sigma and weight) adds the same residual and the same Jacobian row once more: it adds to
+/// `J^T J` and to the cost exactly what the row already does, and no information, so it is
+/// not counted (the degrees of freedom of [`uncertainty`]). A replicate (the same pair read
+/// again, another reading) is counted. `O(n log n)` for readings that differ; a direction is
+/// compared only with the rows of the same reading, sigma and weight whose `cos gamma` lies
+/// within the pair rule's tolerance of its own.
+pub fn distinct_rows(d: &Dataset, kind: ModelKind) -> usize {
+    use std::cmp::Ordering;
+    let pts = &d.points;
+    let geo: Vec<brdf_core::Geometry<f64>> = pts
+        .iter()
+        .map(|p| brdf_core::Geometry::<f64>::from_angles(p.theta_i, p.theta_r, p.phi))
+        .collect();
+    let option = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (Some(a), Some(b)) => a.total_cmp(&b),
+        (a, b) => a.is_some().cmp(&b.is_some()),
+    };
+    let reading = |a: usize, b: usize| {
+        let (p, q) = (&pts[a], &pts[b]);
+        p.brdf
+            .total_cmp(&q.brdf)
+            .then(option(p.sigma, q.sigma))
+            .then(option(p.weight, q.weight))
+    };
+    let mut order: Vec<usize> = (0..pts.len()).collect();
+    order.sort_unstable_by(|&a, &b| {
+        reading(a, b)
+            .then(geo[a].cos_gamma().total_cmp(&geo[b].cos_gamma()))
+            .then(a.cmp(&b))
+    });
+    // `same_pair` holds only where `cos gamma` agrees within `tol` relative (plus `tol eps`):
+    // in `order` such rows lie within that window of one another.
+    let tol = brdf_core::tolerance::SAME_PAIR_EPS * f64::EPSILON;
+    let reciprocal = kind.is_reciprocal();
+    let mut kept: Vec<usize> = Vec::new();
+    for &i in &order {
+        let g = geo[i].cos_gamma();
+        let copy = kept
+            .iter()
+            .rev()
+            .take_while(|&&k| {
+                let h = geo[k].cos_gamma();
+                reading(k, i) == Ordering::Equal && g - h <= tol * (g.abs().max(h.abs()) + f64::EPSILON)
+            })
+            .any(|&k| geo[k].same_pair(&geo[i], reciprocal));
+        if !copy {
+            kept.push(i);
+        }
+    }
+    kept.len()
 }
 
 /// The profile test of parameter `j`: the least rise of `2 (cost - cost_min) / s2` over refits
@@ -218,13 +271,19 @@ pub const SINGULAR_EIGEN_REL: f64 = 1e-10;
 const CONFOUNDED_SHARE: f64 = 0.01;
 
 /// Standard errors and correlations from `J^T J` at the optimum, scaled by the residual
-/// variance `2 cost / (n - p)`.
+/// variance `2 cost / (m - p)`, `m` the distinct rows of the data ([`distinct_rows`]).
+///
+/// Exact copies of rows count once in `m`: `k` copies of every row multiply `J^T J` and the
+/// cost by `k`, so with `m` the data's own the standard errors, the profile rises and the
+/// verdicts are the original's (with `n - p` every standard error shrank by about `sqrt(k)`
+/// and parameters the data do not determine were called determined). With no more distinct
+/// rows than free parameters the fit passes through them and leaves no noise estimate.
 ///
 /// Parameters on a search bound are held there; parameters with no effect on the model at
 /// the optimum (the lobe's `kr`, `b`, `a` when `kb = 0`) are reported as such; directions in
 /// which `J^T J` is singular name the parameters that share them, and only those. Every
 /// other parameter gets its standard error and the profile test.
-pub fn uncertainty(problem: &Problem, outcome: &FitOutcome, distinct: usize) -> Uncertainty {
+pub fn uncertainty(problem: &Problem, outcome: &FitOutcome, distinct_rows: usize) -> Uncertainty {
     let kind = outcome.kind;
     let p = kind.param_count();
     let names = kind.param_names();
@@ -255,14 +314,15 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome, distinct: usize) -> 
         }
     }
     let free: Vec<usize> = (0..p).filter(|&j| note[j].is_none()).collect();
-    // The noise is estimated from the residuals at distinct directions: repeated readings of
-    // as many directions as free parameters are fitted exactly, whatever their number, and
-    // leave no residual to estimate it from (every standard error would be 0).
-    let no_noise_estimate = distinct <= free.len();
+    // The noise is estimated from the residuals of distinct rows: copies of as many rows as
+    // free parameters are fitted exactly, whatever their number, and leave no residual to
+    // estimate it from (every standard error would be 0); copies of more rows add to the cost
+    // what their rows already do, and no degree of freedom.
+    let no_noise_estimate = distinct_rows <= free.len();
     let dof = if no_noise_estimate {
         0
     } else {
-        problem.len().saturating_sub(free.len())
+        distinct_rows.min(problem.len()) - free.len()
     };
     let s2 = if dof > 0 {
         2.0 * outcome.cost / dof as f64
@@ -350,10 +410,11 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome, distinct: usize) -> 
         })
         .collect();
     let rises: Vec<Option<f64>> = refits.iter().map(|r| r.map(|r| r.0)).collect();
+    let floor = crate::fit::cost_floor(problem);
     let refit_below = refits
         .iter()
         .filter_map(|r| r.map(|r| r.1))
-        .filter(|&c| c < outcome.cost * (1.0 - crate::fit::AGREEMENT))
+        .filter(|&c| crate::fit::below(c, outcome.cost, floor))
         .reduce(f64::min);
     let mut params = Vec::with_capacity(p);
     for j in 0..p {
@@ -367,7 +428,8 @@ pub fn uncertainty(problem: &Problem, outcome: &FitOutcome, distinct: usize) -> 
                 false,
                 Some(if no_noise_estimate {
                     "its variance is not defined (no more distinct directions than parameters: \
-                     the fit passes through them and leaves no noise estimate)"
+                     the fit passes through them and leaves no noise estimate; exact copies of \
+                     a row count once)"
                         .to_owned()
                 } else {
                     "its variance is not defined (fewer points than parameters)".to_owned()

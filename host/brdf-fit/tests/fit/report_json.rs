@@ -166,6 +166,80 @@ fn copies_of_as_many_directions_as_parameters_determine_nothing() {
     }
 }
 
+/// Two fits of the same rows, one of them with every row written ten times, reach the same
+/// optimum to the polish's tolerances (`LmOptions`: steps below 1e-10 of the residual norm),
+/// so their standard errors, smooth functions of the optimum, agree far closer than this;
+/// the defect this guards against changed them by a factor of about sqrt(10).
+const SAME_SE_REL: f64 = 1e-6;
+
+/// Before: eight rows written ten times each made `kb`, `a` and `kd` "determined" where the
+/// eight rows alone did not, and every standard error about five times smaller (`n - p` grew
+/// from 3 to 75 while the copies added nothing). An exact copy adds to `J^T J` and the cost
+/// what its row already does: the same standard errors and verdicts, the degrees of freedom
+/// counted over distinct rows. Replicates, the same directions read again with other readings,
+/// are information and keep counting.
+#[test]
+fn exact_copies_of_rows_change_no_standard_error_and_no_verdict() {
+    use brdf_fit::report::distinct_rows;
+    let khaki = brdf_core::TABLE1[0].1;
+    let read = |seed: u64| -> Vec<brdf_fit::Point> {
+        let all =
+            brdf_fit::synth::hemisphere(ModelKind::Six, &khaki, &[0.0, 20.0, 40.0], 10.0, 45.0, 0.01, seed)
+                .unwrap();
+        all.points.iter().step_by(17).take(8).copied().collect()
+    };
+    let eight = read(1);
+    let once = brdf_fit::Dataset {
+        name: "eight rows".into(),
+        points: eight.clone(),
+    };
+    let mut tenfold = brdf_fit::Dataset {
+        name: "eight rows x 10".into(),
+        points: (0..10).flat_map(|_| eight.iter().copied()).collect(),
+    };
+    // One copy written the other way round (incidence and viewing swapped, phi mirrored): to
+    // a reciprocal model the same row.
+    let p = tenfold.points[3];
+    tenfold.points[3] = brdf_fit::Point {
+        theta_i: p.theta_r,
+        theta_r: p.theta_i,
+        phi: -p.phi,
+        ..p
+    };
+    assert_eq!(distinct_rows(&once, ModelKind::Six), 8);
+    assert_eq!(distinct_rows(&tenfold, ModelKind::Six), 8);
+    let replicated = brdf_fit::Dataset {
+        name: "eight directions read ten times".into(),
+        points: (1..=10).flat_map(read).collect(),
+    };
+    assert_eq!(distinct_rows(&replicated, ModelKind::Six), 80);
+
+    let a = FitSettings::new(ModelKind::Six).fit(&once).unwrap();
+    let b = FitSettings::new(ModelKind::Six).fit(&tenfold).unwrap();
+    let mut compared = 0;
+    for ((name, u), (_, v)) in a.uncertainty.params.0.iter().zip(&b.uncertainty.params.0) {
+        assert_eq!(u.determined, v.determined, "{name}: {u:?} against {v:?}");
+        match (u.se, v.se) {
+            (Some(x), Some(y)) => {
+                assert!((x - y).abs() <= SAME_SE_REL * x, "{name}: {x:e} against {y:e}");
+                compared += 1;
+            }
+            (x, y) => assert_eq!(x.is_some(), y.is_some(), "{name}"),
+        }
+    }
+    assert!(compared >= 4, "{compared} standard errors compared");
+    // Ten readings of each direction: every standard error smaller than one reading's.
+    let c = FitSettings::new(ModelKind::Six).fit(&replicated).unwrap();
+    for ((name, u), (_, v)) in a.uncertainty.params.0.iter().zip(&c.uncertainty.params.0) {
+        if let (Some(x), Some(y)) = (u.se, v.se) {
+            assert!(
+                y < x,
+                "{name}: {y:e} from replicates against {x:e} from one reading"
+            );
+        }
+    }
+}
+
 /// A misspelt or null `fitted_table` dropped the table without a word (a Lambert base alone:
 /// 1.7e-3 where the table gave 6e-2); every field not in a fit result is now refused by name,
 /// and the list of fields is the report's own.
