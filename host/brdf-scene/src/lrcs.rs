@@ -293,7 +293,7 @@ pub fn lrcs_by_area(
             if stop.requested() {
                 return Ok(None);
             }
-            let img = crate::image::image_with(scene, a, options, scratch)?;
+            let img = crate::image::sigma_by_area(scene, a, options, scratch)?;
             progress();
             Ok(Some(AspectSigma {
                 azimuth: a.azimuth_deg,
@@ -301,7 +301,7 @@ pub fn lrcs_by_area(
                 lrcs: img.by_material.iter().fold(0.0, |s, m| s + m),
                 facets_seen: img.facets_seen,
                 by_wavelength: Vec::new(),
-                sampling_bound: Some(img.sigma_bound()),
+                sampling_bound: Some(img.bound),
                 outside_coverage: img.outside_coverage,
                 by_material: img.by_material,
             }))

@@ -324,6 +324,8 @@ pub struct Scene {
     /// The BVH for occlusion rays, built on first use ([`Scene::occluder`]: visibility by
     /// area never needs it).
     occluder: OnceLock<Occluder>,
+    /// The mesh laid out for depth buffers, built on first use ([`Scene::raster_mesh`]).
+    raster: OnceLock<crate::image::RasterMesh>,
     /// The sensor's wavelength, µm (`[sensor] wavelength_um`): the band of each spectral
     /// material used (the first of a list).
     pub wavelength_um: Option<f64>,
@@ -429,6 +431,7 @@ impl Scene {
             facet_material,
             sensor,
             occluder: OnceLock::new(),
+            raster: OnceLock::new(),
             wavelength_um: None,
             spectrum: Vec::new(),
             shard: None,
@@ -438,6 +441,12 @@ impl Scene {
     /// The BVH for occlusion rays (built on the first call).
     pub fn occluder(&self) -> &Occluder {
         self.occluder.get_or_init(|| Occluder::new(&self.mesh))
+    }
+
+    /// The mesh laid out for depth buffers (built on the first call).
+    pub fn raster_mesh(&self) -> &crate::image::RasterMesh {
+        self.raster
+            .get_or_init(|| crate::image::RasterMesh::new(&self.mesh))
     }
 
     /// The scene with its sweep cut to shard `k` of `n` (for job arrays): of the sweep's `N`

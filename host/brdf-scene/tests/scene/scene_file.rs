@@ -511,3 +511,57 @@ fn a_stopped_sweep_ends_early_and_returns_nothing() {
         whole.aspects.len()
     );
 }
+
+/// A sweep by area counts each facet's samples instead of drawing pixels: per aspect its σ,
+/// each material's share, its bound and the facets seen are the laser image's, to rounding,
+/// on the bundled target monostatic and bistatic (three materials, shadows).
+#[test]
+fn a_sweep_by_area_sums_what_the_images_show() {
+    use brdf_scene::image::{image, ImageOptions};
+    use brdf_scene::lrcs::lrcs_by_area;
+    let options = ImageOptions {
+        pixels: 80,
+        supersample: 3,
+    };
+    for mode in [
+        "mode = \"monostatic\"",
+        "mode = \"bistatic\"\nseparation_deg = 40",
+    ] {
+        let text = std::fs::read_to_string(bundled().join("target.toml"))
+            .unwrap()
+            .replace("mode = \"monostatic\"", mode)
+            .replace("azimuth_deg = [0, 360, 5]", "azimuth_deg = [0, 360, 40]");
+        let (_d, p) = scene_with(&text);
+        let s = Scene::load(&p).unwrap();
+        assert_eq!(s.aspects().len(), 27);
+        assert_eq!(
+            matches!(s.sensor.mode, Mode::Bistatic { .. }),
+            mode.contains("bistatic")
+        );
+        let sweep = lrcs_by_area(&s, &options, &|| {}, &brdf_fit::Stop::new())
+            .unwrap()
+            .unwrap();
+        assert_eq!(sweep.aspects.len(), s.aspects().len());
+        for (got, a) in sweep.aspects.iter().zip(s.aspects()) {
+            let img = image(&s, &a, &options).unwrap();
+            let close = |x: f64, y: f64| (x - y).abs() <= 1e-12 * y.abs().max(1e-300);
+            assert!(img.lrcs() > 0.0, "{mode} {a:?}");
+            assert!(
+                close(got.lrcs, img.lrcs()),
+                "{mode} {a:?}: {} against {}",
+                got.lrcs,
+                img.lrcs()
+            );
+            for (x, y) in got.by_material.iter().zip(&img.by_material) {
+                assert!(close(*x, *y), "{mode} {a:?}: {x} against {y}");
+            }
+            let bound = got.sampling_bound.unwrap();
+            assert!(
+                close(bound, img.sigma_bound()),
+                "{mode} {a:?}: bound {bound} against {}",
+                img.sigma_bound()
+            );
+            assert_eq!(got.facets_seen, img.facets_seen, "{mode} {a:?}");
+        }
+    }
+}
