@@ -295,7 +295,8 @@ fn scalar_angles<T: Float + Send + Sync, M: Brdf<T> + Sync>(
 }
 
 /// Directional-hemispherical reflectance at incidences `theta_i` (degrees) through the batch
-/// path, by `brdf_core::checks::albedo_batch` with `panels` panels, or (`None`) the fit
+/// path, by `brdf_core::checks::albedo_batch` with `panels` panels (`AlbedoRule::new`: a
+/// count outside its range is a `ValueError`), or (`None`) the fit
 /// report's rule for the model (`AlbedoRule::for_model`).
 #[pyfunction]
 pub(crate) fn albedo<'py>(
@@ -303,14 +304,13 @@ pub(crate) fn albedo<'py>(
     model: &str,
     params: &str,
     theta_i: PyReadonlyArray1<'py, f64>,
-    panels: Option<u16>,
+    panels: Option<u64>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     use brdf_core::checks::{albedo_batch, AlbedoRule};
     let kind = parse_kind(model)?;
     let m: AnyModel<f64> = build(kind, params)?;
     let rule = match panels {
-        Some(p) if p < 2 => return Err(PyValueError::new_err(format!("panels {p}: need at least 2"))),
-        Some(panels) => AlbedoRule { panels },
+        Some(p) => AlbedoRule::new(p).map_err(|e| PyValueError::new_err(e.to_string()))?,
         None => AlbedoRule::for_model(&m),
     };
     let ti = slice(&theta_i, "theta_i")?;

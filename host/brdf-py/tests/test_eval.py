@@ -2,6 +2,7 @@
 
 import csv
 import os
+import re
 import time
 import io
 
@@ -233,6 +234,20 @@ def test_many_thread_counts_leave_one_pool():
         brdf.eval("lambert", "rho0=0.5", x, x, x, threads=n)
     time.sleep(0.5)  # replaced pools' threads end
     assert threads() <= before + 60, (before, threads())
+
+
+def test_albedo_panels_outside_their_range_are_refused_by_name():
+    # Before: 65535 panels ran for about an hour per incidence and 10**6 raised OverflowError.
+    with pytest.raises(ValueError, match=r"panels 1 is outside 2\.\.=(\d+)") as e:
+        brdf.albedo("lambert", "rho0=0.5", [0.0], panels=1)
+    most = int(re.search(r"\.\.=(\d+)", str(e.value)).group(1))
+    for bad in (most + 1, 65535, 10**6, 2**64 - 1):
+        with pytest.raises(ValueError, match=rf"panels {bad} is outside 2\.\.={most} \(the quadrature's cost"):
+            brdf.albedo("lambert", "rho0=0.5", [0.0], panels=bad)
+    with pytest.raises(ValueError, match="panels"):
+        brdf.albedo("lambert", "rho0=0.5", [0.0], panels=10**30)
+    # The smallest count is accepted.
+    assert np.isfinite(brdf.albedo("lambert", "rho0=0.5", [0.0], panels=2)).all()
 
 
 def test_flags_and_counts_of_the_wrong_type_are_refused():

@@ -271,7 +271,8 @@ def eval_vectors(model: str, params: Union[str, Mapping[str, float]], wi, wr, *,
 def albedo(model: str, params: Union[str, Mapping[str, float]], theta_i, *, panels: Optional[int] = None):
     """Directional-hemispherical reflectance (dimensionless) at incidence ``theta_i``
     (degrees, any shape), by the composite Gauss-Legendre rule of
-    ``brdf_core::checks::AlbedoRule`` with ``panels`` panels, or by default the rule of the
+    ``brdf_core::checks::AlbedoRule`` with ``panels`` panels (``AlbedoRule::MIN_PANELS`` to
+    ``MAX_PANELS``, 2 to 1024: the cost grows as panels squared; ``ValueError`` outside), or by default the rule of the
     fit report's energy check (8 panels, more for a narrow microfacet peak:
     ``AlbedoRule::for_model``), so that ``albedo(model, r.params, t)`` equals
     ``r.energy["albedo"]`` at the report's incidences. Above 1 means the model does not
