@@ -193,6 +193,16 @@ pub(crate) fn fit_paths(
     Ok((fit_datasets(py, settings, datasets)?, notes))
 }
 
+/// Checks one fit result as `brdf pack` reads it (`FittedModel::from_json`: a known model,
+/// each of its parameters once as a number, no unknown field, a valid fitted table): a
+/// whole report or the hand-written `{"model", "params"}`. The error names the field.
+#[pyfunction]
+pub(crate) fn check_fit(text: &str) -> PyResult<()> {
+    brdf_fit::report::FittedModel::from_json(text, "FitResult")
+        .map(|_| ())
+        .map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
 /// The band of a dataset name (`FILE[wavelength=0.55]`): its wavelength in µm, or `None`
 /// (`brdf_fit::data::split_wavelength`).
 #[pyfunction]

@@ -117,6 +117,7 @@ fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_paths, m)?)?;
     m.add_function(wrap_pyfunction!(fitted_at, m)?)?;
     m.add_function(wrap_pyfunction!(band_of, m)?)?;
+    m.add_function(wrap_pyfunction!(check_fit, m)?)?;
     m.add_function(wrap_pyfunction!(named_band, m)?)?;
     m.add_function(wrap_pyfunction!(pack, m)?)?;
     m.add_function(wrap_pyfunction!(select_path, m)?)?;

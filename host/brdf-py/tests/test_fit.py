@@ -378,3 +378,40 @@ def test_ctrl_c_interrupts_a_long_fit(root, call):
     busy = float(out.split("busy ")[1])
     # CPU seconds in one second of sleep after the interrupt: ~1 or 2 if the work ran on.
     assert busy < 0.25, f"the work went on after Ctrl-C: {busy} CPU s in 1 s"
+
+
+def test_a_hand_written_result_is_read_and_a_wrong_one_refused_by_field(cli, root, tmp_path):
+    # Before: the hand-written form `brdf pack` takes raised KeyError: 'dataset', an array
+    # AttributeError, and "converged": "no" came back as the truthy string 'no'.
+    text = '{"model":"lambert","params":{"rho0":0.5}}'
+    r = brdf.FitResult(text)
+    assert (r.model, dict(r.params)) == ("lambert", {"rho0": 0.5})
+    assert (r.dataset, r.wavelength, r.metrics, r.energy, r.converged) == (None,) * 5
+    assert dict(r.std_errors) == {} and dict(r.undetermined) == {} and "rho0=0.5" in repr(r)
+    x = np.array([10.0, 40.0])
+    assert list(r.eval(x, x, 0.0)) == list(brdf.eval("lambert", {"rho0": 0.5}, x, x, 0.0))
+    # The blob is the one `brdf pack` writes from the same text.
+    f = tmp_path / "hand.json"
+    f.write_text(text)
+    cli("pack", f, "-o", tmp_path / "hand.blob")
+    assert brdf.pack([r]) == (tmp_path / "hand.blob").read_bytes()
+
+    full = json.loads(brdf.fit(str(root / KHAKI), model="lambert").to_json())
+    for edit, field in (
+        ({"converged": "no"}, "field `converged` must be true or false, not a string"),
+        ({"metrics": [1, 2]}, "field `metrics` must be an object, not an array"),
+        ({"dataset": 3}, "field `dataset` must be a string, not a number"),
+    ):
+        with pytest.raises(ValueError, match=field):
+            brdf.FitResult(json.dumps({**full, **edit}))
+    for bad, match in (
+        (json.dumps([full]), "one fit result is a JSON object, not an array"),
+        ("3", "not a number"),
+        ("{", "not JSON"),
+        ('{"model":"lambert","params":{"rho0":"half"}}', "field `params.rho0` must be a number, not a string"),
+        ('{"model":"lambert","params":{"kb":0.5}}', "kb"),
+        ('{"model":"lambert","params":{"rho0":0.5},"colour":"red"}', "unknown field `colour`"),
+        ('{"params":{"rho0":0.5}}', "model"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            brdf.FitResult(bad)

@@ -296,6 +296,11 @@ class FitResult:
     determine), ``metrics``, ``energy``, ``converged`` and ``report`` (the whole report as
     a dict). ``to_json()`` is the text ``brdf fit --json`` prints for the same input.
 
+    ``FitResult(text)`` also takes the hand-written form ``brdf pack`` reads,
+    ``{"model": ..., "params": {...}}``: a field the text leaves out is None (``std_errors``
+    and ``undetermined`` empty). Text that is not one fit result, or a field of the wrong type
+    (``"converged": "no"``), raises ``ValueError`` naming the field.
+
     A result is read-only: :meth:`eval`, :func:`pack` and :func:`to_json` use the report as
     the fit wrote it, so an edited parameter would be silently ignored by them. Assigning an
     attribute or changing a mapping raises ``TypeError`` or ``AttributeError``; to evaluate
@@ -303,27 +308,24 @@ class FitResult:
     """
 
     def __init__(self, text: str):
-        r = json.loads(text)
-        unc = r.get("uncertainty", {})
+        r = _fit_result_fields(text)
+        unc = r.get("uncertainty") or {}
+        per_param = _pairs(unc.get("params") or {})
         fields = {
             "_text": text,
             "report": _frozen(r),
-            "dataset": r["dataset"],
-            "wavelength": _brdf.band_of(r["dataset"]),
+            "dataset": r.get("dataset"),
+            "wavelength": None if r.get("dataset") is None else _brdf.band_of(r["dataset"]),
             "model": r["model"],
             "params": _frozen(dict(_pairs(r["params"]))),
-            "std_errors": _frozen({name: u.get("se") for name, u in _pairs(unc.get("params", {}))}),
+            "std_errors": _frozen({name: u.get("se") for name, u in per_param}),
             "undetermined": _frozen(
-                {
-                    name: (u.get("note") or "")
-                    for name, u in _pairs(unc.get("params", {}))
-                    if not u.get("determined", True)
-                }
+                {name: (u.get("note") or "") for name, u in per_param if not u.get("determined", True)}
             ),
             "correlation": _frozen(unc.get("correlation")),
-            "metrics": _frozen(r["metrics"]),
-            "energy": _frozen(r["energy"]),
-            "converged": r["converged"],
+            "metrics": _frozen(r.get("metrics")),
+            "energy": _frozen(r.get("energy")),
+            "converged": r.get("converged"),
         }
         for k, v in fields.items():
             object.__setattr__(self, k, v)
@@ -347,6 +349,9 @@ class FitResult:
 
     def __repr__(self) -> str:
         ps = ", ".join(f"{k}={v:.6g}" for k, v in self.params.items())
+        if self.metrics is None:
+            # A hand-written result: model and parameters alone.
+            return f"FitResult({self.dataset!r}, {self.model}: {ps})"
         rms = self.metrics.get("rms_rel")
         # Absolute residuals with a zero reading leave the relative error undefined (null).
         rms = "undefined" if rms is None else f"{rms:.3g}"
@@ -356,6 +361,61 @@ class FitResult:
             nodes = "x".join(str(n) for n in table["nodes"])
             return f"FitResult({self.dataset!r}, {self.model} + fitted table {nodes}: {ps}; base rms_rel {rms})"
         return f"FitResult({self.dataset!r}, {self.model}: {ps}; rms_rel {rms})"
+
+
+# The fields of a fit result that FitResult reads beyond the model and parameters (which the
+# library checks), with the JSON type each must have when present and not null.
+_FIT_RESULT_TYPES = {
+    "dataset": (str, "a string"),
+    "converged": (bool, "true or false"),
+    "metrics": (dict, "an object"),
+    "energy": (dict, "an object"),
+    "uncertainty": (dict, "an object"),
+}
+
+
+def _json_kind(v) -> str:
+    """The JSON name of a parsed value's type, for messages."""
+    for t, name in ((bool, "a boolean"), (dict, "an object"), (list, "an array"), (str, "a string")):
+        if isinstance(v, t):
+            return name
+    return "null" if v is None else "a number"
+
+
+def _fit_result_fields(text):
+    """The parsed object of one fit result, or ValueError naming what is wrong: not JSON, not
+    one object, refused by the library's reader (model, parameters, unknown fields), or a
+    field FitResult reads of the wrong type."""
+    if not isinstance(text, str):
+        raise TypeError(f"FitResult takes the JSON text of one fit, not {type(text).__name__}")
+    try:
+        r = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"FitResult: not JSON: {e}") from None
+    if not isinstance(r, dict):
+        raise ValueError(
+            f"FitResult: one fit result is a JSON object, not {_json_kind(r)} "
+            "(for the fits of an array, FitResult(json.dumps(item)) for each item)"
+        )
+    for name, (t, what) in _FIT_RESULT_TYPES.items():
+        v = r.get(name)
+        if v is not None and not isinstance(v, t):
+            raise ValueError(f"FitResult: field `{name}` must be {what}, not {_json_kind(v)} ({v!r})")
+    params = r.get("params")
+    if isinstance(params, dict):
+        for name, v in params.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise ValueError(f"FitResult: field `params.{name}` must be a number, not {_json_kind(v)} ({v!r})")
+    # The model, each of its parameters once, no unknown field: the library's reader.
+    _brdf.check_fit(text)
+    unc = r.get("uncertainty") or {}
+    if unc.get("params") is not None:
+        if not isinstance(unc["params"], (dict, list)):
+            raise ValueError("FitResult: field `uncertainty.params` must be an object")
+        for pair in _pairs(unc["params"]) if isinstance(unc["params"], dict) else unc["params"]:
+            if not (isinstance(pair, (list, tuple)) and len(pair) == 2 and isinstance(pair[1], dict)):
+                raise ValueError(f"FitResult: field `uncertainty.params` holds {pair!r}, not a name and an object")
+    return r
 
 
 def _frozen(v):
