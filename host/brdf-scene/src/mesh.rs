@@ -258,6 +258,9 @@ pub struct Mesh {
     /// facets), so the facet faces outwards and, seen from behind, always lies behind a front
     /// face of its own shell (a depth buffer may skip it then).
     pub closed: Vec<bool>,
+    /// Per facet: the facet across each of its edges (vertex 0 to 1, 1 to 2, 2 to 0), or
+    /// `u32::MAX` where no other facet, or more than one, shares that edge.
+    pub neighbours: Vec<[u32; 3]>,
 }
 
 impl fmt::Debug for Mesh {
@@ -436,8 +439,9 @@ impl Mesh {
             parts,
             origins,
             closed: Vec::new(),
+            neighbours: Vec::new(),
         };
-        mesh.closed = mesh.check_winding()?;
+        (mesh.closed, mesh.neighbours) = mesh.check_winding()?;
         mesh.check_coincident()?;
         Ok(mesh)
     }
@@ -689,7 +693,7 @@ impl Mesh {
     /// exactly two facets must be run in opposite directions by them; an edge of three or more
     /// facets (a sheet welded onto a body along an edge) is not manifold, and its shells are
     /// treated as open. Returns whether each facet's shell is closed.
-    fn check_winding(&self) -> Result<Vec<bool>, MeshError> {
+    fn check_winding(&self) -> Result<(Vec<bool>, Vec<[u32; 3]>), MeshError> {
         let file = || self.file.display().to_string();
         let edges = |f: &Facet| {
             let v = f.vertices;
@@ -708,10 +712,15 @@ impl Mesh {
         order.par_sort_unstable();
         let mut uses = vec![0u32; 3 * n];
         let mut first_use = vec![0u32; 3 * n];
+        let mut neighbours = vec![[u32::MAX; 3]; n];
         for run in order.chunk_by(|x, y| x.0 == y.0) {
             for &(_, u) in run {
                 uses[u as usize] = run.len() as u32;
                 first_use[u as usize] = run[0].1;
+            }
+            if let [(_, u), (_, w)] = *run {
+                neighbours[u as usize / 3][u as usize % 3] = w / 3;
+                neighbours[w as usize / 3][w as usize % 3] = u / 3;
             }
         }
         drop(order);
@@ -792,7 +801,8 @@ impl Mesh {
                 });
             }
         }
-        Ok((0..n).map(|k| !open[root(&mut parent, k)]).collect())
+        let closed = (0..n).map(|k| !open[root(&mut parent, k)]).collect();
+        Ok((closed, neighbours))
     }
 
     /// OBJ through `tobj`, with line numbers for every facet and every reader error.

