@@ -512,6 +512,13 @@ impl MergeCmd {
         for (k, path) in self.shards.iter().enumerate() {
             let text = brdf_fit::data::read_input(path)
                 .with_context(|| format!("cannot read shard {}", path.display()))?;
+            // A shard cut short mid-row would otherwise pass with its last number truncated.
+            if !text.is_empty() && !text.ends_with('\n') {
+                anyhow::bail!(
+                    "{}: does not end with a line break: cut short while being written?",
+                    path.display()
+                );
+            }
             let mut lines = text.lines();
             let head = lines
                 .next()
@@ -541,8 +548,24 @@ impl MergeCmd {
                 if fields != width {
                     return Err(at(format!("{fields} fields where the header names {width}")));
                 }
-                if let Some(t) = line.split(',').skip(2).find(|t| t.parse::<f64>().is_err()) {
-                    return Err(at(format!("sigma `{t}` is not a number")));
+                // Each field as one run writes it (the shortest form that reads back, so the
+                // merge is that run's bytes), and each sigma a finite number, not negative.
+                for (i, t) in line.split(',').enumerate() {
+                    let name = ["azimuth", "elevation"].get(i).copied().unwrap_or("sigma");
+                    let v = t
+                        .parse::<f64>()
+                        .map_err(|_| at(format!("{name} `{t}` is not a number")))?;
+                    if i >= 2 && !(v.is_finite() && v >= 0.0) {
+                        return Err(at(format!(
+                            "sigma `{t}` is not a finite cross-section (0 or more)"
+                        )));
+                    }
+                    if format!("{v}") != t {
+                        return Err(at(format!(
+                            "{name} `{t}` is not written as `brdf scene lrcs` writes it (`{v}`): an \
+                             edited shard?"
+                        )));
+                    }
                 }
                 let Some(a) = want.get(j) else {
                     return Err(at(format!(

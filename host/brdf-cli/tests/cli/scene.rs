@@ -640,21 +640,36 @@ fn shards_merge_into_one_runs_csv_byte_for_byte() {
     let other_s = other.to_str().unwrap();
     refused(&merge(&[s0, other_s, s2]), "is not the `azimuth,elevation,lrcs`");
     // A row with a field dropped or not a number (it was copied through).
+    // Nor a sigma that is no cross-section (NaN, infinite, negative), nor a field written
+    // otherwise than one run writes it (the merge would not be that run's bytes).
     for (edit, says) in [
         ("drop", "2 fields where the header names 3"),
         ("word", "sigma `hello`"),
+        ("nan", "sigma `NaN` is not a finite cross-section"),
+        ("-inf", "sigma `-inf` is not a finite cross-section"),
+        ("-5", "sigma `-5` is not a finite cross-section"),
+        ("plus", "is not written as `brdf scene lrcs` writes it"),
     ] {
         let text = std::fs::read_to_string(s1).unwrap();
         let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
-        let angles: Vec<String> = lines[4].split(',').take(2).map(str::to_owned).collect();
+        let fields: Vec<String> = lines[4].split(',').map(str::to_owned).collect();
+        let angles = fields[..2].join(",");
         lines[4] = match edit {
-            "drop" => angles.join(","),
-            _ => format!("{},hello", angles.join(",")),
+            "drop" => angles,
+            "word" => format!("{angles},hello"),
+            "nan" => format!("{angles},NaN"),
+            "-inf" => format!("{angles},-inf"),
+            "-5" => format!("{angles},-5"),
+            _ => format!("+{},{},{}", fields[0], fields[1], fields[2]),
         };
         std::fs::write(&other, lines.join("\n") + "\n").unwrap();
         refused(&merge(&[s0, other_s, s2]), says);
         refused(&merge(&[s0, other_s, s2]), "line 5");
     }
+    // A shard cut short inside its last number (no final line break).
+    let text = std::fs::read_to_string(s1).unwrap();
+    std::fs::write(&other, &text[..text.len() - 4]).unwrap();
+    refused(&merge(&[s0, other_s, s2]), "does not end with a line break");
     // -o onto a shard or the scene would destroy an input.
     refused(&merge(&[s0, s1, s2, "-o", s1]), "-o names the shard");
     refused(&merge(&[s0, s1, s2, "-o", &scene()]), "-o");
