@@ -31,8 +31,10 @@ pub const MAX_PIXELS: usize = 4096;
 /// Most samples per pixel along each side.
 pub const MAX_SUPERSAMPLE: usize = 16;
 
-/// Most samples of one depth buffer (218 MB at 13 bytes each).
-pub const MAX_SAMPLES: usize = 1 << 24;
+/// Most samples of one depth buffer (218 MB at 13 bytes each): [`MAX_PIXELS`] pixels and a
+/// pixel of margin each side, one sample per pixel (with 2^24, 4,096 pixels were refused
+/// whatever the supersampling).
+pub const MAX_SAMPLES: usize = (MAX_PIXELS + 2) * (MAX_PIXELS + 2);
 
 /// A bistatic sample counts as lit when the source's depth buffer at its place holds its own
 /// facet, or a surface no nearer than this many of the source buffer's sample widths, plus

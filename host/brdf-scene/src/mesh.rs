@@ -4,7 +4,7 @@
 //!
 //! Checks, each a [`MeshError`] naming the file and the line (OBJ) or facet number (STL):
 //! non-finite coordinates; degenerate facets (zero area, or an angle so thin that the normal
-//! is noise); polygons that a fan does not triangulate (non-convex or non-planar);
+//! is noise); polygons that no fan from one of their vertices triangulates (non-convex or non-planar);
 //! inconsistent winding (two facets that run along a shared edge in the same direction, so
 //! one of them faces the wrong way); and a closed shell whose facets all face inwards
 //! (negative enclosed volume). Vertices at bit-identical positions are welded, so facets of
@@ -1073,13 +1073,28 @@ fn fan(
     if !(unit > 0.0 && off_plane <= POLYGON_PLANAR_REL * size) {
         return Err(refuse());
     }
-    for k in 1..idx.len() - 1 {
-        let (a, b, c) = (p(idx[0]), p(idx[k]), p(idx[k + 1]));
-        let n = v3::cross(v3::sub(b, a), v3::sub(c, a));
-        if v3::dot(n, newell) <= 0.0 {
-            return Err(refuse());
-        }
-        out.push(([idx[0], idx[k], idx[k + 1]], part, origin));
+    // The fan from the first vertex whose fan triangles all face the Newell normal: from the
+    // polygon's first vertex when it can (the triangles it always had), else from another, so
+    // that a convex polygon with a vertex on a straight edge (an exporter's way to mend a
+    // T-junction) is not refused for a flat fan triangle that another start avoids.
+    let n = idx.len();
+    let fans = |start: usize| {
+        (1..n - 1).all(|k| {
+            let (a, b, c) = (
+                p(idx[start]),
+                p(idx[(start + k) % n]),
+                p(idx[(start + k + 1) % n]),
+            );
+            v3::dot(v3::cross(v3::sub(b, a), v3::sub(c, a)), newell) > 0.0
+        })
+    };
+    let start = (0..n).find(|&s| fans(s)).ok_or_else(refuse)?;
+    for k in 1..n - 1 {
+        out.push((
+            [idx[start], idx[(start + k) % n], idx[(start + k + 1) % n]],
+            part,
+            origin,
+        ));
     }
     Ok(())
 }
@@ -1324,6 +1339,24 @@ mod tests {
         // Facet 1 3 2 lies in z = 0 and faces -z.
         assert_eq!(m.facets[0].normal, [0.0, 0.0, -1.0]);
         assert!((m.facets[0].area - 0.5).abs() < 1e-15);
+    }
+
+    /// A convex pentagon with a vertex on the straight edge between two others (how exporters
+    /// mend a T-junction) was refused when that edge met the first vertex (its fan from there
+    /// has a flat triangle) and accepted written from another vertex; now both, with the same
+    /// area. A polygon no fan from any of its vertices triangulates is still refused.
+    #[test]
+    fn a_vertex_on_a_straight_edge_does_not_refuse_a_convex_polygon() {
+        let v = "o p\nv 0 0 0\nv 0.5 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+        for f in ["f 1 2 3 4 5", "f 2 3 4 5 1", "f 5 1 2 3 4"] {
+            let m = obj(&format!("{v}{f}\n")).unwrap();
+            let area: f64 = m.facets.iter().map(|x| x.area).sum();
+            assert!((area - 1.0).abs() < 1e-15, "{f}: {area}");
+            assert!(m.facets.iter().all(|x| x.normal == [0.0, 0.0, 1.0]), "{f}");
+        }
+        // A comb with two notches: no start fans it.
+        let comb = "o p\nv 0 0 0\nv 4 0 0\nv 4 2 0\nv 3 1 0\nv 2 2 0\nv 1 1 0\nv 0 2 0\nf 1 2 3 4 5 6 7\n";
+        assert!(obj(comb).unwrap_err().to_string().contains("not convex"));
     }
 
     /// A tube of full-length slivers (each 10 m long, a few mm across): cells as wide as a

@@ -1069,3 +1069,40 @@ fn a_sheet_finer_than_the_samples_stays_within_its_bound() {
     // The case is one: the teeth alias (several percent off at some resolution).
     assert!(worst > 0.05, "{worst}");
 }
+
+/// The largest image the help offers, 4,096 pixels at one sample each, is drawn (with 2^24
+/// samples at most, the margin pixels made every 4,096-pixel image too large); one sample more
+/// each way is refused by name.
+#[test]
+fn the_largest_image_offered_is_drawn() {
+    use brdf_scene::image::{image, ImageOptions, MAX_PIXELS};
+    let mut b = MeshBuilder::new();
+    b.plate([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], (1, 1), "plate");
+    let s = scene(
+        b.build("plate").unwrap(),
+        lambert(0.5),
+        sensor(Mode::Monostatic, &[0.0], &[90.0]),
+    );
+    let a = &s.aspects()[0];
+    let img = image(
+        &s,
+        a,
+        &ImageOptions {
+            pixels: MAX_PIXELS,
+            supersample: 1,
+        },
+    )
+    .unwrap();
+    assert_eq!(img.width.max(img.height), MAX_PIXELS + 2);
+    assert!(rel(img.lrcs(), 4.0 * 0.5) < 1e-3, "{}", img.lrcs());
+    let e = image(
+        &s,
+        a,
+        &ImageOptions {
+            pixels: MAX_PIXELS,
+            supersample: 2,
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("samples each way"), "{e}");
+}
