@@ -370,10 +370,21 @@ impl Mesh {
             file: file.clone(),
             why,
         };
-        if !std::fs::metadata(path).map_err(io)?.is_file() {
+        let meta = std::fs::metadata(path).map_err(io)?;
+        if !meta.is_file() {
             return Err(not_mesh(
                 "not a regular file (a device, directory or pipe)".into(),
             ));
+        }
+        let too_large = || {
+            not_mesh(format!(
+                "larger than {} MiB, the most a mesh may be (mesh::MAX_MESH_BYTES)",
+                MAX_MESH_BYTES >> 20
+            ))
+        };
+        // Refused unread when its size says so (a 5 GB file was read to 1 GiB first).
+        if meta.len() > MAX_MESH_BYTES {
+            return Err(too_large());
         }
         let mut bytes = Vec::new();
         std::fs::File::open(path)
@@ -382,10 +393,7 @@ impl Mesh {
             .read_to_end(&mut bytes)
             .map_err(io)?;
         if bytes.len() as u64 > MAX_MESH_BYTES {
-            return Err(not_mesh(format!(
-                "larger than {} MiB, the most a mesh may be (mesh::MAX_MESH_BYTES)",
-                MAX_MESH_BYTES >> 20
-            )));
+            return Err(too_large()); // grew while being read
         }
         match ext.as_deref() {
             Some("obj") => Self::from_obj(path, without_bom(&bytes)),
@@ -938,6 +946,25 @@ impl Mesh {
                 ));
             }
         } else if let (Some(count), false) = (count, binary) {
+            // Text that is no ASCII STL the reader takes: say so, not that a binary count is
+            // off (`SOLID`, or `solid` after blanks, read as a binary header).
+            let head = String::from_utf8_lossy(&bytes[..bytes.len().min(80)]);
+            let first = head.split_whitespace().next().unwrap_or("");
+            if first.eq_ignore_ascii_case("solid") {
+                return Err(refuse(
+                    Origin::Facet(1),
+                    format!(
+                        "begins `{first}`{} like an ASCII STL, which must begin with `solid` at the \
+                         very start of the file, its keywords in lower case (solid, facet normal, \
+                         outer loop, vertex, endloop, endfacet, endsolid)",
+                        if bytes[0].is_ascii_whitespace() {
+                            " after blanks"
+                        } else {
+                            ""
+                        }
+                    ),
+                ));
+            }
             // The reader trusts the count and would read a longer file short.
             return Err(refuse(
                 Origin::Facet(1),
@@ -1145,6 +1172,17 @@ const OBJ_STATEMENTS: [&str; 36] = [
 /// vertices, which the reader would take for a face), vertex weights other than 1 and words
 /// that are not OBJ statements, with their line.
 fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
+    // A carriage return not followed by a line feed ends no line for the reader: a file with
+    // classic Mac line ends was one line, refused for having "no facets".
+    if let Some(at) = (0..bytes.len()).find(|&i| bytes[i] == b'\r' && bytes.get(i + 1) != Some(&b'\n')) {
+        return Err(MeshError::Parse {
+            file: file.to_owned(),
+            at: Origin::Line(bytes[..at].iter().filter(|&&b| b == b'\n').count() as u64 + 1),
+            message: "a carriage return without a line feed (lines ended by CR alone): end the \
+                      lines with LF or CR LF"
+                .into(),
+        });
+    }
     let text = String::from_utf8_lossy(bytes);
     let mut out = Vec::new();
     for (k, line) in text.lines().enumerate() {
@@ -1339,6 +1377,30 @@ mod tests {
         // Facet 1 3 2 lies in z = 0 and faces -z.
         assert_eq!(m.facets[0].normal, [0.0, 0.0, -1.0]);
         assert!((m.facets[0].area - 0.5).abs() < 1e-15);
+    }
+
+    /// Files the readers misread were refused with misleading messages: an OBJ with lines
+    /// ended by CR alone ("no facets"), an ASCII STL beginning `SOLID` or blanks before `solid`
+    /// ("binary STL header counts 1347374924 facets"). Each now says what it is.
+    #[test]
+    fn line_ends_and_stl_keywords_the_readers_cannot_take_are_named() {
+        let e = obj("o p\rv 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 1") && e.contains("carriage return"), "{e}");
+        let e = obj("o p\nv 0 0 0\nv 1 0 0\r\nv 0 1 0\rf 1 2 3\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 4") && e.contains("carriage return"), "{e}");
+        assert!(obj("o p\r\nv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 3\r\n").is_ok());
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.stl");
+        let body = "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
+        for (head, says) in [("SOLID t\n", "begins `SOLID`"), ("  solid t\n", "after blanks")] {
+            std::fs::write(&p, format!("{head}{body}").repeat(3)).unwrap();
+            let e = Mesh::load(&p).unwrap_err().to_string();
+            assert!(e.contains(says) && e.contains("lower case"), "{e}");
+        }
     }
 
     /// A convex pentagon with a vertex on the straight edge between two others (how exporters
