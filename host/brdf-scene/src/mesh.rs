@@ -1504,10 +1504,14 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("line 4") && e.contains("refused"), "{e}");
-        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0.2 0.2 0\nf 2 4 3 1\n")
+        // A dart (one reflex corner) is fanned from that corner, which triangulates it.
+        let m = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0.2 0.2 0\nf 2 4 3 1\n").unwrap();
+        let area: f64 = m.facets.iter().map(|f| f.area).sum();
+        assert!((area - 0.2).abs() < 1e-15, "{area}");
+        let e = obj("v 0 0 0\nv 4 0 0\nv 4 2 0\nv 3 1 0\nv 2 2 0\nv 1 1 0\nv 0 2 0\nf 1 2 3 4 5 6 7\n")
             .unwrap_err()
             .to_string();
-        assert!(e.contains("line 5") && e.contains("not convex"), "{e}");
+        assert!(e.contains("line 8") && e.contains("not convex"), "{e}");
     }
 
     #[test]
