@@ -406,10 +406,10 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
         out,
         "  albedo (measured incidences and 0-89 deg): {} ({})",
         albedos.join(", "),
-        if e.albedo_conserves {
-            "all <= 1"
-        } else {
-            "VIOLATES energy conservation"
+        match (&e.unbounded, e.albedo_conserves) {
+            (Some(why), _) => format!("does not conserve energy: {why}"),
+            (None, true) => "all <= 1".to_owned(),
+            (None, false) => "VIOLATES energy conservation".to_owned(),
         }
     )?;
     let inf = &r.influence;

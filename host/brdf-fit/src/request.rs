@@ -109,7 +109,7 @@ pub enum OptionError {
         hi: u64,
     },
     /// The robust loss's scale is not in [`LOSS_SCALE`].
-    #[error("loss_scale {0} is not in [1e-100, 1e100] (a number greater than 0, in the residual's units)")]
+    #[error("loss_scale {} is not in [1e-100, 1e100] (a number greater than 0, in the residual's units)", brdf_core::Compact(*.0))]
     LossScale(f64),
     /// The embedded engine minimises relative least squares only.
     #[error(
@@ -117,7 +117,7 @@ pub enum OptionError {
     )]
     Embedded(String),
     /// The noise floor is neither 0 nor within a reading's magnitude.
-    #[error("noise_floor {0} is neither 0 nor within [1e-100, 1e100] 1/sr (a reading's magnitude)")]
+    #[error("noise_floor {} is neither 0 nor within [1e-100, 1e100] 1/sr (a reading's magnitude)", brdf_core::Compact(*.0))]
     NoiseFloor(f64),
     /// More agreeing searches asked for than chains run.
     #[error("agree {agree} is more than chains {chains}: the fit could never converge")]
@@ -494,6 +494,8 @@ mod tests {
                 matches!(e, OptionError::LossScale(v) if v.to_bits() == bad.to_bits()),
                 "{e}"
             );
+            // Printed briefly (1e-300 was 300 digits).
+            assert!(e.to_string().len() < 120, "{e}");
         }
     }
 

@@ -77,25 +77,9 @@ pub(crate) fn select_dataset<'py>(
     })
 }
 
-/// Largest budget: 1 (100%), as `brdf select --budget` takes it. Beyond, it is a percentage
-/// given as a fraction: `budget=2` meant 2% and was read as 200%.
-pub(crate) const MAX_BUDGET: f64 = 1.0;
-
-/// A selection budget is a finite fraction greater than 0 and at most [`MAX_BUDGET`]
-/// (`budget` as `brdf select --budget` parses it).
+/// A selection budget as `brdf select --budget` takes it (the library's one rule).
 pub(crate) fn check_budget(budget: f64) -> Result<(), String> {
-    brdf_scene::ladder::check_budget(budget)?;
-    if budget > MAX_BUDGET {
-        return Err(format!(
-            "budget {} is a fraction, {}%, above {}: for {} percent give budget={}",
-            brdf_core::Compact(budget),
-            brdf_core::Compact(100.0 * budget),
-            brdf_core::Compact(MAX_BUDGET),
-            brdf_core::Compact(budget),
-            brdf_core::Compact(budget / 100.0)
-        ));
-    }
-    Ok(())
+    brdf_scene::ladder::check_budget(budget).map(|_| ())
 }
 
 /// `brdf select` on a file: see [`select_dataset`] and [`Selected`]; the notes are the

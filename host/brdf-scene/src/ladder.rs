@@ -178,14 +178,28 @@ pub fn fitted_rung(base: Material, bytes: Vec<u8>) -> Result<Rung, String> {
 }
 
 /// The one rule for a budget (`brdf select --budget`, `brdf.select`, `brdf.select_scene`): a
-/// finite fraction above 0 (a budget of 0 would ask the f32 path to equal the f64 model).
+/// finite fraction above 0 (a budget of 0 would ask the f32 path to equal the f64 model) and
+/// at most [`MAX_BUDGET`].
 pub fn check_budget(budget: f64) -> Result<f64, String> {
-    if budget.is_finite() && budget > 0.0 {
-        Ok(budget)
-    } else {
-        Err(format!("budget {budget} is not a finite fraction greater than 0"))
+    if !(budget.is_finite() && budget > 0.0) {
+        return Err(format!("budget {budget} is not a finite fraction greater than 0"));
     }
+    if budget > MAX_BUDGET {
+        return Err(format!(
+            "budget {} is a fraction, {}%, above {} (100%): for {} percent give {}",
+            brdf_core::Compact(budget),
+            brdf_core::Compact(100.0 * budget),
+            brdf_core::Compact(MAX_BUDGET),
+            brdf_core::Compact(budget),
+            brdf_core::Compact(budget / 100.0)
+        ));
+    }
+    Ok(budget)
 }
+
+/// Largest error budget: 1 (100%). Beyond, it is a percentage given as a fraction:
+/// `budget=2` meant 2% and was read as 200%.
+pub const MAX_BUDGET: f64 = 1.0;
 
 /// The one eligibility rule: the rung's blob fits a flash slot and, without
 /// `allow_nonphysical`, the rung is reciprocal and bounded at grazing.

@@ -413,9 +413,9 @@ impl DataDomain {
                 bi + br,
                 // Kept, left out for theta_i and for theta_r partition the dataset.
                 self.domain.points.len() + bi + br,
-                self.max_theta_i,
-                self.max_theta_r,
-                brdf_core::tolerance::ANGLE_FILTER_DEG
+                brdf_core::Compact(self.max_theta_i),
+                brdf_core::Compact(self.max_theta_r),
+                brdf_core::Compact(brdf_core::tolerance::ANGLE_FILTER_DEG)
             )
         })
     }
@@ -493,7 +493,9 @@ impl DataSelection {
             }
             fit.energy.bound = None;
             fit.energy.bound_conserves = false;
-            fit.energy.albedo_conserves = fit.energy.albedo.iter().all(|a| a.albedo <= 1.0);
+            // The table scales a base whose albedo may be unbounded at grazing (which the
+            // report states), so the one rule decides.
+            fit.energy.recheck();
         }
         Some(fit)
     }

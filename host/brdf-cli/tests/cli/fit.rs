@@ -1127,3 +1127,37 @@ fn the_header_prints_a_tiny_loss_scale_briefly() {
         );
     }
 }
+
+/// A fit whose albedo is unbounded at grazing (c < 0: `(cos ti cos tr)^c` grows towards the
+/// horizon) was printed "all <= 1" from albedos that stop at 89°; the text now says it does
+/// not conserve energy, and why, as the JSON does.
+#[test]
+fn the_text_says_why_an_albedo_unbounded_at_grazing_does_not_conserve_energy() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bright.csv");
+    let data = ok(&[
+        "synth",
+        "--model",
+        "six",
+        "--params",
+        "kb=0.05,kr=1,b=-5,a=1,kd=0.4,c=-0.1",
+        "--form",
+        "full",
+        "--theta-i",
+        "0,20,40,60",
+        "--step",
+        "10",
+        "--phi-step",
+        "45",
+    ]);
+    std::fs::write(&path, data).unwrap();
+    let text = ok(&["fit", "--brightening", path.to_str().unwrap()]);
+    let line = text
+        .lines()
+        .find(|l| l.contains("albedo (measured incidences"))
+        .unwrap();
+    assert!(
+        line.contains("does not conserve energy: albedo unbounded at grazing") && !line.contains("all <= 1"),
+        "{line}"
+    );
+}
