@@ -464,8 +464,8 @@ pub(crate) struct Scratch {
     queries: Vec<QueryBatch>,
     /// Pixel column of each sample column (`usize::MAX` beyond the image).
     column: Vec<usize>,
-    /// Per facet: lit and outline samples ([`sigma_by_area`]).
-    counts: Vec<u64>,
+    /// Per facet: lit, outline and doubtful samples ([`sigma_by_area`]).
+    counts: Vec<[u32; 3]>,
 }
 
 impl Scratch {
@@ -587,18 +587,18 @@ fn draw_aspect(
             project_all(scene, &source_view, &mut scratch.projected_source),
             pixel,
         );
-        let (nx, ny) = ((b.1[0] - b.0[0]) / step, (b.1[1] - b.0[1]) / step);
-        if nx.ceil() * ny.ceil() > MAX_SAMPLES as f64 {
-            return Err(ImageError::Refused(format!(
-                "the source sees the target {:.0} x {:.0} samples wide at this sample size: more than \
-                 {MAX_SAMPLES}; give fewer pixels or samples",
-                nx.ceil(),
-                ny.ceil()
-            )));
+        // The receiver's sample size, or coarser where the source sees the target wider than
+        // MAX_SAMPLES of them (a rod seen end-on by the receiver and broadside by the source
+        // failed the sweep): the shadow's doubtful samples enter the bound either way.
+        let mut source_step = step;
+        let fits =
+            |w: f64| ((b.1[0] - b.0[0]) / w).ceil() * ((b.1[1] - b.0[1]) / w).ceil() <= MAX_SAMPLES as f64;
+        while !fits(source_step) {
+            source_step *= 1.25;
         }
         scratch
             .source
-            .draw(scene, &source_view, step, b, &mut scratch.projected_source);
+            .draw(scene, &source_view, source_step, b, &mut scratch.projected_source);
     }
     Ok(Drawn {
         view,
@@ -627,17 +627,31 @@ impl Drawn {
 
     /// Whether receiver sample `at`, seeing facet `id` (whose slope to the source is `slope`),
     /// is lit: always monostatic; bistatic, where the source's buffer at its point holds the
-    /// same facet or a surface no nearer than the slack.
-    fn lit(&self, scratch: &Scratch, at: usize, id: u32, slope: f64) -> bool {
+    /// same facet or a surface no nearer than the slack. And whether that is in doubt: a
+    /// source sample beside that one decides otherwise (a shadow's edge passes by, and the
+    /// receiver sample's area may lie on either side of it).
+    fn lit(&self, scratch: &Scratch, at: usize, id: u32, slope: f64) -> (bool, bool) {
         if !self.bistatic {
-            return true;
+            return (true, false);
         }
         let sb = &scratch.source;
         // Where the source sees the sample's point.
         let q = self.source_view.project(self.point(&scratch.receiver, at));
+        let slack = (SHADOW_SLACK_SAMPLES + slope) * sb.step;
+        let lit_at = |t: usize| sb.facet[t] == id || sb.depth[t] >= q[2] - slack;
         match sb.at(q[0], q[1]) {
-            Some(t) => sb.facet[t] == id || sb.depth[t] >= q[2] - (SHADOW_SLACK_SAMPLES + slope) * self.step,
-            None => true,
+            Some(t) => {
+                let lit = lit_at(t);
+                let (i, j) = (t % sb.nx, t / sb.nx);
+                let beside = [
+                    (i > 0).then(|| t - 1),
+                    (i + 1 < sb.nx).then(|| t + 1),
+                    (j > 0).then(|| t - sb.nx),
+                    (j + 1 < sb.ny).then(|| t + sb.nx),
+                ];
+                (lit, beside.into_iter().flatten().any(|u| lit_at(u) != lit))
+            }
+            None => (true, false),
         }
     }
 
@@ -715,10 +729,17 @@ pub(crate) fn image_with(
             };
             range_n[pix] += 1;
             let t = scratch.terms[id as usize];
-            if t.g == 0.0 || !d.lit(scratch, at, id, t.slope) {
+            if t.g == 0.0 {
                 continue;
             }
             let g = t.g;
+            let (lit, doubt) = d.lit(scratch, at, id, t.slope);
+            if !lit {
+                if doubt {
+                    outline_sigma += g * area;
+                }
+                continue;
+            }
             sigma[pix] += g * area;
             let m = t.material as usize;
             by_material[m] += g * area;
@@ -729,7 +750,7 @@ pub(crate) fn image_with(
                 scratch.terms[id as usize].seen = true;
                 facets_seen += 1;
             }
-            if d.outline(buffer, si, sj) {
+            if doubt || d.outline(buffer, si, sj) {
                 outline_sigma += g * area;
             }
         }
@@ -822,11 +843,11 @@ pub(crate) fn sigma_by_area(
     let d = draw_aspect(scene, aspect, options, scratch)?;
     let mut column = std::mem::take(&mut scratch.column);
     d.columns(scratch.receiver.nx, &mut column);
-    // Per facet: samples that see it lit (low half) and those of them on an outline (high
-    // half); at most MAX_SAMPLES each.
+    // Per facet: samples that see it lit, those of them on an outline or in doubt, and the
+    // unlit ones in doubt (a shadow's edge); at most MAX_SAMPLES each.
     let mut counts = std::mem::take(&mut scratch.counts);
     counts.clear();
-    counts.resize(scene.mesh.facets.len(), 0);
+    counts.resize(scene.mesh.facets.len(), [0; 3]);
     let buffer = &scratch.receiver;
     for sj in 0..buffer.ny {
         if sj / d.k >= d.height {
@@ -838,10 +859,18 @@ pub(crate) fn sigma_by_area(
             if id == u32::MAX || column[si] == usize::MAX {
                 continue;
             }
-            if d.bistatic && !d.lit(scratch, at, id, scratch.terms[id as usize].slope) {
-                continue;
+            let (lit, doubt) = if d.bistatic {
+                d.lit(scratch, at, id, scratch.terms[id as usize].slope)
+            } else {
+                (true, false)
+            };
+            let c = &mut counts[id as usize];
+            if lit {
+                c[0] += 1;
+                c[1] += u32::from(doubt || d.outline(buffer, si, sj));
+            } else {
+                c[2] += u32::from(doubt);
             }
-            counts[id as usize] += 1 + (u64::from(d.outline(buffer, si, sj)) << 32);
         }
     }
     let area = d.step * d.step;
@@ -851,11 +880,11 @@ pub(crate) fn sigma_by_area(
     let mut facets_seen = 0;
     for &id in &scratch.touched {
         let t = &mut scratch.terms[id as usize];
-        let c = counts[id as usize];
-        let (lit, outline) = ((c & 0xffff_ffff) as f64, (c >> 32) as f64);
+        let [lit, outline, doubt] = counts[id as usize].map(f64::from);
         if t.g == 0.0 {
             continue;
         }
+        bound += t.g * area * doubt;
         if lit == 0.0 {
             continue;
         }

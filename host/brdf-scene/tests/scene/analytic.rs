@@ -730,6 +730,27 @@ fn laser_images_see_by_area() {
             "elevation {}: {got} against {want}",
             a.elevation_deg
         );
+        // At any resolution within the bound: the shadow's edge crosses the receiver's
+        // samples, each lit or not by the source sample at its point (the samples where a
+        // source sample beside it decides otherwise are in the bound).
+        for pixels in [5, 9, 16, 31] {
+            let img = image(
+                &s,
+                &a,
+                &ImageOptions {
+                    pixels,
+                    supersample: 2,
+                },
+            )
+            .unwrap();
+            assert!(
+                (img.lrcs() - want).abs() <= img.sigma_bound(),
+                "bistatic, elevation {}, {pixels} pixels: {} against {want}, bound {}",
+                a.elevation_deg,
+                img.lrcs(),
+                img.sigma_bound()
+            );
+        }
     }
 
     let (r, rho) = (1.0, 0.4);
@@ -849,22 +870,53 @@ fn images_and_profiles_hold_at_their_edges() {
         img.sigma_bound()
     );
 
-    // Two 1 cm plates 1 km apart across the source's view: refused by size.
+    // Two 1 cm plates 1 km apart along the receiver's line of sight (3 cm apart across it),
+    // so 1 km apart across the source's view: more samples wide than a buffer holds at the
+    // receiver's sample size. The source's buffer is coarser (the image was refused, and with
+    // it a whole sweep); both plates face between source and receiver and nothing shadows
+    // them, so centroids are exact.
+    let mode = Mode::Bistatic { separation_deg: 90.0 };
+    let probe = scene(
+        {
+            let mut b = MeshBuilder::new();
+            b.plate([0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, 0.01, 0.0], (1, 1), "a");
+            b.build("probe").unwrap()
+        },
+        lambert(rho),
+        sensor(mode, &[30.0], &[10.0]),
+    );
+    let aspect = probe.aspects()[0];
+    let (v, src) = (aspect.receiver(), aspect.source(mode));
+    let n = unit([v[0] + src[0], v[1] + src[1], v[2] + src[2]]);
+    let w = unit(cross(v, src));
+    let across = cross(n, w);
+    let side = |k: f64| [0.01 * k * w[0], 0.01 * k * w[1], 0.01 * k * w[2]];
     let mut b = MeshBuilder::new();
-    b.plate([0.0, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01], (1, 1), "a");
     b.plate(
-        [1000.0, 0.0, 0.0],
-        [0.0, 0.01, 0.0],
-        [0.0, 0.0, 0.01],
+        [0.0; 3],
+        side(1.0),
+        [0.01 * across[0], 0.01 * across[1], 0.01 * across[2]],
+        (1, 1),
+        "a",
+    );
+    let far = [
+        1000.0 * v[0] + 0.03 * w[0],
+        1000.0 * v[1] + 0.03 * w[1],
+        1000.0 * v[2] + 0.03 * w[2],
+    ];
+    b.plate(
+        far,
+        side(1.0),
+        [0.01 * across[0], 0.01 * across[1], 0.01 * across[2]],
         (1, 1),
         "b",
     );
     let far = scene(
         b.build("far").unwrap(),
         lambert(rho),
-        sensor(Mode::Bistatic { separation_deg: 90.0 }, &[0.0], &[0.0]),
+        sensor(mode, &[30.0], &[10.0]),
     );
-    let e = image(
+    let img = image(
         &far,
         &far.aspects()[0],
         &ImageOptions {
@@ -872,8 +924,17 @@ fn images_and_profiles_hold_at_their_edges() {
             supersample: 4,
         },
     )
-    .unwrap_err();
-    assert!(e.to_string().contains("the source sees the target"), "{e}");
+    .unwrap();
+    let centroid = sigmas(&far)[0];
+    // 4 rho A cos^2 each, cos^2 = (1 + s.v) / 2 for a plate facing their bisector.
+    let cos2 = (1.0 + dot(v, src)) / 2.0;
+    assert!(rel(centroid, 2.0 * 4.0 * rho * 1e-4 * cos2) < 1e-9, "{centroid}");
+    assert!(img.facets_seen == 4, "{}", img.facets_seen);
+    assert!(
+        (img.lrcs() - centroid).abs() <= img.sigma_bound(),
+        "{} {centroid}",
+        img.lrcs()
+    );
 
     // A plate at x = 1 facing +x, bistatic 60 degrees: each pixel's range lies within the
     // profile's bins.
