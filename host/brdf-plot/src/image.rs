@@ -60,7 +60,7 @@ fn blocks(image: &Pixels<'_>, b: usize) -> (usize, usize, Vec<f64>, Vec<f64>) {
 
 /// Draws σ per pixel on a log10 colour scale (pixels at 0 left white) and the range image on
 /// a linear one, side by side, axes in metres across the line of sight; an image wider than
-/// [`MAX_DRAWN_CELLS`] in blocks of pixels (the title says so).
+/// 280 cells (`MAX_DRAWN_CELLS`) in blocks of pixels (the title says so).
 pub fn laser_image(path: &Path, title: &str, image: &Pixels<'_>) -> Result<(), PlotError> {
     let n = image.width * image.height;
     if n == 0 || image.sigma.len() != n || image.range.len() != n {
