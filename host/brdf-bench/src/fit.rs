@@ -223,7 +223,10 @@ impl MethodBench {
                     seconds: vec![p.seconds],
                     errors: vec![p.rms_rel],
                 })),
-                Err(why) => eprintln!("scipy peers skipped: {why}"),
+                // A closed standard error loses the note, not the benchmark.
+                Err(why) => {
+                    let _ = writeln!(std::io::stderr(), "scipy peers skipped: {why}");
+                }
             }
         }
 

@@ -555,7 +555,7 @@ impl MergeCmd {
                     let v = t
                         .parse::<f64>()
                         .map_err(|_| at(format!("{name} `{t}` is not a number")))?;
-                    if i >= 2 && !(v.is_finite() && v >= 0.0) {
+                    if i >= 2 && !(v.is_finite() && v >= 0.0 && v.is_sign_positive()) {
                         return Err(at(format!(
                             "sigma `{t}` is not a finite cross-section (0 or more)"
                         )));

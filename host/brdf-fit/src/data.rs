@@ -46,9 +46,10 @@ pub struct Dataset {
 /// took 327 s of report).
 pub const MAX_INCIDENCE_GROUPS: usize = 90;
 
-/// Zeniths all below this many degrees look like radians ([`Dataset::radians_warning`]): a
-/// zenith in radians is below pi/2.
-pub const RADIANS_ZENITH_MAX_DEG: f64 = std::f64::consts::FRAC_PI_2;
+/// Zeniths all at most this many degrees look like radians ([`Dataset::radians_warning`]): a
+/// zenith in radians is at most pi/2, which files write rounded up as 1.5708 or 1.571 (a
+/// hemisphere in radians reaching the horizon, written 1.5708, escaped the warning).
+pub const RADIANS_ZENITH_MAX_DEG: f64 = 1.571;
 
 /// ... unless none is above this many degrees: a measurement at or near normal incidence only
 /// (a sensor's boresight, within a degree) is read as written. A hemisphere in radians
@@ -89,8 +90,8 @@ impl Dataset {
     }
 
     /// Why the zeniths look like radians written in a degree column, or `None`. The rule:
-    /// every `theta_i` and `theta_r` (as written, in degrees) is below
-    /// [`RADIANS_ZENITH_MAX_DEG`] (pi/2: a radian zenith is at most that) and at least one is
+    /// every `theta_i` and `theta_r` (as written, in degrees) is at most
+    /// [`RADIANS_ZENITH_MAX_DEG`] (pi/2 rounded up: a radian zenith is at most that) and at least one is
     /// above [`RADIANS_SPAN_MIN_DEG`] (so a set at or near normal incidence only, all within
     /// one degree, is not taken for radians). A hemisphere in radians fitted as degrees raised
     /// no warning and came out 35% off.
@@ -99,7 +100,7 @@ impl Dataset {
         for p in &self.points {
             for z in [p.theta_i.to_degrees(), p.theta_r.to_degrees()] {
                 largest = largest.max(z);
-                all_below &= z < RADIANS_ZENITH_MAX_DEG;
+                all_below &= z <= RADIANS_ZENITH_MAX_DEG;
             }
         }
         (all_below && largest > RADIANS_SPAN_MIN_DEG).then(|| {
@@ -1054,8 +1055,12 @@ mod tests {
         assert_eq!(l.datasets[0].points.len(), hemisphere.len());
         let near_normal = [(0.0, 0.0), (0.0, 0.5), (0.5, RADIANS_SPAN_MIN_DEG)];
         assert!(rows(&near_normal).warnings.is_empty());
-        let one_beyond = [(0.0, 1.2), (1.0, 1.5), (0.5, RADIANS_ZENITH_MAX_DEG)];
+        let one_beyond = [(0.0, 1.2), (1.0, 1.5), (0.5, RADIANS_ZENITH_MAX_DEG + 1e-3)];
         assert!(rows(&one_beyond).warnings.is_empty());
+        // Reaching the horizon, pi/2 written rounded up to four decimals: still radians.
+        let mut horizon = hemisphere.clone();
+        horizon.push((0.0, 1.5708));
+        assert_eq!(rows(&horizon).warnings.len(), 1);
     }
 
     /// A band written three ways was three datasets, each fitted on a third of the data; a

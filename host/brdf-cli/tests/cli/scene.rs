@@ -648,6 +648,7 @@ fn shards_merge_into_one_runs_csv_byte_for_byte() {
         ("nan", "sigma `NaN` is not a finite cross-section"),
         ("-inf", "sigma `-inf` is not a finite cross-section"),
         ("-5", "sigma `-5` is not a finite cross-section"),
+        ("-0", "sigma `-0` is not a finite cross-section"),
         ("plus", "is not written as `brdf scene lrcs` writes it"),
     ] {
         let text = std::fs::read_to_string(s1).unwrap();
@@ -660,6 +661,7 @@ fn shards_merge_into_one_runs_csv_byte_for_byte() {
             "nan" => format!("{angles},NaN"),
             "-inf" => format!("{angles},-inf"),
             "-5" => format!("{angles},-5"),
+            "-0" => format!("{angles},-0"),
             _ => format!("+{},{},{}", fields[0], fields[1], fields[2]),
         };
         std::fs::write(&other, lines.join("\n") + "\n").unwrap();
