@@ -790,6 +790,12 @@ pub(crate) fn image_with(
 fn seam_bound(scene: &Scene, scratch: &Scratch, area: f64) -> f64 {
     let mesh = scene.raster_mesh();
     let projected = &scratch.projected;
+    // The largest term of a facet facing both (the most any sample can be off by).
+    let largest = scratch
+        .touched
+        .iter()
+        .map(|&f| scratch.terms[f as usize].g)
+        .fold(0.0, f64::max);
     let mut bound = 0.0;
     for &f in &scratch.touched {
         let tf = &scratch.terms[f as usize];
@@ -798,6 +804,17 @@ fn seam_bound(scene: &Scene, scratch: &Scratch, area: f64) -> f64 {
         }
         for (e, &h) in scene.mesh.neighbours[f as usize].iter().enumerate() {
             if h == u32::MAX {
+                // An edge no one other facet shares: an outline, a T-junction, a decal's or a
+                // sliver's border, a seam of three facets. What lies beside it is unknown (the
+                // samples may all miss it: decals a sample apart hid their plate), so each
+                // sample it crosses may be off by as much as its facet's term differs from
+                // any other's, at most the larger of `g` and `largest - g`.
+                if tf.seen {
+                    let c = mesh.corners[f as usize];
+                    let (p, q) = (projected[c[e] as usize], projected[c[(e + 1) % 3] as usize]);
+                    let cells = (p[0] - q[0]).abs() + (p[1] - q[1]).abs() + 2.0;
+                    bound += cells * area * tf.g.max(largest - tf.g);
+                }
                 continue;
             }
             let th = &scratch.terms[h as usize];
