@@ -791,22 +791,70 @@ impl Mesh {
                 }
             }
         }
+        // Facets with an edge of one facet (or of more than two).
+        let open_facet: Vec<bool> = (0..n)
+            .map(|k| uses[3 * k..3 * k + 3].iter().any(|&u| u != 2))
+            .collect();
+        let shell: Vec<usize> = (0..n).map(|k| root(&mut parent, k)).collect();
+        let mut open = vec![false; n];
+        for k in 0..n {
+            open[shell[k]] |= open_facet[k];
+        }
+        // Pieces: facets connected through shared vertices. A shell cut apart by cracks (a
+        // cube's top meeting its sides only at T-junctions) is two shells, neither enclosing
+        // anything alone, but one piece that does.
+        let mut piece_parent: Vec<usize> = (0..n).collect();
+        let mut first_at = vec![usize::MAX; self.vertices.len()];
+        for (k, f) in self.facets.iter().enumerate() {
+            for v in f.vertices {
+                let first = &mut first_at[v as usize];
+                if *first == usize::MAX {
+                    *first = k;
+                } else {
+                    let (ra, rb) = (root(&mut piece_parent, k), root(&mut piece_parent, *first));
+                    if ra != rb {
+                        piece_parent[ra] = rb;
+                    }
+                }
+            }
+        }
+        let piece: Vec<usize> = (0..n).map(|k| root(&mut piece_parent, k)).collect();
+        // Closed shells and cracked ones are checked; of the pieces, those with an opening.
+        for (group, open_only) in [(&shell, false), (&piece, true)] {
+            if let Some((first, volume)) = self.inward_group(group, &open_facet, open_only) {
+                return Err(MeshError::Inward {
+                    file: file(),
+                    at: self.origins[first],
+                    part: self.parts[self.facets[first].part as usize].clone(),
+                    volume,
+                });
+            }
+        }
+        let closed = (0..n).map(|k| !open[shell[k]]).collect();
+        Ok((closed, neighbours))
+    }
+
+    /// The first group (facets `k` of group `group[k]`, the group's root) that encloses a
+    /// negative volume: its first facet in file order and the volume. A group is checked when
+    /// it is closed (no facet in `open_facet`), unless `open_only`, or when it has openings
+    /// that are only cracks ([`CRACKED_SHELL_VECTOR_AREA`]).
+    fn inward_group(&self, group: &[usize], open_facet: &[bool], open_only: bool) -> Option<(usize, f64)> {
+        let n = self.facets.len();
         let mut open = vec![false; n];
         let mut volume = vec![0.0f64; n];
-        // Per shell: the sum of its facets' vector areas, and of their areas.
+        // Per group: the sum of its facets' vector areas, and of their areas.
         let mut vector_area = vec![[0.0f64; 3]; n];
         let mut area = vec![0.0f64; n];
         let mut lo = vec![[f64::INFINITY; 3]; n];
         let mut hi = vec![[f64::NEG_INFINITY; 3]; n];
-        // The signed volume about a point of each shell, not about the origin: at geocentric
+        // The signed volume about a point of each group, not about the origin: at geocentric
         // coordinates (6.4e6 m) the terms about the origin cancel to rounding noise larger
         // than a small shell's volume (a 0.5 m cube read as -1.35 m^3, its inverse as
         // positive).
         let mut anchor: Vec<Option<[f64; 3]>> = vec![None; n];
         for (k, f) in self.facets.iter().enumerate() {
-            let r = root(&mut parent, k);
-            let v = f.vertices;
-            let p = v.map(|i| self.vertices[i as usize]);
+            let r = group[k];
+            let p = f.vertices.map(|i| self.vertices[i as usize]);
             let o = *anchor[r].get_or_insert(p[0]);
             let q = p.map(|x| v3::sub(x, o));
             volume[r] += v3::dot(q[0], v3::cross(q[1], q[2])) / 6.0;
@@ -818,30 +866,20 @@ impl Mesh {
                     hi[r][c] = hi[r][c].max(q[c]);
                 }
             }
-            if uses[3 * k..3 * k + 3].iter().any(|&u| u != 2) {
-                open[r] = true;
-            }
+            open[r] |= open_facet[k];
         }
-        for k in 0..n {
+        (0..n).find_map(|k| {
             let cracked = v3::norm(vector_area[k]) <= CRACKED_SHELL_VECTOR_AREA * area[k];
-            if root(&mut parent, k) != k || open[k] && !cracked {
-                continue;
+            let checked = if open[k] { cracked } else { !open_only };
+            if group[k] != k || !checked {
+                return None;
             }
             let extent = v3::sub(hi[k], lo[k]);
             let box_volume = extent[0] * extent[1] * extent[2];
-            if volume[k] < -FLAT_SHELL_VOLUME * box_volume {
-                // Name the first facet of the shell in file order.
-                let first = (0..n).find(|&j| root(&mut parent, j) == k).unwrap_or(k);
-                return Err(MeshError::Inward {
-                    file: file(),
-                    at: self.origins[first],
-                    part: self.parts[self.facets[first].part as usize].clone(),
-                    volume: volume[k],
-                });
-            }
-        }
-        let closed = (0..n).map(|k| !open[root(&mut parent, k)]).collect();
-        Ok((closed, neighbours))
+            // Name the first facet of the group in file order.
+            (volume[k] < -FLAT_SHELL_VOLUME * box_volume)
+                .then(|| ((0..n).find(|&j| group[j] == k).unwrap_or(k), volume[k]))
+        })
     }
 
     /// OBJ through `tobj`, with line numbers for every facet and every reader error.
@@ -1511,6 +1549,31 @@ mod tests {
         // A real opening: no top at all, wound either way, is an open surface.
         assert!(obj(&write(&sides, true)).is_ok());
         assert!(obj(&write(&sides, false)).is_ok());
+        // A top fanned through a vertex on each of its edges meets the sides only at
+        // T-junctions: a shell of its own, apart from theirs, neither cracked alone; the
+        // piece they form (sharing the corners) is, and wound inside out it is refused.
+        let cube = format!("{cube}v 0.5 0 1\nv 1 0.5 1\nv 0.5 1 1\nv 0 0.5 1\nv 0.5 0.5 1\n");
+        let ring = [5, 10, 6, 11, 8, 12, 7, 13, 5];
+        let fan: Vec<String> = ring.windows(2).map(|w| format!("14 {} {}", w[0], w[1])).collect();
+        let faces: Vec<&str> = sides
+            .iter()
+            .copied()
+            .chain(fan.iter().map(String::as_str))
+            .collect();
+        let with = |inside_out: bool| {
+            let mut text = cube.clone();
+            for f in &faces {
+                let mut v: Vec<&str> = f.split(' ').collect();
+                if inside_out {
+                    v.reverse();
+                }
+                text += &format!("f {}\n", v.join(" "));
+            }
+            obj(&text)
+        };
+        assert!(with(false).is_ok());
+        let e = with(true).unwrap_err().to_string();
+        assert!(e.contains("negative volume"), "{e}");
     }
 
     #[test]
