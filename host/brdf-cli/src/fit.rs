@@ -404,7 +404,7 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
         .collect();
     writeln!(
         out,
-        "  albedo (measured incidences and 0-89 deg): {} ({})",
+        "  albedo (measured incidences and 0-89.99 deg): {} ({})",
         albedos.join(", "),
         match (&e.unbounded, e.albedo_conserves) {
             (Some(why), _) => format!("does not conserve energy: {why}"),
