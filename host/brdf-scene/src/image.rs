@@ -44,6 +44,13 @@ pub const MAX_SAMPLES: usize = (MAX_PIXELS + 2) * (MAX_PIXELS + 2);
 /// finely tessellated plate at 85° from the source shadow itself: σ 20–30% low).
 pub const SHADOW_SLACK_SAMPLES: f64 = 2.0;
 
+/// A sample lit only thanks to [`SHADOW_SLACK_SAMPLES`], under another facet nearer the
+/// source, is taken as lit for certain when that facet's normal is within this cosine (30°)
+/// of its own: the same surface, sampled at other points by the source. A facet turned
+/// further (a wall on a plate) may really shadow the strip along its foot, so the sample
+/// enters the bound.
+pub const SLACK_SAME_SURFACE_COS: f64 = 0.866;
+
 /// Where a facet seen from behind and one seen from the front lie at the same depth (the two
 /// sides of a two-sided sheet), the front one holds the sample unless the other is nearer by
 /// more than this many sample widths: rounding makes either nearer, and the sheet's back
@@ -629,8 +636,10 @@ impl Drawn {
     /// is lit: always monostatic; bistatic, where the source's buffer at its point holds the
     /// same facet or a surface no nearer than the slack. And whether that is in doubt: a
     /// source sample beside that one decides otherwise (a shadow's edge passes by, and the
-    /// receiver sample's area may lie on either side of it).
-    fn lit(&self, scratch: &Scratch, at: usize, id: u32, slope: f64) -> (bool, bool) {
+    /// receiver sample's area may lie on either side of it), or it is lit only by the slack
+    /// under a facet turned more than [`SLACK_SAME_SURFACE_COS`] from its own (the foot of a
+    /// wall standing on a plate: the shadow's strip along it read as lit).
+    fn lit(&self, scratch: &Scratch, mesh: &RasterMesh, at: usize, id: u32, slope: f64) -> (bool, bool) {
         if !self.bistatic {
             return (true, false);
         }
@@ -642,6 +651,15 @@ impl Drawn {
         match sb.at(q[0], q[1]) {
             Some(t) => {
                 let lit = lit_at(t);
+                let other = sb.facet[t];
+                if lit
+                    && other != id
+                    && other != u32::MAX
+                    && sb.depth[t] < q[2]
+                    && v3::dot(mesh.normal[id as usize], mesh.normal[other as usize]) < SLACK_SAME_SURFACE_COS
+                {
+                    return (true, true);
+                }
                 let (i, j) = (t % sb.nx, t / sb.nx);
                 let beside = [
                     (i > 0).then(|| t - 1),
@@ -691,6 +709,7 @@ pub(crate) fn image_with(
     scratch: &mut Scratch,
 ) -> Result<LaserImage, ImageError> {
     let d = draw_aspect(scene, aspect, options, scratch)?;
+    let mesh = scene.raster_mesh();
     let (width, height, step) = (d.width, d.height, d.step);
     let mut column = std::mem::take(&mut scratch.column);
     d.columns(scratch.receiver.nx, &mut column);
@@ -733,7 +752,7 @@ pub(crate) fn image_with(
                 continue;
             }
             let g = t.g;
-            let (lit, doubt) = d.lit(scratch, at, id, t.slope);
+            let (lit, doubt) = d.lit(scratch, mesh, at, id, t.slope);
             if !lit {
                 if doubt {
                     outline_sigma += g * area;
@@ -858,6 +877,7 @@ pub(crate) fn sigma_by_area(
     scratch: &mut Scratch,
 ) -> Result<AreaSigma, ImageError> {
     let d = draw_aspect(scene, aspect, options, scratch)?;
+    let mesh = scene.raster_mesh();
     let mut column = std::mem::take(&mut scratch.column);
     d.columns(scratch.receiver.nx, &mut column);
     // Per facet: samples that see it lit, those of them on an outline or in doubt, and the
@@ -877,7 +897,7 @@ pub(crate) fn sigma_by_area(
                 continue;
             }
             let (lit, doubt) = if d.bistatic {
-                d.lit(scratch, at, id, scratch.terms[id as usize].slope)
+                d.lit(scratch, mesh, at, id, scratch.terms[id as usize].slope)
             } else {
                 (true, false)
             };

@@ -1208,3 +1208,60 @@ fn decals_just_in_front_of_a_plate_stay_within_the_bound() {
         );
     }
 }
+
+/// A 0.5 m wall standing on a 2 m plate, source and receiver 180° apart at 25° elevation on
+/// either side of it: the receiver's hidden strip and the shadow each reach past the plate's
+/// half, so σ is 0 (centroids agree). Along the wall's foot the source's buffer holds the wall
+/// within the depth slack of the plate, and the shadow's strip there read as lit, unbounded
+/// (0.0033 against a bound of 0.0014). Such samples, lit only by the slack under a facet
+/// turned from their own, now enter the bound.
+#[test]
+fn the_foot_of_a_wall_in_bistatic_light_stays_within_the_bound() {
+    use brdf_scene::image::{image, ImageOptions};
+    let mut b = MeshBuilder::new();
+    let plate = b.part("plate");
+    let v: Vec<u32> = [
+        [-1.0, -1.0, 0.0],
+        [1.0, -1.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [-1.0, 1.0, 0.0],
+    ]
+    .into_iter()
+    .map(|p| b.vertex(p))
+    .collect();
+    b.triangle([v[0], v[1], v[2]], plate);
+    b.triangle([v[0], v[2], v[3]], plate);
+    let wall = b.part("wall");
+    let w: Vec<u32> = [
+        [0.0, -1.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 1.0, 0.5],
+        [0.0, -1.0, 0.5],
+    ]
+    .into_iter()
+    .map(|p| b.vertex(p))
+    .collect();
+    b.triangle([w[0], w[1], w[2]], wall);
+    b.triangle([w[0], w[2], w[3]], wall);
+    let s = scene(
+        b.build("wall").unwrap(),
+        lambert(0.5),
+        sensor(
+            Mode::Bistatic {
+                separation_deg: 180.0,
+            },
+            &[0.0],
+            &[25.0],
+        ),
+    );
+    assert!(sigmas(&s)[0].abs() < 1e-12, "{}", sigmas(&s)[0]);
+    for (pixels, supersample) in [(256, 4), (32, 4), (32, 1)] {
+        let img = image(&s, &s.aspects()[0], &ImageOptions { pixels, supersample }).unwrap();
+        assert!(
+            img.lrcs().abs() <= img.sigma_bound(),
+            "{pixels} x {supersample}: {} against 0, bound {}",
+            img.lrcs(),
+            img.sigma_bound()
+        );
+    }
+}
