@@ -63,7 +63,7 @@ fn main() {
         .fold(0.0, f64::max)
         / exact;
     println!(
-        "icosphere level {level}: {n} facets, built and checked in {build:.2} s, scene (BVH) {prepare:.2} s; \
+        "icosphere level {level}: {n} facets, built and checked in {build:.2} s, scene {prepare:.2} s; \
          {} aspects by area at {pixels} pixels x {supersample}^2 samples on {} cores in {sweep:.2} s; \
          worst |sigma / (8/3 pi rho r^2) - 1| {worst:.2e}, sampling bound up to {bound:.2e}",
         result.aspects.len(),
