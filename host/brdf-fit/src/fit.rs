@@ -111,24 +111,27 @@ pub const AGREEMENT: f64 = 1e-9;
 pub const VALUE_ROUNDING_REL: f64 = brdf_core::tolerance::F64_REFORMULATION_REL;
 
 /// The cost's rounding floor of `problem`: the cost if every model value were off by
-/// [`VALUE_ROUNDING_REL`] of its reading, `0.5 VALUE_ROUNDING_REL^2 n median(u_i)` with `u_i`
-/// the squared residual of a model off by its whole reading ([`Problem::importance`]: the
-/// reading over its sigma, or times its weight, squared). Costs below it are rounding noise:
-/// on noise-free data every search ends somewhere below it, at costs that differ by factors
-/// of several (1e-30 against 3e-30), and [`AGREEMENT`]'s relative test alone called such a
-/// fit not converged; two costs both below it are one optimum ([`same_cost`]). Noisy data's
-/// costs lie some 1e20 times above it (1% noise: `0.5 sum_i u_i 1e-4`), where it changes
-/// nothing. The median, not the sum: one row with a sigma of 1e-15 of its reading put the
-/// sum's floor above every cost of a noisy fit, and three seeds' different optima, 36,068 to
-/// 101,599 against the best-known 583, were each "converged".
+/// [`VALUE_ROUNDING_REL`] of its reading, with every row as light as the lightest:
+/// `0.5 VALUE_ROUNDING_REL^2 n min(u_i)` over rows with `u_i > 0`, `u_i` the squared residual
+/// of a model off by its whole reading ([`Problem::importance`]: the reading over its sigma,
+/// or times its weight, squared). Costs below it are rounding noise: on noise-free data every
+/// search ends somewhere below it, at costs that differ by factors of several (1e-30 against
+/// 3e-30), and [`AGREEMENT`]'s relative test alone called such a fit not converged; two costs
+/// both below it are one optimum ([`same_cost`]). Noisy data's costs lie some 1e20 times above
+/// it (1% noise: `0.5 sum_i u_i 1e-4`), where it changes nothing. The lightest row, not the
+/// sum nor the median: rows given sigmas of 1e-15 of their readings (one row, or half of
+/// them) raised the floor above every cost of a noisy fit, and searches 23 times apart each
+/// said "converged".
 pub fn cost_floor(problem: &Problem) -> f64 {
-    let mut u: Vec<f64> = (0..problem.len()).map(|i| problem.importance(i)).collect();
-    if u.is_empty() {
-        return 0.0;
+    let lightest = (0..problem.len())
+        .map(|i| problem.importance(i))
+        .filter(|u| *u > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    if lightest.is_finite() {
+        0.5 * VALUE_ROUNDING_REL * VALUE_ROUNDING_REL * problem.len() as f64 * lightest
+    } else {
+        0.0
     }
-    let mid = u.len() / 2;
-    let (_, median, _) = u.select_nth_unstable_by(mid, f64::total_cmp);
-    0.5 * VALUE_ROUNDING_REL * VALUE_ROUNDING_REL * problem.len() as f64 * *median
 }
 
 /// Whether the costs `a` and `best` count as the same optimum: within [`AGREEMENT`] of

@@ -774,7 +774,7 @@ pub(crate) fn image_with(
             }
         }
     }
-    outline_sigma += seam_bound(scene, scratch, area);
+    outline_sigma += seam_bound(scene, scratch, d.view.d, area);
     scratch.column = column;
     let range = range_sum
         .iter()
@@ -806,7 +806,7 @@ pub(crate) fn image_with(
 /// errs high there). Without the edges, facets narrower than a sample lined up with the
 /// samples were sampled at one phase: a corrugated sheet 10% off under a stated 1% bound.
 /// Needs the receiver's sample coordinates in `scratch.projected`.
-fn seam_bound(scene: &Scene, scratch: &Scratch, area: f64) -> f64 {
+fn seam_bound(scene: &Scene, scratch: &Scratch, receiver: [f64; 3], area: f64) -> f64 {
     let mesh = scene.raster_mesh();
     let projected = &scratch.projected;
     // The largest term of a facet facing both (the most any sample can be off by).
@@ -841,7 +841,14 @@ fn seam_bound(scene: &Scene, scratch: &Scratch, area: f64) -> f64 {
             if th.facing && h < f {
                 continue;
             }
-            let dg = (tf.g - th.g).abs();
+            // A neighbour facing away from the receiver makes this edge a silhouette: what lies
+            // beyond is unknown, as beyond an edge of one facet (thin dark boxes 1 mm above a
+            // bright plate, less than an outline's depth jump in front of it, hid it unbounded).
+            let dg = if !th.facing && v3::dot(mesh.normal[h as usize], receiver) <= 0.0 {
+                tf.g.max(largest - tf.g)
+            } else {
+                (tf.g - th.g).abs()
+            };
             if dg == 0.0 {
                 continue;
             }
@@ -934,7 +941,7 @@ pub(crate) fn sigma_by_area(
         }
         bound += t.g * area * outline;
     }
-    bound += seam_bound(scene, scratch, area);
+    bound += seam_bound(scene, scratch, d.view.d, area);
     scratch.column = column;
     scratch.counts = counts;
     Ok(AreaSigma {

@@ -527,7 +527,7 @@ fn lrcs_by_area_states_each_aspects_bound() {
         "--visibility",
         "area",
         "--pixels",
-        "96",
+        "128",
         "--json",
     ])))
     .unwrap();
@@ -543,8 +543,9 @@ fn lrcs_by_area_states_each_aspects_bound() {
         let (sa, sc) = (x["lrcs"].as_f64().unwrap(), y["lrcs"].as_f64().unwrap());
         let bound = x["sampling_bound"].as_f64().unwrap();
         // The bound takes every sample an edge between facets of different σ per area
-        // crosses at its worst (the body's facets meet at angles): 29% at most at 96 pixels.
-        assert!(bound > 0.0 && bound < 0.35 * sa, "{x}");
+        // crosses at its worst, and every sample a silhouette crosses at the brightest
+        // facet's σ per area (what lies beyond may be it): 69% of σ at most at 128 pixels.
+        assert!(bound > 0.0 && bound < sa, "{x}");
         assert!(y.get("sampling_bound").is_none());
         // The parts add up.
         let parts: f64 = x["by_material"]
