@@ -1059,7 +1059,7 @@ mod tests {
         assert!(rows(&one_beyond).warnings.is_empty());
         // Reaching the horizon, pi/2 written rounded up to four decimals: still radians.
         let mut horizon = hemisphere.clone();
-        horizon.push((0.0, 1.5708));
+        horizon.push((0.0, (std::f64::consts::FRAC_PI_2 * 1e4).ceil() / 1e4));
         assert_eq!(rows(&horizon).warnings.len(), 1);
     }
 
