@@ -802,10 +802,13 @@ pub(crate) fn image_with(
 /// samples. Summed over every edge of every facet facing both, each once. A facet no sample
 /// sees contains no whole sample, so it lies in the samples its edges cross and is counted
 /// there; one with an edge no other facet shares (a loose or thin part that may slip between
-/// samples) adds its whole σ besides. Hidden facets are counted as if seen (the bound only
-/// errs high there). Without the edges, facets narrower than a sample lined up with the
-/// samples were sampled at one phase: a corrugated sheet 10% off under a stated 1% bound.
-/// Needs the receiver's sample coordinates in `scratch.projected`.
+/// samples) adds its whole σ besides. Where the other side is unknown (an edge no other
+/// single facet shares, or a silhouette: the neighbour faces away from `receiver`), a crossed
+/// sample may be off by the larger of its facet's term and the largest term less it. Hidden
+/// facets are counted as if seen (the bound only errs high there). Without the edges, facets
+/// narrower than a sample lined up with the samples were sampled at one phase: a corrugated
+/// sheet 10% off under a stated 1% bound. Needs the receiver's sample coordinates in
+/// `scratch.projected`.
 fn seam_bound(scene: &Scene, scratch: &Scratch, receiver: [f64; 3], area: f64) -> f64 {
     let mesh = scene.raster_mesh();
     let projected = &scratch.projected;
