@@ -416,15 +416,10 @@ impl Problem {
         }
     }
 
-    /// A copy without point `i` (influence analysis).
-    pub fn without(&self, i: usize) -> Problem {
-        let mut p = self.clone();
-        p.pts.remove(i);
-        p.y.remove(i);
-        p.d.remove(i);
-        p.w.remove(i);
-        p.irls.remove(i);
-        p
+    /// A copy without the points `rows` (influence analysis: a row and its exact copies).
+    pub fn without(&self, rows: &[usize]) -> Problem {
+        let keep: Vec<usize> = (0..self.len()).filter(|i| !rows.contains(i)).collect();
+        self.subset_scaled(&keep, &vec![1.0; keep.len()])
     }
 
     /// The problem on the points `indices` only (in that order), everything else alike, with

@@ -68,7 +68,13 @@ pub fn dominant_fraction(n: usize) -> f64 {
     ((2.0 * n.ln() + 14.0) / n).max(0.1)
 }
 
-/// Leave-one-out influence: the linearised cost drop `0.5 r^2 / (1 - h)` ranks the points,
+/// Leave-one-out influence over distinct rows ([`row_copies`]): a row and its exact copies
+/// are one point, left out together (leaving out one copy while its twins stay moves nothing,
+/// and copies would otherwise count as points in [`dominant_fraction`] and the residual
+/// variance). A row written `c` times weighs `c` times one row: its linearised cost drop is
+/// `0.5 c rho(r^2) / (1 - c h)`, its leverage `c h` (the hat matrix's block of `c` equal rows),
+/// its standardised residual `sqrt(c) r / (s sqrt(1 - c h))`, `s^2 = 2 cost / (m - p)` over the
+/// `m` distinct rows as in [`uncertainty`]. The linearised drop ranks the points,
 /// the top [`INFLUENCE_CANDIDATES`] are refitted without the point (a local polish from the
 /// optimum, and the whole global search where that already removes more than the dominant
 /// fraction, since one point can hold the fit in another basin). No point is listed when
@@ -76,9 +82,10 @@ pub fn dominant_fraction(n: usize) -> f64 {
 /// then rounding, and a share of them says nothing about a point (noise-free data had "lowers
 /// the cost by 5%" of a cost of 1e-30).
 pub fn influence(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: &FitOptions) -> Influence {
-    let n = problem.len();
-    let dominant_above = dominant_fraction(n);
     let kind = outcome.kind;
+    let copies = row_copies(dataset, kind);
+    let n = copies.len();
+    let dominant_above = dominant_fraction(n);
     let p = kind.param_count();
     if n <= p + 1
         || outcome.cost <= 0.0
@@ -99,8 +106,8 @@ pub fn influence(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opt
     let pinv = pseudo_inverse(&gram, &free);
     let values = problem.values(&outcome.q);
     let s2 = 2.0 * outcome.cost / (n - free.len()).max(1) as f64;
-    // Leverage, one Jacobian row at a time (no n x p matrix held).
-    let hat = |i: usize| -> f64 {
+    // Leverage of a row and its copies, one Jacobian row at a time (no n x p matrix held).
+    let hat = |i: usize, c: f64| -> f64 {
         let row = problem.jacobian_row(i, &outcome.q);
         let mut h = 0.0;
         for (x, &a) in free.iter().enumerate() {
@@ -108,21 +115,24 @@ pub fn influence(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opt
                 h += row[a] * pinv[x][y] * row[b];
             }
         }
-        h.clamp(0.0, 1.0 - 1e-12)
+        (c * h).clamp(0.0, 1.0 - 1e-12)
     };
-    let mut ranked: Vec<(usize, f64, f64)> = (0..n)
-        .map(|i| {
+    let mut ranked: Vec<(&Vec<usize>, f64, f64)> = copies
+        .iter()
+        .map(|g| {
+            let (i, c) = (g[0], g.len() as f64);
             let r = problem.residual_of(i, values[i]);
-            let h = hat(i);
-            (i, 0.5 * problem.loss().eval(r * r).0 / (1.0 - h), h)
+            let h = hat(i, c);
+            (g, 0.5 * c * problem.loss().eval(r * r).0 / (1.0 - h), h)
         })
         .collect();
     ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
     let mut points: Vec<PointInfluence> = ranked
         .iter()
         .take(INFLUENCE_CANDIDATES)
-        .map(|&(i, _, h)| {
-            let without = problem.without(i);
+        .map(|&(g, _, h)| {
+            let i = g[0];
+            let without = problem.without(g);
             let local = crate::lm::minimise(&without, &outcome.q, &lo, &hi, opts.lm);
             let (mut q, mut cost) = (local.q, local.cost);
             if (outcome.cost - cost) / outcome.cost > dominant_above {
@@ -145,7 +155,7 @@ pub fn influence(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opt
                 brdf: pt.brdf,
                 model: values[i],
                 residual: r,
-                standardized: r / (s2 * (1.0 - h)).sqrt(),
+                standardized: (g.len() as f64).sqrt() * r / (s2 * (1.0 - h)).sqrt(),
                 leverage: h,
                 cost_drop: ((outcome.cost - cost) / outcome.cost).max(0.0),
                 rms_rel_without: (rel2 / without.len().max(1) as f64).sqrt(),

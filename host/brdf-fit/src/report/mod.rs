@@ -215,10 +215,12 @@ pub struct FitReport {
     pub n: usize,
     /// Number of parameters.
     pub k: usize,
-    /// Akaike information criterion `n ln(RSS/n) + 2k` on the fitted residuals.
+    /// Akaike information criterion `m ln(RSS/m) + 2k` on the fitted residuals, `m` the
+    /// distinct rows and `RSS` their residuals' sum, each once (an exact copy of a row is no
+    /// second observation: [`distinct_rows`]).
     #[serde(deserialize_with = "f64_or_null")]
     pub aic: f64,
-    /// Bayesian information criterion `n ln(RSS/n) + k ln n`.
+    /// Bayesian information criterion `m ln(RSS/m) + k ln m`, as [`FitReport::aic`].
     #[serde(deserialize_with = "f64_or_null")]
     pub bic: f64,
     /// Wall time of the fit, seconds.
@@ -616,8 +618,17 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         .collect();
     let n = problem.len();
     let k = kind.param_count();
-    let rss = 2.0 * outcome.cost;
-    let nf = n as f64;
+    // The information criteria over distinct rows, each once ([`row_copies`]): an exact copy
+    // of a row is no second observation.
+    let copies = row_copies(dataset, kind);
+    let rss: f64 = copies
+        .iter()
+        .map(|g| {
+            let r = problem.residual_of(g[0], values[g[0]]);
+            problem.loss().eval(r * r).0
+        })
+        .sum();
+    let nf = copies.len() as f64;
     let ll = nf * (rss / nf).max(1e-300).ln();
     let params = &outcome.params[..k];
     let outside_ranges: Vec<String> = kind
@@ -627,7 +638,7 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
         .filter(|(r, &v)| !r.contains(v))
         .map(|(r, v)| format!("{} = {v} is not {}", r.name, r.text))
         .collect();
-    let unc = uncertainty(problem, outcome, distinct_rows(dataset, outcome.kind));
+    let unc = uncertainty(problem, outcome, copies.len());
     // A profile refit below the optimum: the search missed it, whatever it said.
     let (mut converged, mut search) = (outcome.converged, outcome.search.clone());
     if let Some(c) = unc.refit_below {

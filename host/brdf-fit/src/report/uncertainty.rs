@@ -71,11 +71,19 @@ pub fn distinct_directions(d: &Dataset, kind: ModelKind, limit: usize) -> usize 
 /// An exact copy of a row (its pair written the same way or another, with the same reading,
 /// sigma and weight) adds the same residual and the same Jacobian row once more: it adds to
 /// `J^T J` and to the cost exactly what the row already does, and no information, so it is
-/// not counted (the degrees of freedom of [`uncertainty`]). A replicate (the same pair read
-/// again, another reading) is counted. `O(n log n)` for readings that differ; a direction is
-/// compared only with the rows of the same reading, sigma and weight whose `cos gamma` lies
-/// within the pair rule's tolerance of its own.
+/// not counted (the degrees of freedom of [`uncertainty`], the information criteria of
+/// [`crate::report::report`], the points of [`crate::report::influence`]). A replicate (the
+/// same pair read again, another reading) is counted. The number of [`row_copies`].
 pub fn distinct_rows(d: &Dataset, kind: ModelKind) -> usize {
+    row_copies(d, kind).len()
+}
+
+/// The distinct rows of `d` to the model `kind` ([`distinct_rows`]), each as the indices of
+/// its exact copies in `d.points` (ascending; the first is the row as first written), ordered
+/// by their first index. `O(n log n)` for readings that differ; a direction is compared only
+/// with the rows of the same reading, sigma and weight whose `cos gamma` lies within the pair
+/// rule's tolerance of its own.
+pub fn row_copies(d: &Dataset, kind: ModelKind) -> Vec<Vec<usize>> {
     use std::cmp::Ordering;
     let pts = &d.points;
     let geo: Vec<brdf_core::Geometry<f64>> = pts
@@ -103,22 +111,35 @@ pub fn distinct_rows(d: &Dataset, kind: ModelKind) -> usize {
     // in `order` such rows lie within that window of one another.
     let tol = brdf_core::tolerance::SAME_PAIR_EPS * f64::EPSILON;
     let reciprocal = kind.is_reciprocal();
-    let mut kept: Vec<usize> = Vec::new();
+    // Kept rows (their group's first member in `order`) and their groups.
+    let mut kept: Vec<(usize, Vec<usize>)> = Vec::new();
     for &i in &order {
         let g = geo[i].cos_gamma();
-        let copy = kept
-            .iter()
-            .rev()
-            .take_while(|&&k| {
-                let h = geo[k].cos_gamma();
-                reading(k, i) == Ordering::Equal && g - h <= tol * (g.abs().max(h.abs()) + f64::EPSILON)
-            })
-            .any(|&k| geo[k].same_pair(&geo[i], reciprocal));
-        if !copy {
-            kept.push(i);
+        let mut copy = None;
+        for (at, (k, _)) in kept.iter().enumerate().rev() {
+            let h = geo[*k].cos_gamma();
+            if reading(*k, i) != Ordering::Equal || g - h > tol * (g.abs().max(h.abs()) + f64::EPSILON) {
+                break;
+            }
+            if geo[*k].same_pair(&geo[i], reciprocal) {
+                copy = Some(at);
+                break;
+            }
+        }
+        match copy {
+            Some(at) => kept[at].1.push(i),
+            None => kept.push((i, vec![i])),
         }
     }
-    kept.len()
+    let mut groups: Vec<Vec<usize>> = kept
+        .into_iter()
+        .map(|(_, mut g)| {
+            g.sort_unstable();
+            g
+        })
+        .collect();
+    groups.sort_unstable_by_key(|g| g[0]);
+    groups
 }
 
 /// The profile test of parameter `j`: the least rise of `2 (cost - cost_min) / s2` over refits
