@@ -265,12 +265,14 @@ fn shared_cost(problems: &[&Problem], nl: &[f64]) -> (f64, Vec<[f64; 2]>) {
 
 /// Nelder–Mead on `f` over the unit cube (coordinates clamped into it), from `x0`; returns the
 /// best point, its value, and whether the simplex met the tolerance — the simplex's values
-/// within `tol` of the best, relative, and its size under 1e-9 — (not the iteration limit or
-/// a stop).
+/// within `tol` of the best, relative, or within `floor` of it (the cost's rounding floor:
+/// values that are rounding noise, 1e-30 against 3e-30, never agree relatively), and its size
+/// under 1e-9 — (not the iteration limit or a stop).
 fn nelder_mead(
     f: &dyn Fn(&[f64]) -> f64,
     x0: &[f64],
     tol: f64,
+    floor: f64,
     stop: &dyn Fn() -> bool,
 ) -> (Vec<f64>, f64, bool) {
     let d = x0.len();
@@ -294,7 +296,8 @@ fn nelder_mead(
             .iter()
             .flat_map(|(x, _)| x.iter().zip(&simplex[0].0).map(|(a, b)| (a - b).abs()))
             .fold(0.0_f64, f64::max);
-        if (worst - best).abs() <= tol * best.abs().max(f64::MIN_POSITIVE) && size < 1e-9 {
+        let spread = (worst - best).abs();
+        if (spread <= tol * best.abs().max(f64::MIN_POSITIVE) || spread <= floor) && size < 1e-9 {
             met = true;
             break;
         }
@@ -338,7 +341,8 @@ fn nelder_mead(
 }
 
 /// Relative spread of the simplex's values under which the shape polish has converged, for
-/// small data (the summed cost's rounding sets it for large data: see [`share`]); far below
+/// small data (the summed cost's rounding sets it for large data, and its rounding floor
+/// [`cost_floor`] an absolute spread for costs that are rounding noise: see [`share`]); far below
 /// [`crate::fit::AGREEMENT`], so that two polishes that met it and agree are one optimum.
 pub const SIMPLEX_TOL: f64 = 1e-13;
 
@@ -373,6 +377,9 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
     // and a fit that had reached the optimum met the iteration limit instead.
     let points: usize = problems.iter().map(|p| p.len()).sum();
     let tol = SIMPLEX_TOL.max(points as f64 * f64::EPSILON);
+    // The summed cost's rounding floor: shapes that all fit to rounding are one optimum, for
+    // the simplex's test as for the polishes' agreement.
+    let floor: f64 = problems.iter().map(|p| cost_floor(p)).sum();
     // Candidates: every band's own shape, ranked by the summed cost.
     let mut candidates: Vec<(Vec<f64>, f64)> = own
         .iter()
@@ -403,8 +410,8 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
             .take(STARTS)
             .map(|(u, _)| {
                 // Restarted once from its own end: a simplex that collapsed early moves on.
-                let (u1, _, _) = nelder_mead(&f, u, tol, &stop);
-                nelder_mead(&f, &u1, tol, &stop)
+                let (u1, _, _) = nelder_mead(&f, u, tol, floor, &stop);
+                nelder_mead(&f, &u1, tol, floor, &stop)
             })
             .collect()
     };
@@ -412,8 +419,6 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
         .iter()
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .expect("at least one candidate");
-    // The summed cost's rounding floor: shapes that all fit to rounding are one optimum.
-    let floor: f64 = problems.iter().map(|p| cost_floor(p)).sum();
     let agreeing = polished.iter().filter(|p| same_cost(p.1, best.1, floor)).count();
     let nl = to_nl(&best.0);
     let (_, lins) = shared_cost(problems, &nl);
@@ -581,15 +586,44 @@ mod tests {
         assert_eq!(families(&names), vec![vec![0, 2], vec![3, 4]]);
     }
 
+    /// A cost that is rounding noise near its minimum (values `NOISE` apart at random, as a
+    /// noise-free fit's summed cost is: 1e-30 against 3e-30) over four shape parameters:
+    /// the simplex shrinks to below 1e-9 but its values never come within `SIMPLEX_TOL` of
+    /// each other, and the polish met its iteration limit at the optimum. Within the cost's
+    /// rounding floor (here ten times the noise) the values are one optimum.
+    #[test]
+    fn nelder_mead_converges_on_a_cost_that_is_rounding_noise() {
+        const NOISE: f64 = 1e-30;
+        let f = |x: &[f64]| {
+            let mut h = 0x9e37_79b9_7f4a_7c15_u64;
+            for v in x {
+                h = (h ^ v.to_bits()).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+                h ^= h >> 31;
+            }
+            let bowl: f64 = x.iter().map(|v| (v - 0.4).powi(2)).sum();
+            NOISE * (1.0 + (h >> 11) as f64 / (1_u64 << 53) as f64 + bowl)
+        };
+        let x0 = [0.5; 4];
+        let (_, _, met) = nelder_mead(&f, &x0, SIMPLEX_TOL, 0.0, &|| false);
+        assert!(!met, "with no floor the relative test cannot hold");
+        let (_, fx, met) = nelder_mead(&f, &x0, SIMPLEX_TOL, 10.0 * NOISE, &|| false);
+        assert!(met, "{fx:e}");
+        // A floor never ends a polish whose simplex has not shrunk: far from the minimum of
+        // a smooth cost below the floor, it still finds the minimum.
+        let g = |x: &[f64]| NOISE * ((x[0] - 0.3).powi(2) + 10.0 * (x[1] - 0.7).powi(2));
+        let (x, _, met) = nelder_mead(&g, &[0.9, 0.1], SIMPLEX_TOL, 10.0 * NOISE, &|| false);
+        assert!(met && (x[0] - 0.3).abs() < 1e-3 && (x[1] - 0.7).abs() < 1e-3, "{x:?}");
+    }
+
     #[test]
     fn nelder_mead_finds_a_smooth_minimum_in_the_box() {
         let f = |x: &[f64]| (x[0] - 0.3).powi(2) + 10.0 * (x[1] - 0.7).powi(2) + 1.0;
-        let (x, fx, met) = nelder_mead(&f, &[0.9, 0.1], SIMPLEX_TOL, &|| false);
+        let (x, fx, met) = nelder_mead(&f, &[0.9, 0.1], SIMPLEX_TOL, 0.0, &|| false);
         assert!(met && (fx - 1.0).abs() < 1e-12, "{fx}");
         assert!((x[0] - 0.3).abs() < 1e-5 && (x[1] - 0.7).abs() < 1e-5, "{x:?}");
         // A minimum outside the box ends on its face.
         let g = |x: &[f64]| (x[0] + 1.0).powi(2) + (x[1] - 0.5).powi(2);
-        let (x, _, _) = nelder_mead(&g, &[0.5, 0.5], SIMPLEX_TOL, &|| false);
+        let (x, _, _) = nelder_mead(&g, &[0.5, 0.5], SIMPLEX_TOL, 0.0, &|| false);
         assert!(x[0] == 0.0 && (x[1] - 0.5).abs() < 1e-5, "{x:?}");
     }
 }
