@@ -273,9 +273,8 @@ fn fit_sampled(problem: &Problem, drawn: &SearchSample, opts: &FitOptions) -> Fi
              {estimate:e} against the {share:e} it stands for): the search may have missed the \
              optimum"
         ));
-    } else if out.search.not_converged.is_none() && !r.converged {
-        out.search.not_converged =
-            Some("the polish on every point stopped at its iteration limit".to_owned());
+    } else if out.search.not_converged.is_none() && !r.converged() {
+        out.search.not_converged = Some(format!("the polish on every point {}", r.stop.why()));
     }
     out.converged = out.search.not_converged.is_none();
     out
@@ -666,8 +665,8 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
             "basin hopping still improved the best point ({} of {} moves since without improvement)",
             s.quiet_hops, opts.hops
         ))
-    } else if !best.converged {
-        Some("the local polish stopped at its iteration limit".to_owned())
+    } else if !best.converged() {
+        Some(format!("the local polish {}", best.stop.why()))
     } else {
         None
     };

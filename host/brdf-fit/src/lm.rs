@@ -20,9 +20,55 @@ pub struct LmResult {
     pub iterations: usize,
     /// Cost evaluations (each a pass over the data).
     pub evals: usize,
-    /// Stopped on a convergence test rather than the iteration limit.
-    pub converged: bool,
+    /// Why it stopped.
+    pub stop: LmStop,
 }
+
+impl LmResult {
+    /// Stopped on a convergence test ([`LmStop::Converged`]).
+    pub fn converged(&self) -> bool {
+        self.stop == LmStop::Converged
+    }
+}
+
+/// Why a local minimisation stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LmStop {
+    /// A convergence test held: a step too small to matter, or an accepted step that lowered
+    /// the cost by less than [`LmOptions::cost_tolerance`].
+    Converged,
+    /// [`LmOptions::max_iterations`] reached while steps were still being taken or tried.
+    IterationLimit,
+    /// No step was accepted while the damping rose past [`MAX_DAMPING`]: no downhill step
+    /// could be found at any damping (the normal equations not solvable, or every trial's cost
+    /// not below the current one, or not finite). Not a passed convergence test.
+    Stalled,
+    /// The problem's [`crate::Stop`] was requested.
+    Stopped,
+    /// The cost at the start is not finite: no step can be judged from there.
+    NotFinite,
+}
+
+impl LmStop {
+    /// What the polish did, for a fit's "not converged" reason (`"the local polish {why}"`).
+    pub fn why(self) -> &'static str {
+        match self {
+            LmStop::Converged => "converged",
+            LmStop::IterationLimit => "stopped at its iteration limit",
+            LmStop::Stalled => {
+                "stalled: no step lowered the cost at any damping (the damping reached its limit)"
+            }
+            LmStop::Stopped => "was stopped",
+            LmStop::NotFinite => "started where the cost is not finite",
+        }
+    }
+}
+
+/// The damping `lambda` above which a polish that has accepted no step since is called
+/// stalled ([`LmStop::Stalled`]): the step is then `1e-30` of the undamped gradient step in
+/// each scaled coordinate, far below any step the step tolerance would still take, so no
+/// damping left would find one.
+pub const MAX_DAMPING: f64 = 1e30;
 
 /// Stopping rules.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -113,16 +159,20 @@ pub fn minimise(
             cost,
             iterations: 0,
             evals,
-            converged: false,
+            stop: LmStop::NotFinite,
         };
     }
     // Marquardt damping `J^T J + lambda diag(J^T J)`: lambda is dimensionless, so neither the
     // data's units nor the weights' size nor a parameter's own units change the path.
     let mut lambda = 1e-3;
     let mut nu = 2.0;
-    let mut converged = false;
+    let mut stop = LmStop::IterationLimit;
     let mut iterations = 0;
-    while iterations < opts.max_iterations && !problem.stopped() {
+    while iterations < opts.max_iterations {
+        if problem.stopped() {
+            stop = LmStop::Stopped;
+            break;
+        }
         iterations += 1;
         // Active set: at a bound with the descent direction pointing outside. A parameter
         // with no effect on the residuals (a zero column: the lobe's shape when kb = 0) is
@@ -145,6 +195,12 @@ pub fn minimise(
         let Some(step) = cholesky_solve(&a, &b, n) else {
             lambda *= nu;
             nu *= 2.0;
+            if lambda > MAX_DAMPING {
+                // Not solvable at any damping (a Jacobian too large or not finite): before,
+                // this ran on to the iteration limit and said so.
+                stop = LmStop::Stalled;
+                break;
+            }
             continue;
         };
         let mut trial = q;
@@ -154,7 +210,7 @@ pub fn minimise(
             step_effect = step_effect.max((trial[j] - q[j]).abs() * jtj[j][j].sqrt());
         }
         if step_effect <= opts.step_tolerance * (2.0 * cost).sqrt() {
-            converged = true;
+            stop = LmStop::Converged;
             break;
         }
         // The trial's normal equations come with its cost: an accepted step (the common
@@ -187,14 +243,15 @@ pub fn minimise(
             lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
             nu = 2.0;
             if small {
-                converged = true;
+                stop = LmStop::Converged;
                 break;
             }
         } else {
             lambda *= nu;
             nu *= 2.0;
-            if lambda > 1e30 {
+            if lambda > MAX_DAMPING {
                 // No downhill step at any damping: stalled, not a passed convergence test.
+                stop = LmStop::Stalled;
                 break;
             }
         }
@@ -204,7 +261,7 @@ pub fn minimise(
         cost,
         iterations,
         evals,
-        converged,
+        stop,
     }
 }
 
@@ -228,5 +285,35 @@ mod tests {
         assert!((2.0 * x[0] + 3.0 * x[1] - 1.0).abs() < F64_REFORMULATION_REL);
         a[1][1] = 1.0;
         assert!(cholesky_solve(&a, &b, 2).is_none());
+    }
+}
+
+/// A stalled polish says so. Log residuals of data at 0.3 from a Lambertian albedo of 1e-300:
+/// `J^T J` (of `1/rho0` squared) overflows, no damping makes the normal equations solvable, no
+/// step is taken, and the polish ran its 300 iterations and said "iteration limit". From 0 the
+/// cost itself is not finite.
+#[cfg(test)]
+mod stall {
+    use super::*;
+
+    #[test]
+    fn a_polish_that_takes_no_step_at_any_damping_stalls() {
+        use brdf_core::ModelKind;
+        let kind = ModelKind::Lambert;
+        let d = crate::synth::in_plane(kind, &[0.3], &[0.0, 30.0, 60.0], 5.0, 0.0, 1).unwrap();
+        let problem = Problem::new(kind, crate::Residual::Log, &d.points);
+        let (lo, hi) = problem.bounds();
+        let from = |rho: f64| {
+            let q = crate::kernel::to_internal(kind, &[rho]);
+            minimise(&problem, &q, &lo, &hi, LmOptions::default())
+        };
+        let r = from(1e-300);
+        assert_eq!(r.stop, LmStop::Stalled, "{r:?}");
+        assert!(r.iterations < LmOptions::default().max_iterations, "{r:?}");
+        assert_eq!(r.q[0], 1e-300, "no step was taken");
+        assert_eq!(from(0.0).stop, LmStop::NotFinite);
+        // The same data from a start it can leave: converged, at the albedo.
+        let r = from(0.1);
+        assert!(r.converged() && (r.q[0] - 0.3).abs() < 1e-9, "{r:?}");
     }
 }
