@@ -252,17 +252,19 @@ impl<T: Float> AnyModel<T> {
     }
 
     /// The directional-hemispherical reflectance (the energy reflected) stays bounded as the
-    /// incidence approaches the horizon. Not so for the five-parameter model (`kd / cos ti`),
-    /// Minnaert with `k < 1` and the six-parameter models with `c < 0` (`(cos ti cos tr)^c`),
-    /// whose values and albedos both grow without bound there. The microfacet model's value is
-    /// unbounded only at the grazing mirror direction, as a mirror's is, while its albedo stays
-    /// at most `ks + kd` ([`Ggx`]): bounded.
+    /// incidence approaches the horizon. Not so for the five-parameter model (`kb kd / cos ti`),
+    /// Minnaert with `k < 1` (`rho0 (cos ti cos tr)^(k - 1)`) and the six-parameter models with
+    /// `c < 0` (`kd (cos ti cos tr)^c`), whose values and albedos both grow without bound there
+    /// — unless that term's weight is 0 (`kb` or `kd`, `rho0`, `kd`): a term that weighs
+    /// nothing diverges nowhere, and the rest of each model is bounded. The microfacet model's
+    /// value is unbounded only at the grazing mirror direction, as a mirror's is, while its
+    /// albedo stays at most `ks + kd` ([`Ggx`]): bounded.
     pub fn bounded_at_grazing(&self) -> bool {
         let p = self.to_params();
         match self {
-            AnyModel::Five(_) => false,
-            AnyModel::Minnaert(_) => p[1] >= T::ONE,
-            AnyModel::Six(_) | AnyModel::SixCos2(_) => p[5] >= T::ZERO,
+            AnyModel::Five(_) => p[0] == T::ZERO || p[4] == T::ZERO,
+            AnyModel::Minnaert(_) => p[1] >= T::ONE || p[0] == T::ZERO,
+            AnyModel::Six(_) | AnyModel::SixCos2(_) => p[5] >= T::ZERO || p[4] == T::ZERO,
             AnyModel::Ggx(_) | AnyModel::Lambert(_) => true,
         }
     }

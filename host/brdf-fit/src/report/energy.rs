@@ -235,4 +235,40 @@ mod incidence_tests {
         let minnaert = energy_of(ModelKind::Minnaert, &[0.5, 0.9], &measured);
         assert!(!minnaert.albedo_conserves && minnaert.unbounded.unwrap().contains("k = 0.9 < 1"));
     }
+
+    /// A term with zero weight cannot make the albedo unbounded: `c < 0` with `kd = 0`, Minnaert
+    /// `k < 1` with `rho0 = 0`, the five-parameter model with `kd = 0` or `kb = 0` were called
+    /// unbounded at grazing (their diverging term weighed 0). Their albedo at 89.999° is the
+    /// proof: at most the 89.99° albedo's neighbourhood, where the unbounded ones have risen
+    /// past it. The same models with the weight back stay unbounded.
+    #[test]
+    fn a_term_with_zero_weight_leaves_the_albedo_bounded() {
+        let grazing = |kind: ModelKind, p: &[f64]| {
+            let m = AnyModel::new(kind, p).unwrap();
+            let rule = AlbedoRule::for_model(&m);
+            let at = |deg: f64| brdf_core::checks::albedo(&m, f64::to_radians(deg), rule);
+            (m.bounded_at_grazing(), at(89.99), at(89.9999))
+        };
+        let cases: [(ModelKind, &[f64], &[f64]); 4] = [
+            (ModelKind::Six, &[0.05, 1.0, -5.0, 1.0, 0.0, -0.1], &[0.05, 1.0, -5.0, 1.0, 0.4, -0.1]),
+            (ModelKind::Minnaert, &[0.0, 0.9], &[0.5, 0.9]),
+            (ModelKind::Five, &[0.5, 1.0, -5.0, 1.0, 0.0], &[0.5, 1.0, -5.0, 1.0, 0.4]),
+            (ModelKind::Five, &[0.0, 1.0, -5.0, 1.0, 0.4], &[0.5, 1.0, -5.0, 1.0, 0.4]),
+        ];
+        for (kind, off, on) in cases {
+            let (bounded, near, nearer) = grazing(kind, off);
+            assert!(bounded, "{kind} {off:?}: {near} then {nearer}");
+            assert!(nearer <= near + GRAZING_RISE_ABS, "{kind} {off:?}: {near} then {nearer}");
+            let e = energy_of(kind, off, &checked_incidences(&[0.0]));
+            assert!(e.unbounded.is_none(), "{kind} {off:?}: {e:?}");
+            let (bounded, near, nearer) = grazing(kind, on);
+            assert!(!bounded && nearer > near + GRAZING_RISE_ABS, "{kind} {on:?}: {near} then {nearer}");
+        }
+    }
+
+    /// How much a bounded albedo may still rise from 89.99° to 89.9999°: it has come to within
+    /// a fraction of a percent of its grazing limit by 89.99° ([`ENERGY_INCIDENCES_DEG`]'s
+    /// reason), while an unbounded one with `c = -0.1`, `k = 0.9` or `kd / cos ti` rises by
+    /// far more over the same hundredfold step towards the horizon.
+    const GRAZING_RISE_ABS: f64 = 1e-3;
 }
