@@ -115,6 +115,7 @@ pub fn fit_embedded(
             lobe_probes: 0,
             hops: 0,
             agreeing: 1,
+            at_cost_floor: false,
             not_converged: Some(
                 "the embedded annealer runs a fixed budget with no convergence test".to_owned(),
             ),

@@ -9,7 +9,10 @@
 //!    independent searches — annealing chains from random starts, or basin-hopping moves
 //!    from a perturbed best point — in the same lobe state: a chain that ended with the lobe
 //!    switched off (`kb = 0`, where `kr`, `b`, `a` have no effect) never counts as agreeing
-//!    with a lobe-on optimum, and the reverse.
+//!    with a lobe-on optimum, and the reverse. Or the best cost lies at or below the rounding
+//!    floor itself: no cost lies below 0, so no search can improve on it but by rounding (a
+//!    grid start's polish fitted noise-free data exactly while every chain agreed on a worse
+//!    basin, and the fit said "reached by 0 of 32 chains").
 //! 2. When the best fit has its lobe off, [`FitOptions::lobe_probes`] chains that explore only
 //!    lobe-on points, polished, found nothing better: a lobe-off optimum is only accepted
 //!    once lobe-on optima have been searched for specifically.
@@ -158,6 +161,11 @@ pub struct SearchSummary {
     pub hops: usize,
     /// Independent searches that reached the best cost.
     pub agreeing: usize,
+    /// The best cost lies at or below the cost's rounding floor ([`cost_floor`]): the data are
+    /// fitted to rounding, and no search can improve on it (part (1) of the module's rule
+    /// holds whatever [`SearchSummary::agreeing`] says).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub at_cost_floor: bool,
     /// Why the fit is not called converged, if it is not.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub not_converged: Option<String>,
@@ -242,8 +250,44 @@ pub fn fit(problem: &Problem, opts: &FitOptions) -> FitOutcome {
         None => fit_points(problem, opts),
         Some(drawn) => fit_sampled(problem, &drawn, opts),
     };
+    settle_on_bounds(problem, &mut out);
     out.seconds = started.elapsed().as_secs_f64();
     out
+}
+
+/// Puts on its bound a parameter that ended a rounding step off it: one whose move onto the
+/// bound changes the cost by at most the cost's rounding floor ([`cost_floor`]: the two points
+/// are one optimum), when it lies within the report's bound tolerance of a finite box's bound
+/// (`report::on_bound`) or anywhere above the lower bound 0 of a weight's half-open range.
+/// The polish's projected steps stop where a step lands, a rounding error past the bound
+/// (`f0` 4.9e-32, `kd` 4e-41 on noise-free data): reported as values with standard errors of
+/// 31137% of a denormal, or as "at the search bound 0" beside another value.
+fn settle_on_bounds(problem: &Problem, out: &mut FitOutcome) {
+    let (lo, hi) = problem.bounds();
+    let floor = cost_floor(problem);
+    let p = out.kind.param_count();
+    for j in 0..p {
+        if problem.is_fixed(j) {
+            continue;
+        }
+        let bound = if (hi[j] - lo[j]).is_finite() {
+            crate::report::on_bound(out.q[j], lo[j], hi[j])
+        } else {
+            lo[j].is_finite().then_some(lo[j])
+        };
+        let Some(b) = bound.filter(|&b| b != out.q[j]) else {
+            continue;
+        };
+        let mut q = out.q;
+        q[j] = b;
+        let cost = problem.cost(&q);
+        if cost <= out.cost + floor {
+            out.q = q;
+            out.cost = cost;
+            out.params = to_natural(out.kind, &q[..p]);
+            out.evals += 1;
+        }
+    }
 }
 
 /// The search on `drawn`'s subsample of `problem`, polished on every point (see [`fit`]).
@@ -482,6 +526,12 @@ struct Rules<'a> {
 }
 
 impl Rules<'_> {
+    /// Part (1) of the module's rule: enough searches reached the best cost, or it lies at or
+    /// below the cost's rounding floor (where nothing can improve on it).
+    fn agreed(&self, s: &SearchState) -> bool {
+        s.best().cost <= self.floor || s.agreeing(self.problem.kind(), self.floor) >= self.need
+    }
+
     fn probes_done(&self, best: &LmResult, probes: usize) -> bool {
         !self.probes_apply || !lobe_off(self.problem.kind(), &best.q) || probes >= self.opts.lobe_probes
     }
@@ -543,7 +593,6 @@ impl Rules<'_> {
 
     /// `s` after `unit` gave `r` (`None`: as if it found nothing, for planning ahead).
     fn apply(&self, s: &mut SearchState, unit: Unit, rng: Pcg64Mcg, r: Option<(LmResult, usize)>) {
-        let kind = self.problem.kind();
         match unit {
             Unit::Chain { probe, .. } => {
                 if let Some((r, evals)) = r {
@@ -556,7 +605,7 @@ impl Rules<'_> {
                 // (Planning ahead of the first chain with no grid: nothing found yet.)
                 s.hopping = s.chains >= self.opts.min_chains
                     && !s.found.is_empty()
-                    && s.agreeing(kind, self.floor) >= self.need
+                    && self.agreed(s)
                     && self.probes_done(&s.best(), s.probes);
             }
             Unit::Hop { .. } => {
@@ -653,10 +702,25 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
     let need = rules.need;
     let not_converged = if problem.stopped() {
         Some("the fit was stopped before its search ended".to_owned())
-    } else if agree_n < need {
+    } else if !rules.agreed(&s) {
+        // Say where the best came from when no chain or hop reached it, and where they went.
+        let searches = &s.found[s.grid_n..];
+        let from_grid = if s.found[..s.grid_n].iter().any(|g| same_optimum(kind, g, &best, rules.floor)) {
+            " (found by a grid start's polish)"
+        } else {
+            ""
+        };
+        let theirs = match searches.iter().min_by(|a, b| a.cost.total_cmp(&b.cost)) {
+            Some(own) if agree_n == 0 => {
+                let with = searches.iter().filter(|f| same_optimum(kind, f, own, rules.floor)).count();
+                format!("; their own best, {:e}, was reached by {with}", own.cost)
+            }
+            _ => String::new(),
+        };
         Some(format!(
-            "the best cost was reached by {agree_n} of {} chains and hops ({need} needed): the search could still improve",
-            s.found.len() - s.grid_n
+            "the best cost {:e}{from_grid} was reached by {agree_n} of {} chains and hops ({need}              needed){theirs}: the search could still improve",
+            best.cost,
+            searches.len()
         ))
     } else if !rules.probes_done(&best, s.probes) {
         Some("the lobe is off and the lobe-on probes were not run (chain limit)".to_owned())
@@ -683,6 +747,7 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
             lobe_probes: s.probes,
             hops: s.hops,
             agreeing: agree_n,
+            at_cost_floor: best.cost <= rules.floor,
             not_converged,
             sample: None,
         },

@@ -465,6 +465,7 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
                     lobe_probes: o.search.lobe_probes,
                     hops: o.search.hops,
                     agreeing,
+                    at_cost_floor: best.1 <= floor,
                     not_converged: why_not.clone(),
                     sample: o.search.sample,
                 },

@@ -1161,3 +1161,35 @@ fn the_text_says_why_an_albedo_unbounded_at_grazing_does_not_conserve_energy() {
         "{line}"
     );
 }
+
+/// Noise-free microfacet data with `f0 = kd = 0`: the fit is exact (cost at its rounding
+/// floor) and says so, instead of "converged: false: the best cost was reached by 0 of 32
+/// chains"; `f0` and `kd` print as 0 at their bound, not as a rounding step off it.
+#[test]
+fn noise_free_microfacet_data_at_the_bounds_fit_converged() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ggx.csv");
+    let data = ok(&[
+        "synth",
+        "--model",
+        "ggx",
+        "--params",
+        "ks=0.6,alpha=0.1,f0=0,kd=0",
+        "--form",
+        "full",
+        "--theta-i",
+        "0,20,40,60",
+    ]);
+    std::fs::write(&path, data).unwrap();
+    let text = ok(&["fit", "--model", "ggx", path.to_str().unwrap()]);
+    assert!(
+        text.contains("converged: true (the best cost") && text.contains("is at its rounding floor"),
+        "{text}"
+    );
+    for name in ["f0", "kd"] {
+        let line = text.lines().find(|l| l.trim_start().starts_with(name)).unwrap();
+        let fields: Vec<&str> = line.split_whitespace().collect();
+        assert_eq!(&fields[1..3], ["0", "-"], "{line}");
+        assert!(line.contains("at the search bound 0"), "{line}");
+    }
+}

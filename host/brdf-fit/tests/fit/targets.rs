@@ -290,3 +290,35 @@ fn noise_free_data_converge_and_claim_no_influence() {
         }
     }
 }
+
+/// Noise-free microfacet data with `f0 = kd = 0`. Before: "converged: false: the best cost was
+/// reached by 0 of 32 chains" — a grid start's polish had found the data exactly (cost 2e-30,
+/// below the cost's rounding floor), while every annealing chain agreed on a worse basin
+/// (`ks` about 1e-16, cost 48); and `f0` or `kd` ended a rounding step off their bound
+/// (4.9e-32, 1.3e-32), printed as values with huge relative errors or as "at the bound" with
+/// another value. A cost at its rounding floor cannot be improved on (no cost is below 0), and
+/// a parameter whose move onto its bound changes the cost by less than that floor sits there.
+#[test]
+fn noise_free_microfacet_data_at_the_bounds_converge_with_the_bounds_held() {
+    let cases: [(&[f64], bool); 3] = [
+        (&[0.5, 0.3, 0.0, 0.0], false),
+        (&[0.6, 0.1, 0.0, 0.0], true),
+        (&[0.6, 0.5, 0.0, 0.0], true),
+    ];
+    for (truth, full) in cases {
+        let data = if full {
+            synth::hemisphere(ModelKind::Ggx, truth, &[0.0, 20.0, 40.0, 60.0], 5.0, 30.0, 0.0, 7)
+        } else {
+            synth::in_plane(ModelKind::Ggx, truth, &[0.0, 10.0, 30.0], 5.0, 0.0, 7)
+        }
+        .unwrap();
+        let r = brdf_fit::FitSettings::new(ModelKind::Ggx).fit(&data).unwrap();
+        assert!(r.converged, "{truth:?}: {:?}", r.search.not_converged);
+        for name in ["f0", "kd"] {
+            let u = &r.uncertainty.params.0.iter().find(|(n, _)| n == name).unwrap().1;
+            assert_eq!(u.value, 0.0, "{truth:?} {name}: {u:?}");
+            assert!(!u.determined && u.se.is_none(), "{truth:?} {name}: {u:?}");
+            assert!(u.note.as_deref().unwrap_or("").contains("at the search bound 0"), "{u:?}");
+        }
+    }
+}
