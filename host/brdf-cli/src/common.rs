@@ -304,7 +304,8 @@ pub fn write_blob(packed: &brdf_fit::pack::Packed, output: &std::path::Path) -> 
 pub const SIGNIFICANT: usize = 6;
 
 /// A parameter or standard error as a table prints it: [`SIGNIFICANT`] significant figures,
-/// positional from 1e-4 to below 1e6 and with an exponent outside (a weight of 2.6e-7 printed
+/// positional when the value rounded to them lies from 1e-4 to below 1e6, and with an
+/// exponent outside (a weight of 2.6e-7 printed
 /// as `0.000000` with six decimals). Width and alignment as given (`{:>14}`).
 #[derive(Clone, Copy, Debug)]
 pub struct Sig(pub f64);
@@ -315,13 +316,21 @@ impl std::fmt::Display for Sig {
         let a = v.abs();
         let text = if !(a.is_finite() && a != 0.0) {
             format!("{v}")
-        } else if (1e-4..1e6).contains(&a) {
-            // Digits after the point that leave SIGNIFICANT in all.
-            let leading = a.log10().floor() as i64 + 1;
-            let decimals = (SIGNIFICANT as i64 - leading).max(0) as usize;
-            format!("{v:.decimals$}")
         } else {
-            format!("{v:.*e}", SIGNIFICANT - 1)
+            // Rounded to SIGNIFICANT figures first: the form follows the rounded value's
+            // decade (999999.7 rounds to 1.00000e6, which is not below 1e6; chosen by the
+            // unrounded value it printed `1000000`, seven figures).
+            let sci = format!("{v:.*e}", SIGNIFICANT - 1);
+            let exponent: i64 = sci[sci.find('e').expect("an exponent") + 1..]
+                .parse()
+                .expect("an integer exponent");
+            if (-4..6).contains(&exponent) {
+                // Digits after the point that leave SIGNIFICANT in all.
+                let decimals = (SIGNIFICANT as i64 - 1 - exponent).max(0) as usize;
+                format!("{v:.decimals$}")
+            } else {
+                sci
+            }
         };
         f.pad(&text)
     }
@@ -396,6 +405,19 @@ mod tests {
             999_999.4,
             1e6,
             6.02e23,
+            // Rounding to six figures carries into another decade: the form is chosen after
+            // rounding (999999.7 printed `1000000`, seven figures; 0.000099999996 `1.00000e-4`
+            // beside the positional 1e-4).
+            999_999.7,
+            -999_999.5,
+            99_999.95,
+            9.999_995,
+            9.999_999_9,
+            0.000_099_999_996,
+            0.000_099_999_94,
+            1e21,
+            9.999_999e20,
+            1e-300,
         ] {
             let text = Sig(v).to_string();
             let back: f64 = text.parse().unwrap();
@@ -409,7 +431,7 @@ mod tests {
                 .trim_start_matches('0')
                 .to_owned();
             assert_eq!(figures.len(), SIGNIFICANT, "{v}: {text}");
-            let half_unit = 0.5 * 10f64.powi(v.abs().log10().floor() as i32 + 1 - SIGNIFICANT as i32);
+            let half_unit = 0.5 * 10f64.powi(back.abs().max(v.abs()).log10().floor() as i32 + 1 - SIGNIFICANT as i32);
             assert!((back - v).abs() <= half_unit * (1.0 + 1e-9), "{v}: {text}");
         }
         assert_eq!(format!("{:>8}", Sig(0.0)), "       0");
