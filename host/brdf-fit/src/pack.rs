@@ -567,9 +567,14 @@ pub fn pack(
                     Level::Warning,
                     format!("warning: {origin} ({name}): energy bound {b} > 1, conservation not guaranteed"),
                 ),
+                // Why, when the albedo grows without bound at grazing (the report's
+                // `energy.unbounded`, in the same words).
                 None => say(
                     Level::Warning,
-                    format!("warning: {origin} ({name}): the model has no energy bound"),
+                    match r.model().ok().as_ref().and_then(crate::report::unbounded_at_grazing) {
+                        Some(why) => format!("warning: {origin} ({name}): the model has no energy bound: {why}"),
+                        None => format!("warning: {origin} ({name}): the model has no energy bound"),
+                    },
                 ),
             }
             if let Some(text) = f32_beyond_claim(&m).map_err(refused)? {
@@ -682,6 +687,36 @@ mod tests {
             table_nodes,
         };
         (pack(&sources, &options, |n| notes.push(n)), notes)
+    }
+
+    /// A fit whose albedo grows without bound at grazing (`c < 0`, `k < 1`, the five-parameter
+    /// `kd / cos ti`) said only "the model has no energy bound"; it now says why, in the words
+    /// of the report's `energy.unbounded`. A model bounded at grazing with no analytic bound
+    /// (the `cos^2` variant with `kr > sqrt 2`) still says only that.
+    #[test]
+    fn a_model_unbounded_at_grazing_is_packed_with_the_reason() {
+        let warning = |json: &str| {
+            let (packed, notes) = pack_text(json, None);
+            packed.unwrap();
+            notes
+                .into_iter()
+                .find(|n| n.text.contains("energy bound"))
+                .map(|n| n.text)
+                .unwrap_or_default()
+        };
+        let six = r#"{"model": "six", "params": {"kb": 0.05, "kr": 1, "b": -5, "a": 1, "kd": 0.4, "c": -0.1}}"#;
+        let text = warning(six);
+        assert!(
+            text.contains("no energy bound: albedo unbounded at grazing: c = -0.1 < 0"),
+            "{text}"
+        );
+        let minnaert = r#"{"model": "minnaert", "params": {"rho0": 0.5, "k": 0.9}}"#;
+        assert!(warning(minnaert).contains("k = 0.9 < 1"), "{}", warning(minnaert));
+        let five = r#"{"model": "five", "params": {"kb": 0.5, "kr": 1, "b": -5, "a": 1, "kd": 0.4}}"#;
+        assert!(warning(five).contains("kd / cos ti"), "{}", warning(five));
+        let cos2 = r#"{"model": "six-cos2", "params": {"kb": 0.05, "kr": 3, "b": -5, "a": 1, "kd": 0.4, "c": 1}}"#;
+        let text = warning(cos2);
+        assert!(text.ends_with("the model has no energy bound"), "{text}");
     }
 
     #[test]
