@@ -196,11 +196,40 @@ pub(crate) fn fit_paths(
 /// Checks one fit result as `brdf pack` reads it (`FittedModel::from_json`: a known model,
 /// each of its parameters once as a number, no unknown field, a valid fitted table): a
 /// whole report or the hand-written `{"model", "params"}`. The error names the field.
+///
+/// Each parameter within its range, by the rule `brdf pack` and `eval` apply
+/// (`FittedModel::model`, `brdf_core::ranges`): a result with `kb = -1` was accepted and
+/// refused only when packed. Only a fit's own report may hold parameters outside their
+/// ranges (uncalibrated data fit weights no device takes), and only when its
+/// `outside_ranges` lists exactly those (`brdf_fit::report::outside_ranges`): it says so
+/// itself, as `brdf fit` prints it.
 #[pyfunction]
 pub(crate) fn check_fit(text: &str) -> PyResult<()> {
-    brdf_fit::report::FittedModel::from_json(text, "FitResult")
-        .map(|_| ())
-        .map_err(|e| PyValueError::new_err(e.to_string()))
+    use brdf_fit::report::{outside_ranges, FitReport, FittedModel};
+    let fits = FittedModel::from_json(text, "FitResult").map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let stated = FitReport::from_json(text, "FitResult").ok();
+    for (k, fit) in fits.iter().enumerate() {
+        let Err(e) = fit.model() else { continue };
+        let params = fit.params_array().map_err(|name| {
+            PyValueError::new_err(format!("FitResult: field `params.{name}` is missing"))
+        })?;
+        let own = outside_ranges(fit.model, &params[..fit.model.param_count()]);
+        if stated
+            .as_ref()
+            .and_then(|r| r.get(k))
+            .is_some_and(|r| !own.is_empty() && r.outside_ranges == own)
+        {
+            continue;
+        }
+        let field = match e {
+            brdf_core::ParamError::OutOfRange { name, .. } | brdf_core::ParamError::NotFinite { name } => {
+                format!("field `params.{name}`")
+            }
+            _ => "field `params`".to_owned(),
+        };
+        return Err(PyValueError::new_err(format!("FitResult: {field}: {e}")));
+    }
+    Ok(())
 }
 
 /// The band of a dataset name (`FILE[wavelength=0.55]`): its wavelength in µm, or `None`

@@ -416,3 +416,28 @@ def test_a_hand_written_result_is_read_and_a_wrong_one_refused_by_field(cli, roo
     ):
         with pytest.raises(ValueError, match=match):
             brdf.FitResult(bad)
+
+
+def test_a_result_with_a_parameter_outside_its_range_is_refused_by_field(cli, root, tmp_path):
+    # Before: FitResult took kb = -1 (or an edited report's rho0 = -0.5) and only `brdf pack`
+    # refused it later. The rule is the libraries' (`brdf_core::ranges`), the field named.
+    negative = {"model": "six", "params": {"kb": -1, "kr": 21.8, "b": -27.5, "a": 0.67, "kd": 0.37, "c": 1.2}}
+    f = tmp_path / "negative.json"
+    f.write_text(json.dumps(negative))
+    p = cli("pack", f, "-o", tmp_path / "x.bin", check=False)
+    assert p.returncode != 0 and "parameter kb = -1 is out of range" in p.stderr
+    with pytest.raises(ValueError, match=r"FitResult: field `params.kb`: parameter kb = -1 is out of range"):
+        brdf.FitResult(json.dumps(negative))
+    full = json.loads(brdf.fit(str(root / KHAKI), model="lambert").to_json())
+    edited = {**full, "params": {"rho0": -0.5}}
+    with pytest.raises(ValueError, match=r"field `params.rho0`: parameter rho0 = -0.5 is out of range"):
+        brdf.FitResult(json.dumps(edited))
+    # A fit's own report that lists the parameter in `outside_ranges` says so itself, as
+    # `brdf fit` prints it (uncalibrated data fit weights no device takes): read, and refused
+    # by pack as the CLI refuses it.
+    from_fit = {**edited, "outside_ranges": ["rho0 = -0.5 is not in [0, 100]"]}
+    assert brdf.FitResult(json.dumps(from_fit)).params["rho0"] == -0.5
+    with pytest.raises(ValueError, match="field `params.rho0`"):
+        brdf.FitResult(json.dumps({**edited, "outside_ranges": ["rho0 = 3 is not in [0, 100]"]}))
+    with pytest.raises(ValueError, match="refused"):
+        brdf.pack([brdf.FitResult(json.dumps(from_fit))])

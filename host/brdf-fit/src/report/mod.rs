@@ -594,6 +594,17 @@ impl FitReport {
     }
 }
 
+/// The parameters of `kind` (paper order) outside their ranges (`brdf_core::ranges`), as a
+/// report lists them ([`FitReport::outside_ranges`]): `"kd = 30 is not in [0, 10]"`.
+pub fn outside_ranges(kind: ModelKind, params: &[f64]) -> Vec<String> {
+    kind.ranges()
+        .iter()
+        .zip(params)
+        .filter(|(r, &v)| !r.contains(v))
+        .map(|(r, v)| format!("{} = {v} is not {}", r.name, r.text))
+        .collect()
+}
+
 /// Builds the report of a finished fit.
 pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: &FitOptions) -> FitReport {
     let kind: ModelKind = outcome.kind;
@@ -631,13 +642,7 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
     let nf = copies.len() as f64;
     let ll = nf * (rss / nf).max(1e-300).ln();
     let params = &outcome.params[..k];
-    let outside_ranges: Vec<String> = kind
-        .ranges()
-        .iter()
-        .zip(params)
-        .filter(|(r, &v)| !r.contains(v))
-        .map(|(r, v)| format!("{} = {v} is not {}", r.name, r.text))
-        .collect();
+    let outside_ranges = outside_ranges(kind, params);
     let unc = uncertainty(problem, outcome, copies.len());
     // A profile refit below the optimum: the search missed it, whatever it said.
     let (mut converged, mut search) = (outcome.converged, outcome.search.clone());
