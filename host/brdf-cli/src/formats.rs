@@ -6,11 +6,14 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use brdf_fit::import::{import, Format, Pick};
 
-/// Imports and lists the rejects on standard error.
+/// Imports and lists the rejects and the importer's warnings on standard error.
 pub fn import_reporting(path: &Path, format: Format, pick: Pick) -> Result<brdf_fit::import::Imported> {
     let imp = import(path, format, pick).with_context(|| format!("cannot import {}", path.display()))?;
     for r in &imp.rejects {
         eprintln_lossy!("{}: rejected line {}: {}", path.display(), r.line, r.reason);
+    }
+    for w in &imp.warnings {
+        eprintln_lossy!("warning: {w}");
     }
     eprintln_lossy!(
         "{}: {} rows in, {} points out, {} rejected",

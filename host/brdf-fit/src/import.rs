@@ -52,6 +52,18 @@ impl Named for Format {
 
 brdf_core::named_str!(Format);
 
+impl Format {
+    /// Whether the format writes its angles in degrees (NIST, MERL in-plane), so that zeniths
+    /// all below pi/2 look like radians written by mistake; Cornell's are radians by its
+    /// convention.
+    pub fn angles_in_degrees(self) -> bool {
+        match self {
+            Format::Cornell => false,
+            Format::Nist | Format::MerlInPlane => true,
+        }
+    }
+}
+
 /// Colour channel of the Cornell RGB files.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Channel {
@@ -156,6 +168,10 @@ pub struct Imported {
     pub rows_in: usize,
     /// Rows not used, with line and reason. `rows_in = points + rejects.len()`.
     pub rejects: Vec<Skipped>,
+    /// What is doubtful but read as written, one line each: a dataset of a format whose
+    /// angles are degrees ([`Format::angles_in_degrees`]) whose zeniths look like radians
+    /// ([`Dataset::radians_warning`], the CSV reader's rule). `brdf` prints them as warnings.
+    pub warnings: Vec<String>,
 }
 
 impl Imported {
@@ -303,10 +319,16 @@ pub fn import(path: &Path, format: Format, pick: impl Into<Pick>) -> Result<Impo
             }),
         }
     }
+    let warnings = if format.angles_in_degrees() {
+        datasets.iter().filter_map(Dataset::radians_warning).collect()
+    } else {
+        Vec::new()
+    };
     Ok(Imported {
         datasets,
         rows_in,
         rejects,
+        warnings,
     })
 }
 
@@ -925,6 +947,29 @@ mod tests {
         assert!((d[0].phi.to_degrees() - 180.0).abs() < 1e-9);
         assert!(d[1].phi.to_degrees().abs() < 1e-9);
         assert!((d[0].theta_i.to_degrees() - 30.0).abs() < PRINTED_ANGLE_DEG);
+    }
+
+    /// The formats whose angles are degrees get the CSV reader's warning when their zeniths
+    /// look like radians (`Dataset::radians_warning`), each dataset once; a Cornell file is in
+    /// radians by its convention and gets none. Before, a NIST or MERL file written in radians
+    /// was read as degrees without a word.
+    #[test]
+    fn zeniths_that_look_like_radians_are_warned_of_in_every_degree_format() {
+        let nist = tmp("lambda,thetai,phi,thetar,phir,f_r11\n0.532,-0.5236,0,0.5236,0,0.5\n0.532,-0.5236,0,1.0472,180,0.3\n0.633,-0.5236,0,1.0472,180,0.3\n");
+        let imp = import(nist.path(), Format::Nist, Pick::default()).unwrap();
+        assert_eq!(imp.warnings.len(), 2, "{:?}", imp.warnings);
+        for (w, d) in imp.warnings.iter().zip(&imp.datasets) {
+            assert!(w.contains(&d.name) && w.contains("look like radians"), "{w}");
+        }
+        let merl = tmp("# phi_in theta_in phi_out theta_out brdf\n0.5236 180 0.5236 0 50.0\n0.5236 180 -1.0472 0 0.01\n");
+        let imp = import(merl.path(), Format::MerlInPlane, Pick::default()).unwrap();
+        assert_eq!(imp.warnings.len(), 1, "{:?}", imp.warnings);
+        // The same files in degrees, and a Cornell file (radians by convention): no warning.
+        let degrees = tmp("# phi_in theta_in phi_out theta_out brdf\n30 180 30 0 50.0\n30 180 -60 0 0.01\n");
+        assert!(import(degrees.path(), Format::MerlInPlane, Pick::default()).unwrap().warnings.is_empty());
+        let cornell = tmp("NUM_POINTS 2\nVARS theta_i,phi_i,theta_s,phi_s,R,G,B\n0.5,0,0.5,3.14159265,0.2,0.1,0.1\n0.5,0,1.0,0,0.1,0.1,0.1\n");
+        let imp = import(cornell.path(), Format::Cornell, Channel::R).unwrap();
+        assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
     }
 
     #[test]

@@ -160,6 +160,7 @@ pub(crate) fn load(s: &Settings, paths: &[String]) -> PyResult<(Vec<Dataset>, Ve
             for r in &imp.rejects {
                 notes.push(format!("{f}: rejected line {}: {}", r.line, r.reason));
             }
+            notes.extend(imp.warnings);
             out.extend(imp.datasets);
             continue;
         }

@@ -106,6 +106,20 @@ def test_zeniths_that_look_like_radians_warn_as_the_cli(cli, tmp_path):
         assert all(m in stderr for m in said)
 
 
+def test_imported_zeniths_that_look_like_radians_warn_as_the_cli(cli, tmp_path):
+    # Before: only CSV files were checked; a MERL or NIST file in radians was read as degrees
+    # without a word.
+    f = tmp_path / "radians.merl"
+    rows = [f"{ti} 180 {tr} 0 0.15" for ti in (0.0, 0.3, 0.6) for tr in (-1.2, -0.6, 0.3, 0.9, 1.5)]
+    f.write_text("# phi_in theta_in phi_out theta_out brdf\n" + "\n".join(rows) + "\n")
+    stderr = cli("fit", "--model", "lambert", "--format", "merl-inplane", f).stderr
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        brdf.fit(str(f), model="lambert", format="merl-inplane")
+    said = [str(w.message) for w in caught if "look like radians" in str(w.message)]
+    assert len(said) == 1 and said[0] in stderr
+
+
 def test_unknown_options_raise():
     with pytest.raises(TypeError, match="unknown option"):
         brdf.fit({}, chainz=3)

@@ -1026,6 +1026,33 @@ fn zeniths_that_look_like_radians_are_warned_about() {
     )));
 }
 
+/// The importers whose angles are degrees (NIST, MERL in-plane) warn as the CSV reader does,
+/// for `brdf import` and for a fit through `--format`; before, only CSV files were checked.
+#[test]
+fn imported_zeniths_that_look_like_radians_are_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("radians.merl");
+    let mut text = String::from("# phi_in theta_in phi_out theta_out brdf\n");
+    for ti in [0.0, 0.3, 0.6] {
+        for tr in [-1.2, -0.6, 0.3, 0.9, 1.5] {
+            text.push_str(&format!("{ti} 180 {tr} 0 0.15\n"));
+        }
+    }
+    std::fs::write(&path, text).unwrap();
+    let file = path.to_str().unwrap();
+    let out_csv = dir.path().join("out.csv");
+    for args in [
+        vec!["fit", "--model", "lambert", "--format", "merl-inplane", file],
+        vec!["import", "merl-inplane", file, "-o", out_csv.to_str().unwrap()],
+    ] {
+        let out = brdf(&args);
+        assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.matches("look like radians").count(), 1, "{args:?}: {err}");
+        assert!(err.contains(file), "{err}");
+    }
+}
+
 /// Before: `--budget 2` and `--noise 2` meant 200% (`--noise 50` wrote readings of 4e14). A
 /// fraction above 100% is refused; written without `%`, the message says how to write it.
 #[test]
