@@ -15,7 +15,7 @@ use std::fmt;
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 
-use rayon::slice::ParallelSliceMut;
+use rayon::prelude::*;
 use thiserror::Error;
 
 /// Largest coordinate magnitude accepted, m: a thousand times the observable universe, and
@@ -271,45 +271,75 @@ pub struct Mesh {
 }
 
 /// The grid the coincidence check compares facets in, as (cell, facet) pairs sorted by cell:
-/// 32 bytes per pair, a few pairs per facet (a map of cells to lists took about 300 bytes per
-/// facet), and the cells' sides. `boxes` are the facets' padded boxes, `origin` the mesh's
-/// least corner; cell `[i, j, k]` begins at `origin + [i, j, k] * sides`.
-fn coincidence_grid(boxes: &[([f64; 3], [f64; 3])], origin: [f64; 3]) -> (Vec<([i64; 3], u32)>, [f64; 3]) {
+/// 16 bytes per pair, a few pairs per facet, each cell a key of [`CELL_BITS`] bits per axis
+/// (a map of cells to lists took about 300 bytes per facet, triples of `i64` 32 bytes a
+/// pair); and the grid's origin (the boxes' least corner) and cells' sides. `boxes` are the
+/// facets' padded boxes. Built and sorted on all cores.
+fn coincidence_grid(boxes: &[([f64; 3], [f64; 3])]) -> (Vec<(u64, u32)>, [f64; 3], [f64; 3]) {
     let n = boxes.len();
+    let (mut origin, mut top) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for (lo, hi) in boxes {
+        for c in 0..3 {
+            origin[c] = origin[c].min(lo[c]);
+            top[c] = top[c].max(hi[c]);
+        }
+    }
     // Cells as long along each axis as the mean facet box, doubled until the facets cover
-    // at most 16 cells each on average (a few large facets among small ones). Per axis:
-    // cubes as wide as the longest side put a tube of full-length slivers in one cell, and
-    // its check took k^2 / 2 pair tests (80,000 facets, 17 s).
+    // at most 16 cells each on average (a few large facets among small ones) and each axis
+    // has at most 2^CELL_BITS cells. Per axis: cubes as wide as the longest side put a tube
+    // of full-length slivers in one cell, and its check took k^2 / 2 pair tests (80,000
+    // facets, 17 s).
     let mut cell = [0, 1, 2]
         .map(|c| (boxes.iter().map(|(lo, hi)| hi[c] - lo[c]).sum::<f64>() / n as f64).max(f64::MIN_POSITIVE));
     let index = |x: f64, c: usize, cell: [f64; 3]| cell_index(x, origin[c], cell[c]);
     loop {
+        // A sum of whole numbers below 2^53: the same in any order.
         let covered: f64 = boxes
-            .iter()
+            .par_iter()
             .map(|(lo, hi)| {
                 (0..3)
                     .map(|c| (index(hi[c], c, cell) - index(lo[c], c, cell) + 1) as f64)
                     .product::<f64>()
             })
             .sum();
-        if covered <= 16.0 * n as f64 {
+        let fits = (0..3).all(|c| index(top[c], c, cell) < 1 << CELL_BITS);
+        if covered <= 16.0 * n as f64 && fits {
             break;
         }
         cell = cell.map(|w| w * 2.0);
     }
-    let range = |b: &([f64; 3], [f64; 3]), c: usize| index(b.0[c], c, cell)..=index(b.1[c], c, cell);
-    let mut grid: Vec<([i64; 3], u32)> = Vec::new();
-    for (j, b) in boxes.iter().enumerate() {
-        for x in range(b, 0) {
-            for y in range(b, 1) {
-                for z in range(b, 2) {
-                    grid.push(([x, y, z], j as u32));
-                }
-            }
-        }
-    }
+    let range =
+        |b: &([f64; 3], [f64; 3]), c: usize| index(b.0[c], c, cell) as u64..=index(b.1[c], c, cell) as u64;
+    let mut grid: Vec<(u64, u32)> = boxes
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(j, b)| {
+            let (ys, zs) = (range(b, 1), range(b, 2));
+            range(b, 0).flat_map(move |x| {
+                let zs = zs.clone();
+                ys.clone()
+                    .flat_map(move |y| zs.clone().map(move |z| (cell_key([x, y, z]), j as u32)))
+            })
+        })
+        .collect();
     grid.par_sort_unstable();
-    (grid, cell)
+    (grid, origin, cell)
+}
+
+/// Of two coincident pairs found (facets `a < b`, depth), the first in facet order.
+fn first_pair(x: Option<(usize, usize, f64)>, y: Option<(usize, usize, f64)>) -> Option<(usize, usize, f64)> {
+    match (x, y) {
+        (Some(p), Some(q)) => Some(if (q.0, q.1) < (p.0, p.1) { q } else { p }),
+        (p, q) => p.or(q),
+    }
+}
+
+/// Bits of a coincidence-grid cell's index along each axis ([`cell_key`]).
+const CELL_BITS: u32 = 21;
+
+/// One key for the cell of indices `i` (each below 2^[`CELL_BITS`]).
+fn cell_key(i: [u64; 3]) -> u64 {
+    (i[0] << (2 * CELL_BITS)) | (i[1] << CELL_BITS) | i[2]
 }
 
 /// `floor((x - origin) / side)` as an integer, as `f64::floor` then `as i64` give it, without
@@ -458,49 +488,53 @@ impl Mesh {
                 remap[f]
             };
         }
-        let mut facets = Vec::with_capacity(triangles.len());
-        let mut origins = Vec::with_capacity(triangles.len());
-        for &(tri, part, at) in triangles {
-            let ids = tri.map(|i| remap[i as usize]);
-            let p = ids.map(|i| welded[i as usize]);
-            if p.iter().flatten().any(|c| !c.is_finite()) {
-                return Err(MeshError::NotFinite { file: name, at });
-            }
-            if let Some(&value) = p.iter().flatten().find(|c| c.abs() > MAX_COORDINATE_M) {
-                return Err(MeshError::TooFar {
-                    file: name,
-                    at,
-                    value,
-                });
-            }
-            let c = v3::cross(v3::sub(p[1], p[0]), v3::sub(p[2], p[0]));
-            let twice_area = v3::norm(c);
-            let longest = [v3::sub(p[1], p[0]), v3::sub(p[2], p[1]), v3::sub(p[0], p[2])]
-                .iter()
-                .map(|e| v3::dot(*e, *e))
-                .fold(0.0, f64::max);
-            let sine = if longest > 0.0 { twice_area / longest } else { 0.0 };
-            if !(twice_area > 0.0 && sine >= DEGENERATE_SINE)
-                || ids[0] == ids[1]
-                || ids[1] == ids[2]
-                || ids[0] == ids[2]
-            {
-                return Err(MeshError::Degenerate {
-                    file: name,
-                    at,
+        // Each facet on all cores; the first refused, in facet order, is named.
+        let facets: Vec<Result<Facet, MeshError>> = triangles
+            .par_iter()
+            .map(|&(tri, part, at)| {
+                let name = || name.clone();
+                let ids = tri.map(|i| remap[i as usize]);
+                let p = ids.map(|i| welded[i as usize]);
+                if p.iter().flatten().any(|c| !c.is_finite()) {
+                    return Err(MeshError::NotFinite { file: name(), at });
+                }
+                if let Some(&value) = p.iter().flatten().find(|c| c.abs() > MAX_COORDINATE_M) {
+                    return Err(MeshError::TooFar {
+                        file: name(),
+                        at,
+                        value,
+                    });
+                }
+                let c = v3::cross(v3::sub(p[1], p[0]), v3::sub(p[2], p[0]));
+                let twice_area = v3::norm(c);
+                let longest = [v3::sub(p[1], p[0]), v3::sub(p[2], p[1]), v3::sub(p[0], p[2])]
+                    .iter()
+                    .map(|e| v3::dot(*e, *e))
+                    .fold(0.0, f64::max);
+                let sine = if longest > 0.0 { twice_area / longest } else { 0.0 };
+                if !(twice_area > 0.0 && sine >= DEGENERATE_SINE)
+                    || ids[0] == ids[1]
+                    || ids[1] == ids[2]
+                    || ids[0] == ids[2]
+                {
+                    return Err(MeshError::Degenerate {
+                        file: name(),
+                        at,
+                        area: twice_area / 2.0,
+                        sine,
+                    });
+                }
+                Ok(Facet {
+                    vertices: ids,
+                    part,
+                    normal: v3::scale(c, 1.0 / twice_area),
                     area: twice_area / 2.0,
-                    sine,
-                });
-            }
-            facets.push(Facet {
-                vertices: ids,
-                part,
-                normal: v3::scale(c, 1.0 / twice_area),
-                area: twice_area / 2.0,
-                centroid: v3::scale(v3::add(v3::add(p[0], p[1]), p[2]), 1.0 / 3.0),
-            });
-            origins.push(at);
-        }
+                    centroid: v3::scale(v3::add(v3::add(p[0], p[1]), p[2]), 1.0 / 3.0),
+                })
+            })
+            .collect();
+        let facets = facets.into_iter().collect::<Result<Vec<Facet>, MeshError>>()?;
+        let origins = triangles.iter().map(|t| t.2).collect();
         let mut mesh = Mesh {
             file,
             vertices: welded,
@@ -547,7 +581,7 @@ impl Mesh {
         let corners = |f: &Facet| f.vertices.map(|i| self.vertices[i as usize]);
         let tol: Vec<f64> = self
             .facets
-            .iter()
+            .par_iter()
             .map(|f| {
                 let p = corners(f);
                 let far = p.iter().flatten().fold(0.0_f64, |m, c| m.max(c.abs()));
@@ -559,7 +593,7 @@ impl Mesh {
             .collect();
         let boxes: Vec<([f64; 3], [f64; 3])> = self
             .facets
-            .iter()
+            .par_iter()
             .zip(&tol)
             .map(|(f, &t)| {
                 let p = corners(f);
@@ -568,9 +602,8 @@ impl Mesh {
                 (lo, hi)
             })
             .collect();
-        let (origin, _) = self.bounds();
-        let (grid, cell) = coincidence_grid(&boxes, origin);
-        let index = |x: f64, c: usize, cell: [f64; 3]| cell_index(x, origin[c], cell[c]);
+        let (grid, origin, cell) = coincidence_grid(&boxes);
+        let index = |x: f64, c: usize| cell_index(x, origin[c], cell[c]) as u64;
         // Two axes across a unit normal, for comparisons in a plane.
         let frame = |n: [f64; 3]| {
             let helper = if n[0].abs() < 0.6 {
@@ -582,7 +615,7 @@ impl Mesh {
             let u = v3::scale(u, 1.0 / v3::norm(u));
             [u, v3::cross(n, u)]
         };
-        let frames: Vec<[[f64; 3]; 2]> = self.facets.iter().map(|f| frame(f.normal)).collect();
+        let frames: Vec<[[f64; 3]; 2]> = self.facets.par_iter().map(|f| frame(f.normal)).collect();
         // The full test of a pair; the first pair in facet order is named, whatever order the
         // pairs are met in.
         let mut found: Option<(usize, usize, f64)> = None;
@@ -683,35 +716,39 @@ impl Mesh {
                 }
             }
         }
-        for members in grid.chunk_by(|x, y| x.0 == y.0) {
-            let at = members[0].0;
-            // Facets of one hub were compared above: each facet meets only those of other hubs.
-            let mut list: Vec<(u32, usize)> = members
-                .iter()
-                .map(|&(_, k)| (hub_of[k as usize], k as usize))
-                .collect();
-            list.sort_unstable();
-            let mut run_end = 0;
-            for (i, &(ha, a)) in list.iter().enumerate() {
-                if i >= run_end {
-                    run_end = i + list[i..].iter().take_while(|e| e.0 == ha).count();
-                }
-                let from = if ha == u32::MAX { i + 1 } else { run_end };
-                for &(_, b) in &list[from..] {
-                    let (ba, bb) = (&boxes[a], &boxes[b]);
-                    let start = [0, 1, 2].map(|c| ba.0[c].max(bb.0[c]));
-                    // Boxes apart, or the pair is met again in the cell where their common
-                    // box begins (tested there only).
-                    if (0..3).any(|c| start[c] > ba.1[c].min(bb.1[c]))
-                        || [0, 1, 2].map(|c| index(start[c], c, cell)) != at
-                    {
-                        continue;
+        // Cells in parallel, each keeping the first pair it finds in facet order.
+        let in_cells = grid
+            .par_chunk_by(|x, y| x.0 == y.0)
+            .map_init(Vec::new, |list, members| {
+                let mut found = None;
+                let at = members[0].0;
+                // Facets of one hub were compared above: each facet meets only those of other hubs.
+                list.clear();
+                list.extend(members.iter().map(|&(_, k)| (hub_of[k as usize], k as usize)));
+                list.sort_unstable();
+                let mut run_end = 0;
+                for (i, &(ha, a)) in list.iter().enumerate() {
+                    if i >= run_end {
+                        run_end = i + list[i..].iter().take_while(|e| e.0 == ha).count();
                     }
-                    test(a, b, &mut found);
+                    let from = if ha == u32::MAX { i + 1 } else { run_end };
+                    for &(_, b) in &list[from..] {
+                        let (ba, bb) = (&boxes[a], &boxes[b]);
+                        let start = [0, 1, 2].map(|c| ba.0[c].max(bb.0[c]));
+                        // Boxes apart, or the pair is met again in the cell where their common
+                        // box begins (tested there only).
+                        if (0..3).any(|c| start[c] > ba.1[c].min(bb.1[c]))
+                            || cell_key([0, 1, 2].map(|c| index(start[c], c))) != at
+                        {
+                            continue;
+                        }
+                        test(a, b, &mut found);
+                    }
                 }
-            }
-        }
-        match found {
+                found
+            })
+            .reduce(|| None, first_pair);
+        match first_pair(found, in_cells) {
             Some((a, b, depth)) => Err(MeshError::Coincident {
                 file: self.file.display().to_string(),
                 a: self.origins[a],
@@ -885,23 +922,31 @@ impl Mesh {
     /// OBJ through `tobj`, with line numbers for every facet and every reader error.
     fn from_obj(path: &Path, bytes: &[u8]) -> Result<Mesh, MeshError> {
         let file = path.display().to_string();
-        let face_lines = scan_obj_faces(&file, bytes)?;
-        let mut reader = LineCounter { data: bytes, pos: 0 };
         let options = tobj::LoadOptions {
             triangulate: false,
             single_index: false,
             ignore_points: true,
             ignore_lines: true,
         };
-        // Materials (`mtllib`) carry colours for renderers; the scene file gives the BRDFs.
-        let (models, _) =
-            tobj::load_obj_buf(&mut reader, &options, |_| Ok(Default::default())).map_err(|e| {
-                MeshError::Parse {
-                    file: file.clone(),
-                    at: Origin::Line(reader.line()),
-                    message: format!("the OBJ reader refused it: {e}"),
-                }
-            })?;
+        // The face lines are found while the OBJ reader reads (two passes over the bytes, on
+        // two cores); the scan's refusals come first, as they would read alone.
+        let (face_lines, models) = rayon::join(
+            || scan_obj_faces(&file, bytes),
+            || {
+                let mut reader = LineCounter { data: bytes, pos: 0 };
+                // Materials (`mtllib`) carry colours for renderers; the scene file gives the
+                // BRDFs.
+                tobj::load_obj_buf(&mut reader, &options, |_| Ok(Default::default()))
+                    .map(|(models, _)| models)
+                    .map_err(|e| MeshError::Parse {
+                        file: file.clone(),
+                        at: Origin::Line(reader.line()),
+                        message: format!("the OBJ reader refused it: {e}"),
+                    })
+            },
+        );
+        let face_lines = face_lines?;
+        let models = models?;
         let mut vertices: Vec<[f64; 3]> = Vec::new();
         let mut triangles = Vec::new();
         let mut parts: Vec<String> = Vec::new();
@@ -1511,7 +1556,7 @@ mod tests {
                 )
             })
             .collect();
-        let (grid, _) = coincidence_grid(&boxes, [-5.0, -0.5, -0.5]);
+        let (grid, _, _) = coincidence_grid(&boxes);
         let fullest = grid.chunk_by(|x, y| x.0 == y.0).map(<[_]>::len).max().unwrap();
         assert!(fullest <= 32, "{fullest} of {k} facets in one cell");
     }

@@ -124,15 +124,12 @@ pub fn facing_queries_into(
         b.facet.clear();
     }
     for (k, f) in scene.mesh.facets.iter().enumerate() {
-        let n = f.normal;
-        let (mu_i, mu_r) = (v3::dot(n, s), v3::dot(n, v));
-        if !(mu_i > 0.0 && mu_r > 0.0) {
+        let Some([mu_i, mu_r, cos_phi]) = facing(f.normal, s, v, mono) else {
             continue;
-        }
+        };
         if !keep(k, f) {
             continue;
         }
-        let cos_phi = if mono { 1.0 } else { cos_phi(n, s, v, mu_i, mu_r) };
         let b = &mut out[scene.facet_material[k] as usize];
         b.cos_theta_i.push(mu_i);
         b.cos_theta_r.push(mu_r);
@@ -140,6 +137,17 @@ pub fn facing_queries_into(
         b.weight.push(4.0 * PI * mu_i * mu_r * f.area);
         b.facet.push(k as u32);
     }
+}
+
+/// A facet with normal `n` facing source `s` and receiver `v` (both cosines positive):
+/// `[cos theta_i, cos theta_r, cos phi]`, `cos phi` 1 monostatic.
+#[inline]
+pub(crate) fn facing(n: [f64; 3], s: [f64; 3], v: [f64; 3], mono: bool) -> Option<[f64; 3]> {
+    let (mu_i, mu_r) = (v3::dot(n, s), v3::dot(n, v));
+    if !(mu_i > 0.0 && mu_r > 0.0) {
+        return None;
+    }
+    Some([mu_i, mu_r, if mono { 1.0 } else { cos_phi(n, s, v, mu_i, mu_r) }])
 }
 
 /// `cos phi` between the projections of `s` and `v` on the plane with normal `n`; 1 where

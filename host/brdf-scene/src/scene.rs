@@ -446,7 +446,7 @@ impl Scene {
     /// The mesh laid out for depth buffers (built on the first call).
     pub fn raster_mesh(&self) -> &crate::image::RasterMesh {
         self.raster
-            .get_or_init(|| crate::image::RasterMesh::new(&self.mesh))
+            .get_or_init(|| crate::image::RasterMesh::new(&self.mesh, &self.facet_material))
     }
 
     /// The scene with its sweep cut to shard `k` of `n` (for job arrays): of the sweep's `N`
