@@ -630,15 +630,18 @@ pub fn report(dataset: &Dataset, problem: &Problem, outcome: &FitOutcome, opts: 
     let n = problem.len();
     let k = kind.param_count();
     // The information criteria over distinct rows, each once ([`row_copies`]): an exact copy
-    // of a row is no second observation.
+    // of a row is no second observation. The cost less what the copies add (the cost itself,
+    // to the bit, when there are none).
     let copies = row_copies(dataset, kind);
-    let rss: f64 = copies
+    let repeated: f64 = copies
         .iter()
+        .filter(|g| g.len() > 1)
         .map(|g| {
             let r = problem.residual_of(g[0], values[g[0]]);
-            problem.loss().eval(r * r).0
+            (g.len() - 1) as f64 * problem.loss().eval(r * r).0
         })
         .sum();
+    let rss = 2.0 * outcome.cost - repeated;
     let nf = copies.len() as f64;
     let ll = nf * (rss / nf).max(1e-300).ln();
     let params = &outcome.params[..k];
