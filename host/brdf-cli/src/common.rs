@@ -431,7 +431,8 @@ mod tests {
                 .trim_start_matches('0')
                 .to_owned();
             assert_eq!(figures.len(), SIGNIFICANT, "{v}: {text}");
-            let half_unit = 0.5 * 10f64.powi(back.abs().max(v.abs()).log10().floor() as i32 + 1 - SIGNIFICANT as i32);
+            let half_unit =
+                0.5 * 10f64.powi(back.abs().max(v.abs()).log10().floor() as i32 + 1 - SIGNIFICANT as i32);
             assert!((back - v).abs() <= half_unit * (1.0 + 1e-9), "{v}: {text}");
         }
         assert_eq!(format!("{:>8}", Sig(0.0)), "       0");

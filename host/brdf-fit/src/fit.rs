@@ -705,14 +705,20 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
     } else if !rules.agreed(&s) {
         // Say where the best came from when no chain or hop reached it, and where they went.
         let searches = &s.found[s.grid_n..];
-        let from_grid = if s.found[..s.grid_n].iter().any(|g| same_optimum(kind, g, &best, rules.floor)) {
+        let from_grid = if s.found[..s.grid_n]
+            .iter()
+            .any(|g| same_optimum(kind, g, &best, rules.floor))
+        {
             " (found by a grid start's polish)"
         } else {
             ""
         };
         let theirs = match searches.iter().min_by(|a, b| a.cost.total_cmp(&b.cost)) {
             Some(own) if agree_n == 0 => {
-                let with = searches.iter().filter(|f| same_optimum(kind, f, own, rules.floor)).count();
+                let with = searches
+                    .iter()
+                    .filter(|f| same_optimum(kind, f, own, rules.floor))
+                    .count();
                 format!("; their own best, {:e}, was reached by {with}", own.cost)
             }
             _ => String::new(),

@@ -961,12 +961,17 @@ mod tests {
         for (w, d) in imp.warnings.iter().zip(&imp.datasets) {
             assert!(w.contains(&d.name) && w.contains("look like radians"), "{w}");
         }
-        let merl = tmp("# phi_in theta_in phi_out theta_out brdf\n0.5236 180 0.5236 0 50.0\n0.5236 180 -1.0472 0 0.01\n");
+        let merl = tmp(
+            "# phi_in theta_in phi_out theta_out brdf\n0.5236 180 0.5236 0 50.0\n0.5236 180 -1.0472 0 0.01\n",
+        );
         let imp = import(merl.path(), Format::MerlInPlane, Pick::default()).unwrap();
         assert_eq!(imp.warnings.len(), 1, "{:?}", imp.warnings);
         // The same files in degrees, and a Cornell file (radians by convention): no warning.
         let degrees = tmp("# phi_in theta_in phi_out theta_out brdf\n30 180 30 0 50.0\n30 180 -60 0 0.01\n");
-        assert!(import(degrees.path(), Format::MerlInPlane, Pick::default()).unwrap().warnings.is_empty());
+        assert!(import(degrees.path(), Format::MerlInPlane, Pick::default())
+            .unwrap()
+            .warnings
+            .is_empty());
         let cornell = tmp("NUM_POINTS 2\nVARS theta_i,phi_i,theta_s,phi_s,R,G,B\n0.5,0,0.5,3.14159265,0.2,0.1,0.1\n0.5,0,1.0,0,0.1,0.1,0.1\n");
         let imp = import(cornell.path(), Format::Cornell, Channel::R).unwrap();
         assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);

@@ -571,8 +571,15 @@ pub fn pack(
                 // `energy.unbounded`, in the same words).
                 None => say(
                     Level::Warning,
-                    match r.model().ok().as_ref().and_then(crate::report::unbounded_at_grazing) {
-                        Some(why) => format!("warning: {origin} ({name}): the model has no energy bound: {why}"),
+                    match r
+                        .model()
+                        .ok()
+                        .as_ref()
+                        .and_then(crate::report::unbounded_at_grazing)
+                    {
+                        Some(why) => {
+                            format!("warning: {origin} ({name}): the model has no energy bound: {why}")
+                        }
                         None => format!("warning: {origin} ({name}): the model has no energy bound"),
                     },
                 ),
@@ -704,7 +711,8 @@ mod tests {
                 .map(|n| n.text)
                 .unwrap_or_default()
         };
-        let six = r#"{"model": "six", "params": {"kb": 0.05, "kr": 1, "b": -5, "a": 1, "kd": 0.4, "c": -0.1}}"#;
+        let six =
+            r#"{"model": "six", "params": {"kb": 0.05, "kr": 1, "b": -5, "a": 1, "kd": 0.4, "c": -0.1}}"#;
         let text = warning(six);
         assert!(
             text.contains("no energy bound: albedo unbounded at grazing: c = -0.1 < 0"),
@@ -714,7 +722,8 @@ mod tests {
         assert!(warning(minnaert).contains("k = 0.9 < 1"), "{}", warning(minnaert));
         let five = r#"{"model": "five", "params": {"kb": 0.5, "kr": 1, "b": -5, "a": 1, "kd": 0.4}}"#;
         assert!(warning(five).contains("kd / cos ti"), "{}", warning(five));
-        let cos2 = r#"{"model": "six-cos2", "params": {"kb": 0.05, "kr": 3, "b": -5, "a": 1, "kd": 0.4, "c": 1}}"#;
+        let cos2 =
+            r#"{"model": "six-cos2", "params": {"kb": 0.05, "kr": 3, "b": -5, "a": 1, "kd": 0.4, "c": 1}}"#;
         let text = warning(cos2);
         assert!(text.ends_with("the model has no energy bound"), "{text}");
     }

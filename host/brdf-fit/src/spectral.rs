@@ -613,7 +613,10 @@ mod tests {
         // a smooth cost below the floor, it still finds the minimum.
         let g = |x: &[f64]| NOISE * ((x[0] - 0.3).powi(2) + 10.0 * (x[1] - 0.7).powi(2));
         let (x, _, met) = nelder_mead(&g, &[0.9, 0.1], SIMPLEX_TOL, 10.0 * NOISE, &|| false);
-        assert!(met && (x[0] - 0.3).abs() < 1e-3 && (x[1] - 0.7).abs() < 1e-3, "{x:?}");
+        assert!(
+            met && (x[0] - 0.3).abs() < 1e-3 && (x[1] - 0.7).abs() < 1e-3,
+            "{x:?}"
+        );
     }
 
     #[test]

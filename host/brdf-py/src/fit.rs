@@ -211,9 +211,9 @@ pub(crate) fn check_fit(text: &str) -> PyResult<()> {
     let stated = FitReport::from_json(text, "FitResult").ok();
     for (k, fit) in fits.iter().enumerate() {
         let Err(e) = fit.model() else { continue };
-        let params = fit.params_array().map_err(|name| {
-            PyValueError::new_err(format!("FitResult: field `params.{name}` is missing"))
-        })?;
+        let params = fit
+            .params_array()
+            .map_err(|name| PyValueError::new_err(format!("FitResult: field `params.{name}` is missing")))?;
         let own = outside_ranges(fit.model, &params[..fit.model.param_count()]);
         if stated
             .as_ref()

@@ -1046,7 +1046,11 @@ fn imported_zeniths_that_look_like_radians_are_warned_about() {
         vec!["import", "merl-inplane", file, "-o", out_csv.to_str().unwrap()],
     ] {
         let out = brdf(&args);
-        assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(err.matches("look like radians").count(), 1, "{args:?}: {err}");
         assert!(err.contains(file), "{err}");

@@ -250,19 +250,37 @@ mod incidence_tests {
             (m.bounded_at_grazing(), at(89.99), at(89.9999))
         };
         let cases: [(ModelKind, &[f64], &[f64]); 4] = [
-            (ModelKind::Six, &[0.05, 1.0, -5.0, 1.0, 0.0, -0.1], &[0.05, 1.0, -5.0, 1.0, 0.4, -0.1]),
+            (
+                ModelKind::Six,
+                &[0.05, 1.0, -5.0, 1.0, 0.0, -0.1],
+                &[0.05, 1.0, -5.0, 1.0, 0.4, -0.1],
+            ),
             (ModelKind::Minnaert, &[0.0, 0.9], &[0.5, 0.9]),
-            (ModelKind::Five, &[0.5, 1.0, -5.0, 1.0, 0.0], &[0.5, 1.0, -5.0, 1.0, 0.4]),
-            (ModelKind::Five, &[0.0, 1.0, -5.0, 1.0, 0.4], &[0.5, 1.0, -5.0, 1.0, 0.4]),
+            (
+                ModelKind::Five,
+                &[0.5, 1.0, -5.0, 1.0, 0.0],
+                &[0.5, 1.0, -5.0, 1.0, 0.4],
+            ),
+            (
+                ModelKind::Five,
+                &[0.0, 1.0, -5.0, 1.0, 0.4],
+                &[0.5, 1.0, -5.0, 1.0, 0.4],
+            ),
         ];
         for (kind, off, on) in cases {
             let (bounded, near, nearer) = grazing(kind, off);
             assert!(bounded, "{kind} {off:?}: {near} then {nearer}");
-            assert!(nearer <= near + GRAZING_RISE_ABS, "{kind} {off:?}: {near} then {nearer}");
+            assert!(
+                nearer <= near + GRAZING_RISE_ABS,
+                "{kind} {off:?}: {near} then {nearer}"
+            );
             let e = energy_of(kind, off, &checked_incidences(&[0.0]));
             assert!(e.unbounded.is_none(), "{kind} {off:?}: {e:?}");
             let (bounded, near, nearer) = grazing(kind, on);
-            assert!(!bounded && nearer > near + GRAZING_RISE_ABS, "{kind} {on:?}: {near} then {nearer}");
+            assert!(
+                !bounded && nearer > near + GRAZING_RISE_ABS,
+                "{kind} {on:?}: {near} then {nearer}"
+            );
         }
     }
 

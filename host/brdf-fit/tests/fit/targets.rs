@@ -318,7 +318,10 @@ fn noise_free_microfacet_data_at_the_bounds_converge_with_the_bounds_held() {
             let u = &r.uncertainty.params.0.iter().find(|(n, _)| n == name).unwrap().1;
             assert_eq!(u.value, 0.0, "{truth:?} {name}: {u:?}");
             assert!(!u.determined && u.se.is_none(), "{truth:?} {name}: {u:?}");
-            assert!(u.note.as_deref().unwrap_or("").contains("at the search bound 0"), "{u:?}");
+            assert!(
+                u.note.as_deref().unwrap_or("").contains("at the search bound 0"),
+                "{u:?}"
+            );
         }
     }
 }
