@@ -341,16 +341,9 @@ fn widen((lo, hi): ([f64; 2], [f64; 2]), margin: f64) -> ([f64; 2], [f64; 2]) {
 /// The smallest index `i >= 0` with `i >= v` (`v` finite or infinite; a call to `ceil` costs
 /// more than the rest of a small triangle).
 fn ceil_index(v: f64) -> usize {
-    if v > 0.0 {
-        let t = v as usize;
-        if (t as f64) < v {
-            t + 1
-        } else {
-            t
-        }
-    } else {
-        0
-    }
+    // Without branches: whether a facet's box begins on a sample is a coin toss.
+    let t = v.max(0.0) as usize;
+    t + usize::from((t as f64) < v)
 }
 
 impl Buffer {
@@ -372,9 +365,9 @@ impl Buffer {
         self.samples.clear();
         self.samples.resize(nx * ny, Sample::EMPTY);
         // Sample coordinates: centre of sample (i, j) at (i + 0.5, j + 0.5); once per vertex,
-        // not once per facet using it.
+        // not once per facet using it; snapped to [`SNAP`] (see [`Edge`]).
         for p in projected.iter_mut() {
-            *p = [(p[0] - x0) / step, (p[1] - y0) / step, p[2]];
+            *p = [snap((p[0] - x0) / step), snap((p[1] - y0) / step), p[2]];
         }
         let mesh = scene.raster_mesh();
         for cluster in &mesh.clusters {
@@ -408,7 +401,7 @@ impl Buffer {
         if area < 0.0 {
             std::mem::swap(&mut a, &mut b);
         }
-        let area = area.abs();
+        let per_area = 1.0 / area.abs();
         // The sample centres in the triangle's box: `i + 0.5` from its least to its greatest
         // `x`. Subtracting 0.5 and truncating are monotone, so no centre in the box is left
         // out (at most one more each side is tried; the exact test decides); most facets of
@@ -454,15 +447,25 @@ impl Buffer {
                 let to = ((x_hi + 1.5).max(0.0) as usize + 1).min(hi_x);
                 (from, to)
             };
-            for i in from..to {
-                let x = i as f64 + 0.5;
-                let (wa, wb, wc) = (ea.at(x, y), eb.at(x, y), ec.at(x, y));
-                if !(ea.inside(wa) && eb.inside(wb) && ec.inside(wc)) {
+            // Along the row each edge function changes by `-dy` a sample, exactly (see
+            // [`Edge`]).
+            let x = from as f64 + 0.5;
+            let (mut wa, mut wb, mut wc) = (ea.at(x, y), eb.at(x, y), ec.at(x, y));
+            let row = &mut self.samples[j * self.nx..(j + 1) * self.nx];
+            for held in &mut row[from..to] {
+                // The sample is read whether or not the centre is inside: the read then
+                // starts before the test decides (most centres tried are outside, at random).
+                let was = *held;
+                let inside = ea.inside(wa) & eb.inside(wb) & ec.inside(wc);
+                let (za, zb, zc) = (wa, wb, wc);
+                wa -= ea.dy;
+                wb -= eb.dy;
+                wc -= ec.dy;
+                if !inside {
                     continue;
                 }
-                let z = (wa * a[2] + wb * b[2] + wc * c[2]) / area;
-                let held = &mut self.samples[j * self.nx + i];
-                if behind(z, front) < behind(held.depth, held.front) {
+                let z = (za * a[2] + zb * b[2] + zc * c[2]) * per_area;
+                if behind(z, front) < behind(was.depth, was.front) {
                     *held = Sample {
                         depth: z,
                         facet: id,
@@ -485,52 +488,58 @@ impl Buffer {
 /// working out where each row crosses its edges (which costs more than trying them).
 const NARROW_BOX_SAMPLES: usize = 4;
 
+/// Vertices in sample coordinates are snapped to multiples of `1 / SNAP` of a sample (a
+/// shift of less than 0.4% of a sample, far inside the sampling bound): coordinates below
+/// [`MAX_SIDE`] samples then have at most 24 significant bits, so an edge function (a
+/// difference of two products of such differences) is exact in f64, and so is each step
+/// along a row.
+const SNAP: f64 = 256.0;
+
+/// Most samples along a depth buffer's side (a receiver's has at most 4,098 + margin; a
+/// bistatic source's is made coarser until within it).
+const MAX_SIDE: f64 = 65_536.0;
+
+/// `v` (sample coordinates, at least 0) snapped down to a multiple of `1 / SNAP`.
+fn snap(v: f64) -> f64 {
+    ((v * SNAP) as i64) as f64 / SNAP
+}
+
 /// One edge `p -> q` of a counter-clockwise triangle, for its edge function: positive inside.
-/// It is evaluated from the edge's lower endpoint (x, then y) whichever way it is traversed,
-/// so the two triangles sharing an edge get the same value with opposite signs, and a centre
-/// on it is never rejected by both through rounding; the top-left rule gives such a centre to
-/// one of them (an edge owns it when it is a top edge, horizontal with the triangle below it,
-/// or a left edge, going down).
+/// With snapped vertices ([`SNAP`]) the function is exact, so the two triangles sharing an
+/// edge get the same value with opposite signs, and a centre on it is never rejected by both
+/// through rounding (it is also evaluated from the edge's lower endpoint, x then y, whichever
+/// way it is traversed, which keeps that so for unsnapped input); the top-left rule gives such
+/// a centre to one of them (an edge owns it when it is a top edge, horizontal with the
+/// triangle below it, or a left edge, going down).
 struct Edge {
-    px: f64,
-    py: f64,
+    ox: f64,
+    oy: f64,
     dx: f64,
     dy: f64,
-    sign: f64,
     owns: bool,
 }
 
 impl Edge {
     fn new(p: [f64; 3], q: [f64; 3]) -> Edge {
         let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
-        let owns = (dy == 0.0 && dx < 0.0) || dy < 0.0;
-        if (p[0], p[1]) <= (q[0], q[1]) {
-            Edge {
-                px: p[0],
-                py: p[1],
-                dx,
-                dy,
-                sign: 1.0,
-                owns,
-            }
-        } else {
-            Edge {
-                px: q[0],
-                py: q[1],
-                dx: p[0] - q[0],
-                dy: p[1] - q[1],
-                sign: -1.0,
-                owns,
-            }
+        let o = if (p[0], p[1]) <= (q[0], q[1]) { p } else { q };
+        Edge {
+            ox: o[0],
+            oy: o[1],
+            dx,
+            dy,
+            owns: (dy == 0.0 && dx < 0.0) || dy < 0.0,
         }
     }
 
     fn at(&self, x: f64, y: f64) -> f64 {
-        self.sign * (self.dx * (y - self.py) - self.dy * (x - self.px))
+        self.dx * (y - self.oy) - self.dy * (x - self.ox)
     }
 
+    /// Whether a centre where the edge function is `w` lies on the inner side (without
+    /// branches: samples fall either side at random).
     fn inside(&self, w: f64) -> bool {
-        w > 0.0 || (w == 0.0 && self.owns)
+        (w > 0.0) | ((w == 0.0) & self.owns)
     }
 }
 
@@ -742,8 +751,11 @@ fn draw_aspect(
         // MAX_SAMPLES of them (a rod seen end-on by the receiver and broadside by the source
         // failed the sweep): the shadow's doubtful samples enter the bound either way.
         let mut source_step = step;
-        let fits =
-            |w: f64| ((b.1[0] - b.0[0]) / w).ceil() * ((b.1[1] - b.0[1]) / w).ceil() <= MAX_SAMPLES as f64;
+        // Each side also below 2^16 samples, where edge functions are exact ([`SNAP`]).
+        let fits = |w: f64| {
+            let (sx, sy) = (((b.1[0] - b.0[0]) / w).ceil(), ((b.1[1] - b.0[1]) / w).ceil());
+            sx * sy <= MAX_SAMPLES as f64 && sx.max(sy) <= MAX_SIDE
+        };
         while !fits(source_step) {
             source_step *= 1.25;
         }
@@ -1113,7 +1125,9 @@ mod tests {
     fn a_cluster_is_skipped_only_when_all_its_facets_face_away() {
         let mut seed = 12345u64;
         let mut uniform = move || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         let mut unit = || loop {
@@ -1143,7 +1157,10 @@ mod tests {
                     if cluster.all_away(d) {
                         skipped += 1;
                         for n in &normals {
-                            assert!(v3::dot(*n, d) <= 0.0, "spread {spread}: a facet facing {d:?} skipped");
+                            assert!(
+                                v3::dot(*n, d) <= 0.0,
+                                "spread {spread}: a facet facing {d:?} skipped"
+                            );
                         }
                     }
                 }
