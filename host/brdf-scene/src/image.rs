@@ -558,8 +558,6 @@ struct FacetTerms {
     outside: bool,
     /// Some sample sees it lit.
     seen: bool,
-    /// It faces source and receiver (its terms were written).
-    facing: bool,
 }
 
 /// Memory one image needs, kept between the images of a sweep (one per thread): the projected
@@ -583,16 +581,24 @@ pub(crate) struct Scratch {
     column: Vec<usize>,
     /// Per facet: lit, outline and doubtful samples ([`sigma_by_area`]).
     counts: Vec<[u32; 3]>,
+    /// Per facet: its term `g` if it faces source and receiver, else [`NOT_FACING`] (what
+    /// [`seam_bound`] reads of a neighbour: 8 bytes, where the terms take 32).
+    g: Vec<f64>,
 }
+
+/// [`Scratch::g`] of a facet not facing both.
+const NOT_FACING: f64 = -1.0;
 
 impl Scratch {
     /// Per-facet entries for `n` facets, all zero.
     fn reset(&mut self, n: usize) {
         if self.terms.len() != n {
             self.terms = vec![FacetTerms::default(); n];
+            self.g = vec![NOT_FACING; n];
         }
         for &k in &self.touched {
             self.terms[k as usize] = FacetTerms::default();
+            self.g[k as usize] = NOT_FACING;
         }
         self.touched.clear();
     }
@@ -698,11 +704,13 @@ fn draw_aspect(
     scratch
         .receiver
         .draw(scene, &view, step, (lo, hi), &mut scratch.projected);
+    let bistatic = matches!(scene.sensor.mode, Mode::Bistatic { .. });
     let Scratch {
         terms,
         touched,
         values,
         queries,
+        g,
         ..
     } = scratch;
     let mesh = scene.raster_mesh();
@@ -726,10 +734,12 @@ fn draw_aspect(
             let t = &mut terms[k];
             t.g = 4.0 * PI * values[j] * batch.cos_theta_i[j];
             t.whole = t.g * batch.cos_theta_r[j] * mesh.area[k];
-            let ci = batch.cos_theta_i[j];
-            t.slope = (1.0 - ci * ci).max(0.0).sqrt() / ci;
+            g[k] = t.g;
+            if bistatic {
+                let ci = batch.cos_theta_i[j];
+                t.slope = (1.0 - ci * ci).max(0.0).sqrt() / ci;
+            }
             t.material = mesh.material[k];
-            t.facing = true;
             if let Some(table) = &table {
                 let g = brdf_core::Geometry::from_cosines(
                     batch.cos_theta_i[j],
@@ -741,7 +751,6 @@ fn draw_aspect(
         }
     }
     let source_view = View::towards(s);
-    let bistatic = matches!(scene.sensor.mode, Mode::Bistatic { .. });
     if bistatic {
         let b = widen(
             project_all(scene, &source_view, &mut scratch.projected_source),
@@ -997,18 +1006,19 @@ fn seam_bound(scene: &Scene, scratch: &Scratch, receiver: [f64; 3], area: f64) -
                 }
                 continue;
             }
-            let th = &scratch.terms[h as usize];
+            let gh = scratch.g[h as usize];
+            let h_facing = gh != NOT_FACING;
             // Each seam once: from its lower-numbered facet when both face both.
-            if th.facing && h < f {
+            if h_facing && h < f {
                 continue;
             }
             // A neighbour facing away from the receiver makes this edge a silhouette: what lies
             // beyond is unknown, as beyond an edge of one facet (thin dark boxes 1 mm above a
             // bright plate, less than an outline's depth jump in front of it, hid it unbounded).
-            let dg = if !th.facing && v3::dot(mesh.normal[h as usize], receiver) <= 0.0 {
+            let dg = if !h_facing && v3::dot(mesh.normal[h as usize], receiver) <= 0.0 {
                 tf.g.max(largest - tf.g)
             } else {
-                (tf.g - th.g).abs()
+                (tf.g - gh.max(0.0)).abs()
             };
             if dg == 0.0 {
                 continue;
