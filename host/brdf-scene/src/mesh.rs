@@ -872,9 +872,13 @@ impl Mesh {
     }
 
     /// The first group (facets `k` of group `group[k]`, the group's root) that encloses a
-    /// negative volume: its first facet in file order and the volume. A group is checked when
-    /// it is closed (no facet in `open_facet`), unless `open_only`, or when it has openings
-    /// that are only cracks ([`CRACKED_SHELL_VECTOR_AREA`]).
+    /// negative volume and is no cavity: its first facet in file order and the volume. A group
+    /// is checked when it is closed (no facet in `open_facet`), unless `open_only`, or when it
+    /// has openings that are only cracks ([`CRACKED_SHELL_VECTOR_AREA`]). A cavity (a hollow
+    /// in a solid, its faces turned into the hollow) encloses a negative volume rightly: a
+    /// group is one when the other enclosing groups wind about a point of it at least once
+    /// ([`winding_number`]); only groups whose boxes hold that point are summed, so a solid
+    /// with cavities costs a pass over its facets per cavity.
     fn inward_group(&self, group: &[usize], open_facet: &[bool], open_only: bool) -> Option<(usize, f64)> {
         let n = self.facets.len();
         let mut open = vec![false; n];
@@ -905,18 +909,51 @@ impl Mesh {
             }
             open[r] |= open_facet[k];
         }
+        let encloses = |k: usize| !open[k] || v3::norm(vector_area[k]) <= CRACKED_SHELL_VECTOR_AREA * area[k];
         (0..n).find_map(|k| {
-            let cracked = v3::norm(vector_area[k]) <= CRACKED_SHELL_VECTOR_AREA * area[k];
-            let checked = if open[k] { cracked } else { !open_only };
+            let checked = if open[k] { encloses(k) } else { !open_only };
             if group[k] != k || !checked {
                 return None;
             }
             let extent = v3::sub(hi[k], lo[k]);
             let box_volume = extent[0] * extent[1] * extent[2];
-            // Name the first facet of the group in file order.
-            (volume[k] < -FLAT_SHELL_VOLUME * box_volume)
-                .then(|| ((0..n).find(|&j| group[j] == k).unwrap_or(k), volume[k]))
+            if volume[k] >= -FLAT_SHELL_VOLUME * box_volume {
+                return None;
+            }
+            // The first facet of the group in file order, named; its centroid is the point
+            // the other groups must enclose for a cavity.
+            let first = (0..n).find(|&j| group[j] == k).unwrap_or(k);
+            let p = self.facets[first].centroid;
+            let holds = |r: usize| (0..3).all(|c| lo[r][c] <= p[c] && p[c] <= hi[r][c]);
+            let around: Vec<usize> = (0..n)
+                .filter(|&j| {
+                    let r = group[j];
+                    r != k && holds(r) && encloses(r)
+                })
+                .collect();
+            let cavity = self.winding_number(&around, p) >= 0.5;
+            (!cavity).then_some((first, volume[k]))
         })
+    }
+
+    /// How many times `facets` wind about `p`: the sum of the solid angles they subtend at it
+    /// (Van Oosterom and Strackee's formula), over 4 pi. 1 inside a closed shell wound
+    /// outwards, 0 outside, -1 inside one wound inwards; near those values for shells with
+    /// cracks.
+    fn winding_number(&self, facets: &[usize], p: [f64; 3]) -> f64 {
+        let solid_angle = |&k: &usize| {
+            let r = self.facets[k]
+                .vertices
+                .map(|i| v3::sub(self.vertices[i as usize], p));
+            let l = r.map(v3::norm);
+            let num = v3::dot(r[0], v3::cross(r[1], r[2]));
+            let den = l[0] * l[1] * l[2]
+                + v3::dot(r[0], r[1]) * l[2]
+                + v3::dot(r[0], r[2]) * l[1]
+                + v3::dot(r[1], r[2]) * l[0];
+            2.0 * num.atan2(den)
+        };
+        facets.par_iter().map(solid_angle).sum::<f64>() / (4.0 * std::f64::consts::PI)
     }
 
     /// OBJ through `tobj`, with line numbers for every facet and every reader error.
@@ -1902,6 +1939,58 @@ mod tests {
         );
         let e = obj(&cube(far, 0.5, true, false)).unwrap_err().to_string();
         assert!(e.contains("negative volume"), "{e}");
+    }
+
+    /// A hollow solid: an outward cube holding a cube wound inwards (a cavity, its faces
+    /// turned into the hollow) encloses a negative volume rightly and was refused as inside
+    /// out. Accepted now; an inward cube beside the outward one, or inside a cavity, or
+    /// holding an outward one, is still refused, as is an inward cube alone.
+    #[test]
+    fn a_cavity_in_a_solid_is_not_inside_out() {
+        let cube = |o: f64, h: f64, inward: bool, first: usize| -> (String, String) {
+            let mut v = String::new();
+            for k in 0..8 {
+                let c = [k & 1, (k >> 1) & 1, (k >> 2) & 1].map(|b| o + b as f64 * h);
+                v += &format!("v {} {} {}\n", c[0], c[1], c[2]);
+            }
+            let mut f = String::new();
+            for face in ["1 3 4 2", "5 6 8 7", "1 2 6 5", "3 7 8 4", "1 5 7 3", "2 4 8 6"] {
+                let mut ids: Vec<usize> = face
+                    .split(' ')
+                    .map(|i| i.parse::<usize>().unwrap() + first)
+                    .collect();
+                if inward {
+                    ids.reverse();
+                }
+                f += &format!("f {} {} {} {}\n", ids[0], ids[1], ids[2], ids[3]);
+            }
+            (v, f)
+        };
+        let mesh = |cubes: &[(f64, f64, bool)]| {
+            let (mut v, mut f) = (String::new(), String::new());
+            for (k, &(o, h, inward)) in cubes.iter().enumerate() {
+                let (cv, cf) = cube(o, h, inward, 8 * k);
+                v += &cv;
+                f += &cf;
+            }
+            obj(&format!("o solid\n{v}{f}"))
+        };
+        let hollow = mesh(&[(0.0, 3.0, false), (1.0, 1.0, true)]).expect("a hollow cube");
+        assert!(hollow.closed.iter().all(|&c| c));
+        // The cavity listed first.
+        assert!(mesh(&[(1.0, 1.0, true), (0.0, 3.0, false)]).is_ok());
+        for (what, cubes) in [
+            ("alone", vec![(1.0, 1.0, true)]),
+            ("beside a solid", vec![(0.0, 3.0, false), (5.0, 1.0, true)]),
+            (
+                "in a cavity",
+                vec![(0.0, 9.0, false), (1.0, 7.0, true), (3.0, 1.0, true)],
+            ),
+            ("holding a solid", vec![(0.0, 3.0, true), (1.0, 1.0, false)]),
+        ] {
+            let e = mesh(&cubes).expect_err(what).to_string();
+            assert!(e.contains("negative volume"), "{what}: {e}");
+        }
     }
 
     /// A device is refused unread, whatever its name says (`/dev/zero` was read until memory
