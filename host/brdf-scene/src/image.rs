@@ -662,7 +662,8 @@ fn facing_positions(
 }
 
 /// Checks the resolution, draws the receiver's (and, bistatic, the source's) depth buffer
-/// into `scratch` and writes the terms of every facet facing both.
+/// into `scratch`, writes the terms of every facet facing both and each sample column's pixel
+/// column (`Scratch::column`).
 fn draw_aspect(
     scene: &Scene,
     aspect: &Aspect,
@@ -772,7 +773,7 @@ fn draw_aspect(
             .source
             .draw(scene, &source_view, source_step, b, &mut scratch.projected_source);
     }
-    Ok(Drawn {
+    let drawn = Drawn {
         view,
         source_view,
         s,
@@ -782,7 +783,9 @@ fn draw_aspect(
         pixel,
         step,
         k,
-    })
+    };
+    drawn.columns(scratch.receiver.nx, &mut scratch.column);
+    Ok(drawn)
 }
 
 impl Drawn {
@@ -878,8 +881,7 @@ pub(crate) fn image_with(
     let d = draw_aspect(scene, aspect, options, scratch)?;
     let mesh = scene.raster_mesh();
     let (width, height, step) = (d.width, d.height, d.step);
-    let mut column = std::mem::take(&mut scratch.column);
-    d.columns(scratch.receiver.nx, &mut column);
+    let column = std::mem::take(&mut scratch.column);
     let buffer = &scratch.receiver;
     let area = step * step;
     let mut sigma = vec![0.0; width * height];
@@ -1056,8 +1058,7 @@ pub(crate) fn sigma_by_area(
 ) -> Result<AreaSigma, ImageError> {
     let d = draw_aspect(scene, aspect, options, scratch)?;
     let mesh = scene.raster_mesh();
-    let mut column = std::mem::take(&mut scratch.column);
-    d.columns(scratch.receiver.nx, &mut column);
+    let column = std::mem::take(&mut scratch.column);
     // Per facet: samples that see it lit, those of them on an outline or in doubt, and the
     // unlit ones in doubt (a shadow's edge); at most MAX_SAMPLES each.
     let mut counts = std::mem::take(&mut scratch.counts);
