@@ -724,7 +724,7 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
             _ => String::new(),
         };
         Some(format!(
-            "the best cost {:e}{from_grid} was reached by {agree_n} of {} chains and hops ({need}              needed){theirs}: the search could still improve",
+            "the best cost {:e}{from_grid} was reached by {agree_n} of {} chains and hops ({need} needed){theirs}: the search could still improve",
             best.cost,
             searches.len()
         ))

@@ -325,3 +325,34 @@ fn noise_free_microfacet_data_at_the_bounds_converge_with_the_bounds_held() {
         }
     }
 }
+
+/// A search whose chains disagree says so in one readable sentence: the reason read
+/// "(2              needed)", the indentation of a continued line left inside the text.
+#[test]
+fn a_search_that_did_not_agree_says_so_without_stray_spaces() {
+    let case = &crate::real_data_cases::cases()[0];
+    let problem = Problem::from_dataset(ModelKind::Six, Residual::Relative, &case.data);
+    let mut seen = 0;
+    for seed in 0..8 {
+        let opts = FitOptions {
+            chains: 2,
+            agree: 2,
+            min_chains: 2,
+            hops: 0,
+            ..weak_search(seed)
+        };
+        let out = fit(&problem, &opts);
+        let Some(why) = out.search.not_converged.as_deref() else {
+            continue;
+        };
+        if why.contains("could still improve") {
+            seen += 1;
+            assert!(why.contains("(2 needed)"), "{why}");
+            assert!(!why.contains("  "), "{why}");
+        }
+    }
+    assert!(
+        seen > 0,
+        "no weak search disagreed: the message was not exercised"
+    );
+}
