@@ -5,6 +5,7 @@
 //! call per (aspect, material) (`crate::queries::QueryBatch::sigma`), so that a batch (SIMD)
 //! evaluation in the core replaces the loop here without touching the callers.
 
+use brdf_core::batch::Batch;
 use brdf_core::fitted::{Corrected, FittedTable};
 use brdf_core::table::{SixTable, TableConsts};
 use brdf_core::{AnyModel, Brdf};
@@ -72,6 +73,15 @@ pub fn eval_batch(e: &Evaluator, cos_theta_i: &[f64], cos_theta_r: &[f64], cos_p
     debug_assert!(
         cos_theta_i.len() == out.len() && cos_theta_r.len() == out.len() && cos_phi.len() == out.len()
     );
+    // The exact model through the core's batch path (vectorised, its instruction set chosen at
+    // run time): the scalar formulas to about 1e-15 relative
+    // (`brdf_core::tolerance::BATCH_F64_REL`). Input it refuses (a cosine rounded past 1)
+    // goes through the scalar path whole.
+    if let Evaluator::Exact(m) = e {
+        if Batch::new(m).cosines(cos_theta_i, cos_theta_r, cos_phi, out).is_ok() {
+            return;
+        }
+    }
     let q = cos_theta_i
         .iter()
         .zip(cos_theta_r)
