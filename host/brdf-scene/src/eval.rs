@@ -78,7 +78,10 @@ pub fn eval_batch(e: &Evaluator, cos_theta_i: &[f64], cos_theta_r: &[f64], cos_p
     // (`brdf_core::tolerance::BATCH_F64_REL`). Input it refuses (a cosine rounded past 1)
     // goes through the scalar path whole.
     if let Evaluator::Exact(m) = e {
-        if Batch::new(m).cosines(cos_theta_i, cos_theta_r, cos_phi, out).is_ok() {
+        if Batch::new(m)
+            .cosines(cos_theta_i, cos_theta_r, cos_phi, out)
+            .is_ok()
+        {
             return;
         }
     }

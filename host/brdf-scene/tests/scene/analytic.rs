@@ -1264,6 +1264,38 @@ fn the_foot_of_a_wall_in_bistatic_light_stays_within_the_bound() {
             img.sigma_bound()
         );
     }
+    // The same as closed solids, a wall a sample thick standing on a slab (no edge of one
+    // facet; the foot is a silhouette, the wall's bottom turned away): only the wall's top is
+    // seen lit, 4 rho sin^2(25 deg) A.
+    let mut b = MeshBuilder::new();
+    b.cuboid([-1.0, -1.0, -0.05], [1.0, 1.0, 0.0], [1, 1, 1], "plate");
+    b.cuboid([-0.001, -1.0, 0.0], [0.001, 1.0, 0.5], [1, 1, 1], "wall");
+    let s = scene(
+        b.build("closed wall").unwrap(),
+        lambert(0.5),
+        sensor(
+            Mode::Bistatic {
+                separation_deg: 180.0,
+            },
+            &[0.0],
+            &[25.0],
+        ),
+    );
+    let exact = 4.0 * 0.5 * 25f64.to_radians().sin().powi(2) * 0.002 * 2.0;
+    assert!(
+        rel(sigmas(&s)[0], exact) < 1e-12,
+        "{} against {exact}",
+        sigmas(&s)[0]
+    );
+    for (pixels, supersample) in [(256, 4), (64, 4), (1024, 1)] {
+        let img = image(&s, &s.aspects()[0], &ImageOptions { pixels, supersample }).unwrap();
+        assert!(
+            (img.lrcs() - exact).abs() <= img.sigma_bound(),
+            "closed, {pixels} x {supersample}: {} against {exact}, bound {}",
+            img.lrcs(),
+            img.sigma_bound()
+        );
+    }
 }
 
 /// Dark closed strips (rho 1e-4), a fifth of a sample wide, lying 1 mm (under an outline's
