@@ -417,8 +417,16 @@ impl Problem {
     }
 
     /// A copy without the points `rows` (influence analysis: a row and its exact copies).
+    /// Linear in the points and rows (a row written 400,000 times took 15 s: each point was
+    /// looked for among the rows).
     pub fn without(&self, rows: &[usize]) -> Problem {
-        let keep: Vec<usize> = (0..self.len()).filter(|i| !rows.contains(i)).collect();
+        let mut dropped = vec![false; self.len()];
+        for &i in rows {
+            if let Some(d) = dropped.get_mut(i) {
+                *d = true;
+            }
+        }
+        let keep: Vec<usize> = (0..self.len()).filter(|&i| !dropped[i]).collect();
         self.subset_scaled(&keep, &vec![1.0; keep.len()])
     }
 
@@ -890,6 +898,27 @@ mod loss_tests {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Leaving out a row and its exact copies keeps every other point, in order, and takes
+    /// time linear in the points: 300,000 copies of one row (each point was looked for among
+    /// the copies, 4.5e10 comparisons) are left out well within a second.
+    #[test]
+    fn leaving_out_many_copies_is_linear() {
+        let kind = ModelKind::Lambert;
+        let d = crate::synth::in_plane(kind, &[0.3], &[0.0, 30.0, 60.0], 5.0, 0.0, 1).unwrap();
+        let copies = 300_000;
+        let mut points = d.points.clone();
+        points.extend(std::iter::repeat_n(d.points[0], copies));
+        let problem = Problem::new(kind, Residual::Relative, &points);
+        let mut rows: Vec<usize> = (d.points.len()..points.len()).collect();
+        rows.push(0);
+        let started = std::time::Instant::now();
+        let without = problem.without(&rows);
+        let seconds = started.elapsed().as_secs_f64();
+        assert_eq!(without.len(), d.points.len() - 1);
+        assert_eq!(without.y, problem.y[1..d.points.len()]);
+        assert!(seconds < 1.0, "{seconds} s");
+    }
 
     /// The microfacet `alpha` box is the device's range, from inside: every `alpha` the fitter
     /// reports passes `brdf_core::ranges::GGX`, and the ends are within 1e-11 of the range's.
