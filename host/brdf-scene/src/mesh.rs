@@ -275,7 +275,7 @@ pub struct Mesh {
 /// (a map of cells to lists took about 300 bytes per facet, triples of `i64` 32 bytes a
 /// pair); and the grid's origin (the boxes' least corner) and cells' sides. `boxes` are the
 /// facets' padded boxes. Built and sorted on all cores.
-fn coincidence_grid(boxes: &[([f64; 3], [f64; 3])]) -> (Vec<(u64, u32)>, [f64; 3], [f64; 3]) {
+fn coincidence_grid(boxes: &[([f64; 3], [f64; 3])]) -> (Vec<(u64, u32)>, [f64; 3], [f64; 3], bool) {
     let n = boxes.len();
     let (mut origin, mut top) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for (lo, hi) in boxes {
@@ -286,11 +286,12 @@ fn coincidence_grid(boxes: &[([f64; 3], [f64; 3])]) -> (Vec<(u64, u32)>, [f64; 3
     }
     // Cells twice as long along each axis as the mean facet box (a facet then meets about two
     // cells, not eight: a 1.3-million-facet sphere's grid took 0.45 s less to build and
-    // search), doubled until the facets cover
-    // at most 16 cells each on average (a few large facets among small ones) and each axis
-    // has at most 2^CELL_BITS cells. Per axis: cubes as wide as the longest side put a tube
-    // of full-length slivers in one cell, and its check took k^2 / 2 pair tests (80,000
-    // facets, 17 s).
+    // search), doubled until the facets cover at most 16 cells each on average (a few large
+    // facets among small ones). Per axis: cubes as wide as the longest side put a tube of
+    // full-length slivers in one cell, and its check took k^2 / 2 pair tests (80,000 facets,
+    // 17 s). Cells are packed into a key when each axis has at most 2^CELL_BITS of them, hashed
+    // otherwise (doubling them until they fit put a small sphere beside a facet 1e9 m away in
+    // one cell: 327,681 facets took 130 s).
     let mut cell = [0, 1, 2].map(|c| {
         (2.0 * boxes.iter().map(|(lo, hi)| hi[c] - lo[c]).sum::<f64>() / n as f64).max(f64::MIN_POSITIVE)
     });
@@ -305,12 +306,12 @@ fn coincidence_grid(boxes: &[([f64; 3], [f64; 3])]) -> (Vec<(u64, u32)>, [f64; 3
                     .product::<f64>()
             })
             .sum();
-        let fits = (0..3).all(|c| index(top[c], c, cell) < 1 << CELL_BITS);
-        if covered <= 16.0 * n as f64 && fits {
+        if covered <= 16.0 * n as f64 {
             break;
         }
         cell = cell.map(|w| w * 2.0);
     }
+    let packed = (0..3).all(|c| index(top[c], c, cell) < 1 << CELL_BITS);
     let range =
         |b: &([f64; 3], [f64; 3]), c: usize| index(b.0[c], c, cell) as u64..=index(b.1[c], c, cell) as u64;
     let mut grid: Vec<(u64, u32)> = boxes
@@ -321,12 +322,12 @@ fn coincidence_grid(boxes: &[([f64; 3], [f64; 3])]) -> (Vec<(u64, u32)>, [f64; 3
             range(b, 0).flat_map(move |x| {
                 let zs = zs.clone();
                 ys.clone()
-                    .flat_map(move |y| zs.clone().map(move |z| (cell_key([x, y, z]), j as u32)))
+                    .flat_map(move |y| zs.clone().map(move |z| (cell_key([x, y, z], packed), j as u32)))
             })
         })
         .collect();
     grid.par_sort_unstable();
-    (grid, origin, cell)
+    (grid, origin, cell, packed)
 }
 
 /// Of two coincident pairs found (facets `a < b`, depth), the first in facet order.
@@ -340,9 +341,20 @@ fn first_pair(x: Option<(usize, usize, f64)>, y: Option<(usize, usize, f64)>) ->
 /// Bits of a coincidence-grid cell's index along each axis ([`cell_key`]).
 const CELL_BITS: u32 = 21;
 
-/// One key for the cell of indices `i` (each below 2^[`CELL_BITS`]).
-fn cell_key(i: [u64; 3]) -> u64 {
-    (i[0] << (2 * CELL_BITS)) | (i[1] << CELL_BITS) | i[2]
+/// One key for the cell of indices `i`: packed when `packed` (each index below
+/// 2^[`CELL_BITS`]), else a hash of the three (cells whose hashes collide share a key: their
+/// pairs are tested, never missed, as a pair is tested only where its common box begins).
+fn cell_key(i: [u64; 3], packed: bool) -> u64 {
+    if packed {
+        return (i[0] << (2 * CELL_BITS)) | (i[1] << CELL_BITS) | i[2];
+    }
+    // SplitMix64's finaliser, folding in one index at a time.
+    let mix = |mut z: u64| {
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    };
+    mix(mix(mix(i[0]) ^ i[1]) ^ i[2])
 }
 
 /// `floor((x - origin) / side)` as an integer, as `f64::floor` then `as i64` give it, without
@@ -605,7 +617,7 @@ impl Mesh {
                 (lo, hi)
             })
             .collect();
-        let (grid, origin, cell) = coincidence_grid(&boxes);
+        let (grid, origin, cell, packed) = coincidence_grid(&boxes);
         let index = |x: f64, c: usize| cell_index(x, origin[c], cell[c]) as u64;
         // Two axes across a unit normal, for comparisons in a plane.
         let frame = |n: [f64; 3]| {
@@ -741,7 +753,7 @@ impl Mesh {
                         // Boxes apart, or the pair is met again in the cell where their common
                         // box begins (tested there only).
                         if (0..3).any(|c| start[c] > ba.1[c].min(bb.1[c]))
-                            || cell_key([0, 1, 2].map(|c| index(start[c], c))) != at
+                            || cell_key([0, 1, 2].map(|c| index(start[c], c)), packed) != at
                         {
                             continue;
                         }
@@ -1596,9 +1608,25 @@ mod tests {
                 )
             })
             .collect();
-        let (grid, _, _) = coincidence_grid(&boxes);
+        let (grid, _, _, _) = coincidence_grid(&boxes);
         let fullest = grid.chunk_by(|x, y| x.0 == y.0).map(<[_]>::len).max().unwrap();
         assert!(fullest <= 32, "{fullest} of {k} facets in one cell");
+    }
+
+    /// Cells hashed when the grid is wider than 2^CELL_BITS cells a side: a coincident pair
+    /// beside a facet 1e9 m away is still found and named (cells doubled until they fitted
+    /// before), and a mesh without one passes.
+    #[test]
+    fn a_coincident_pair_is_found_in_a_grid_too_wide_to_pack() {
+        let far = "v 1e9 0 0\nv 1e9 0.001 0\nv 1e9 0 0.001\nf 1 2 3\n";
+        let pair = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0.1 0.1 0\nv 1.1 0.1 0\nv 0.1 1.1 0\nf 4 5 6\nf 7 8 9\n";
+        let e = obj(&format!("{far}{pair}")).unwrap_err().to_string();
+        assert!(e.contains("line 11") && e.contains("line 12"), "{e}");
+        let apart = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 5\nv 1 0 5\nv 0 1 5\nf 4 5 6\nf 7 8 9\n";
+        assert!(obj(&format!("{far}{apart}")).is_ok());
+        let boxes = [([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]), ([1e9, 0.0, 0.0], [1e9 + 1e-3, 1e-3, 1e-3])];
+        let (_, _, _, packed) = coincidence_grid(&boxes);
+        assert!(!packed);
     }
 
     /// A cube whose top is split at a vertex on the edge it shares with a side (a T-junction:
