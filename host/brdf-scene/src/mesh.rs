@@ -275,7 +275,7 @@ pub struct Mesh {
 /// (a map of cells to lists took about 300 bytes per facet, triples of `i64` 32 bytes a
 /// pair); and the grid's origin (the boxes' least corner) and cells' sides. `boxes` are the
 /// facets' padded boxes. Built and sorted on all cores.
-fn coincidence_grid(boxes: &[([f64; 3], [f64; 3])]) -> (Vec<(u64, u32)>, [f64; 3], [f64; 3], bool) {
+fn coincidence_grid(boxes: &[([f64; 3], [f64; 3])]) -> Grid {
     let n = boxes.len();
     let (mut origin, mut top) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for (lo, hi) in boxes {
@@ -327,7 +327,24 @@ fn coincidence_grid(boxes: &[([f64; 3], [f64; 3])]) -> (Vec<(u64, u32)>, [f64; 3
         })
         .collect();
     grid.par_sort_unstable();
-    (grid, origin, cell, packed)
+    Grid {
+        entries: grid,
+        origin,
+        cell,
+        packed,
+    }
+}
+
+/// The coincidence check's grid ([`coincidence_grid`]).
+struct Grid {
+    /// (cell key, facet), sorted.
+    entries: Vec<(u64, u32)>,
+    /// The boxes' least corner: cell `[i, j, k]` begins at `origin + [i, j, k] * cell`.
+    origin: [f64; 3],
+    /// The cells' sides.
+    cell: [f64; 3],
+    /// Keys packed, not hashed ([`cell_key`]).
+    packed: bool,
 }
 
 /// Of two coincident pairs found (facets `a < b`, depth), the first in facet order.
@@ -617,7 +634,12 @@ impl Mesh {
                 (lo, hi)
             })
             .collect();
-        let (grid, origin, cell, packed) = coincidence_grid(&boxes);
+        let Grid {
+            entries: grid,
+            origin,
+            cell,
+            packed,
+        } = coincidence_grid(&boxes);
         let index = |x: f64, c: usize| cell_index(x, origin[c], cell[c]) as u64;
         // Two axes across a unit normal, for comparisons in a plane.
         let frame = |n: [f64; 3]| {
@@ -1608,7 +1630,7 @@ mod tests {
                 )
             })
             .collect();
-        let (grid, _, _, _) = coincidence_grid(&boxes);
+        let grid = coincidence_grid(&boxes).entries;
         let fullest = grid.chunk_by(|x, y| x.0 == y.0).map(<[_]>::len).max().unwrap();
         assert!(fullest <= 32, "{fullest} of {k} facets in one cell");
     }
@@ -1624,9 +1646,11 @@ mod tests {
         assert!(e.contains("line 11") && e.contains("line 12"), "{e}");
         let apart = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 5\nv 1 0 5\nv 0 1 5\nf 4 5 6\nf 7 8 9\n";
         assert!(obj(&format!("{far}{apart}")).is_ok());
-        let boxes = [([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]), ([1e9, 0.0, 0.0], [1e9 + 1e-3, 1e-3, 1e-3])];
-        let (_, _, _, packed) = coincidence_grid(&boxes);
-        assert!(!packed);
+        let boxes = [
+            ([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]),
+            ([1e9, 0.0, 0.0], [1e9 + 1e-3, 1e-3, 1e-3]),
+        ];
+        assert!(!coincidence_grid(&boxes).packed);
     }
 
     /// A cube whose top is split at a vertex on the edge it shares with a side (a T-junction:
