@@ -1348,3 +1348,63 @@ fn thin_dark_boxes_just_above_a_bright_slab_stay_within_the_bound() {
         img.sigma_bound()
     );
 }
+
+/// Five walls 10 µm thin on a 1 cm plate shadow 43% of it from a source 60 degrees away.
+/// Behind the plate, a rod 100 m long along the receiver's line of sight widens only the
+/// source's view, whose buffer is then made coarser than the walls: no source sample held
+/// them and their whole shadow was lost (σ 1.0e-4, the unshadowed plate, under a stated
+/// bound of 2.3e-5 about a true 5.7e-5). The two scenes' images must agree within the sum of
+/// their bounds, each bounding the same true σ.
+#[test]
+fn walls_narrower_than_the_source_samples_keep_their_shadow_in_the_bound() {
+    use brdf_scene::image::{image, ImageOptions};
+    let build = |rod: bool| {
+        let mut b = MeshBuilder::new();
+        let plate = b.part("plate");
+        let v: Vec<u32> = [
+            [0.0, -0.005, -0.005],
+            [0.0, 0.005, -0.005],
+            [0.0, 0.005, 0.005],
+            [0.0, -0.005, 0.005],
+        ]
+        .into_iter()
+        .map(|p| b.vertex(p))
+        .collect();
+        b.triangle([v[0], v[1], v[2]], plate);
+        b.triangle([v[0], v[2], v[3]], plate);
+        for k in 0..5 {
+            let y = -0.004 + 0.002 * k as f64;
+            b.cuboid([1e-6, y, -0.005], [5e-4, y + 1e-5, 0.005], [1, 1, 1], "wall");
+        }
+        if rod {
+            b.cuboid([-100.1, -5e-4, -5e-4], [-0.1, 5e-4, 5e-4], [1, 1, 1], "rod");
+        }
+        scene(
+            b.build("comb").unwrap(),
+            lambert(0.5),
+            sensor(Mode::Bistatic { separation_deg: 60.0 }, &[0.0], &[0.0]),
+        )
+    };
+    let options = ImageOptions {
+        pixels: 256,
+        supersample: 4,
+    };
+    let (alone, with_rod) = (build(false), build(true));
+    let a = image(&alone, &alone.aspects()[0], &options).unwrap();
+    let r = image(&with_rod, &with_rod.aspects()[0], &options).unwrap();
+    assert!(
+        (a.lrcs() - r.lrcs()).abs() <= a.sigma_bound() + r.sigma_bound(),
+        "with the rod {} (bound {}), alone {} (bound {})",
+        r.lrcs(),
+        r.sigma_bound(),
+        a.lrcs(),
+        a.sigma_bound()
+    );
+    // The walls shadow: alone, σ is well below the unshadowed plate's.
+    let plate = 4.0 * 0.5 * 0.0001 * 60f64.to_radians().cos();
+    assert!(
+        a.lrcs() + a.sigma_bound() < 0.8 * plate,
+        "{} against {plate}",
+        a.lrcs()
+    );
+}
