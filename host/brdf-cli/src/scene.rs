@@ -54,7 +54,8 @@ pub struct ImageCmd {
     /// The aspect: receiver azimuth and elevation in degrees (default: the sweep's first).
     #[arg(long, value_name = "AZ,EL", allow_hyphen_values = true)]
     aspect: Option<String>,
-    /// Pixels along the image's longer side (1 to 4096).
+    /// Pixels along the image's longer side (1 to 4096, and pixels x supersample at most
+    /// 4096: at most 1022 with the default --supersample 4).
     #[arg(long, default_value_t = 256)]
     pixels: usize,
     /// Depth-buffer samples per pixel along each side (1 to 16).
@@ -104,7 +105,8 @@ pub struct LrcsCmd {
     /// aspect; `--pixels`, `--supersample` set its resolution).
     #[arg(long, value_enum, default_value = "centroid")]
     visibility: Visibility,
-    /// With --visibility area: pixels along the image's longer side (1 to 4096; 256 unless
+    /// With --visibility area: pixels along the image's longer side (1 to 4096, and pixels x
+    /// supersample at most 4096: at most 1022 with the default --supersample 4; 256 unless
     /// given).
     #[arg(long)]
     pixels: Option<usize>,

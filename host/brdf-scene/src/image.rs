@@ -747,8 +747,11 @@ fn draw_aspect(
     }
     let samples = (n * k + 2 * k) * (n * k + 2 * k);
     if samples > MAX_SAMPLES {
+        // (n k + 2 k)^2 <= MAX_SAMPLES, a pixel of margin each side.
+        let most = (MAX_PIXELS + 2) / k - 2;
         return Err(ImageError::Refused(format!(
-            "{n} pixels x {k} samples each way: {samples} samples, more than {MAX_SAMPLES}"
+            "{n} pixels x {k} samples each way: {samples} samples with the margin, more than \
+             {MAX_SAMPLES}; with --supersample {k} give at most {most} pixels"
         )));
     }
     scratch.reset(scene.mesh.facets.len());

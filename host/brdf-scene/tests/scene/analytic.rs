@@ -1166,6 +1166,28 @@ fn the_largest_image_offered_is_drawn() {
     )
     .unwrap_err();
     assert!(e.to_string().contains("samples each way"), "{e}");
+    // At 4 samples a pixel the most pixels the refusal names is drawn, one more refused.
+    let e = image(
+        &s,
+        a,
+        &ImageOptions {
+            pixels: 1023,
+            supersample: 4,
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("give at most 1022 pixels"), "{e}");
+    let img = image(
+        &s,
+        a,
+        &ImageOptions {
+            pixels: 1022,
+            supersample: 4,
+        },
+    )
+    .unwrap();
+    assert!(rel(img.lrcs(), 4.0 * 0.5) < 1e-3, "{}", img.lrcs());
 }
 
 /// Bright decals (rho 1) 1 mm in front of a dark plate (rho 0.01), 3.5 cm squares 6.25 cm
