@@ -1019,6 +1019,20 @@ impl Mesh {
                     })
             },
         );
+        // Both refusing: the earlier line is named.
+        if let (
+            Err(MeshError::Parse {
+                at: Origin::Line(a), ..
+            }),
+            Err(MeshError::Parse {
+                at: Origin::Line(b), ..
+            }),
+        ) = (&face_lines, &models)
+        {
+            if b < a {
+                return models.map(|_| unreachable!("an error"));
+            }
+        }
         let face_lines = face_lines?;
         let models = models?;
         let mut vertices: Vec<[f64; 3]> = Vec::new();
@@ -1354,6 +1368,16 @@ fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
     }
     let text = String::from_utf8_lossy(bytes);
     let mut out = Vec::new();
+    // Vertex indices are checked here, where the line is known (the reader refused an index
+    // past the last vertex at the file's last line): vertices so far, and faces reaching
+    // further ahead (the reader takes those if the vertex comes later).
+    let mut vertices = 0i64;
+    let mut ahead: Vec<(u64, i64)> = Vec::new();
+    let parse_error = |at: Origin, message: String| MeshError::Parse {
+        file: file.to_owned(),
+        at,
+        message,
+    };
     for (k, line) in text.lines().enumerate() {
         let line_no = k as u64 + 1;
         let mut words = line.split_whitespace();
@@ -1371,13 +1395,32 @@ fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
         }
         match words.next() {
             Some("f") => {
-                let n = words.count();
+                let refs: Vec<&str> = words.collect();
+                let n = refs.len();
                 if n < 3 {
                     return Err(MeshError::Parse {
                         file: file.to_owned(),
                         at,
                         message: format!("a face needs at least 3 vertices, this one has {n}"),
                     });
+                }
+                for r in refs {
+                    // `v`, `v/t`, `v//n` or `v/t/n`; what is not a number the reader refuses.
+                    let Ok(i) = r.split('/').next().unwrap_or("").parse::<i64>() else {
+                        continue;
+                    };
+                    if i == 0 || i < -vertices {
+                        return Err(parse_error(
+                            at,
+                            format!(
+                                "vertex index {i}: indices count from 1 (or back from -1), and {vertices} vertices \
+                                 come before this line"
+                            ),
+                        ));
+                    }
+                    if i > vertices {
+                        ahead.push((line_no, i));
+                    }
                 }
                 out.push(line_no);
             }
@@ -1393,7 +1436,15 @@ fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
             // A fourth vertex coordinate is a homogeneous weight the reader divides by (w = 2
             // halved the target, w = -1 mirrored it): only 1 is taken.
             Some("v") => {
+                vertices += 1;
                 let w: Vec<&str> = line.split_whitespace().skip(1).collect();
+                if let Some(c) = w
+                    .iter()
+                    .take(3)
+                    .find(|c| c.parse::<f64>().is_ok_and(|c| !c.is_finite()))
+                {
+                    return Err(parse_error(at, format!("vertex coordinate `{c}` is not finite")));
+                }
                 if w.len() == 4 && w[3].parse::<f64>() != Ok(1.0) {
                     return Err(MeshError::Parse {
                         file: file.to_owned(),
@@ -1429,6 +1480,12 @@ fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
             }
             _ => {}
         }
+    }
+    if let Some(&(line, i)) = ahead.iter().find(|&&(_, i)| i > vertices) {
+        return Err(parse_error(
+            Origin::Line(line),
+            format!("vertex index {i}: the file has {vertices} vertices"),
+        ));
     }
     Ok(out)
 }
@@ -1536,6 +1593,45 @@ mod tests {
     }
 
     const TETRA: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\no body\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n";
+
+    /// A bad vertex index or a vertex that is not finite is named at its own line (the reader
+    /// named the file's last line, or the first face using the vertex); of two refusals, the
+    /// earlier line. An index to a vertex written later is taken, as the reader takes it.
+    #[test]
+    fn bad_indices_and_vertices_are_named_at_their_lines() {
+        let faces = "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n";
+        let line = |text: &str| obj(text).unwrap_err().to_string();
+        let tail = "#\n#\n";
+        for (text, at, says) in [
+            (
+                format!("{TETRA}f 1 2 9\n{tail}"),
+                10,
+                "vertex index 9: the file has 4",
+            ),
+            (format!("{TETRA}f 0 1 2\n{tail}"), 10, "vertex index 0"),
+            (format!("{TETRA}f -5 1 2\n{tail}"), 10, "vertex index -5"),
+            (
+                format!("v 0 0 0\nv nan 0 0\nv 0 1 0\nv 0 0 1\n{faces}"),
+                2,
+                "`nan` is not finite",
+            ),
+            (
+                format!("v 0 0 0\nv 1e999 0 0\nv 0 1 0\nv 0 0 1\n{faces}"),
+                2,
+                "`1e999` is not finite",
+            ),
+            (
+                format!("v 0 0 0\nv 1 x 0\nv 0 1 0\nv 0 0 1\n{faces}f 1 2\n"),
+                2,
+                "OBJ reader",
+            ),
+        ] {
+            let e = line(&text);
+            assert!(e.contains(&format!("line {at}:")) && e.contains(says), "{e}");
+        }
+        let ahead = "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n";
+        assert_eq!(obj(ahead).unwrap().facets.len(), 4);
+    }
 
     #[test]
     fn a_tetrahedron_loads_with_outward_normals_and_lines() {
