@@ -58,11 +58,14 @@ pub const HUB_DEGREE: u32 = 32;
 /// face; its orientation is not checked.
 pub const FLAT_SHELL_VOLUME: f64 = 1e-9;
 
-/// A shell with edges of one facet whose facets' vector areas sum to within this fraction of
-/// its area of zero still encloses a volume: its openings are cracks of no width (a
-/// T-junction, where a vertex lies on another facet's edge; a corner written twice a rounding
-/// apart), and its orientation is checked as a closed shell's. A real opening's vector area is
-/// its projected size; the sum's rounding over ten million facets is below 1e-9 of the area.
+/// A shell with edges of one facet whose openings enclose, summed by size, within this
+/// fraction of its area of nothing still encloses a volume: its openings are cracks of no width
+/// (a T-junction, where a vertex lies on another facet's edge; a corner written twice a
+/// rounding apart), and its orientation is checked as a closed shell's. An opening is a
+/// connected run of such edges, its size the length of its vector area; a real opening's is
+/// its projected size (the two ends of a pipe cancel in the sum of the facets' vector areas,
+/// and a pipe wound inwards was refused as inside out). The rounding over ten million facets
+/// is below 1e-9 of the area.
 pub const CRACKED_SHELL_VECTOR_AREA: f64 = 1e-6;
 
 /// Where a facet came from, for messages.
@@ -893,9 +896,17 @@ impl Mesh {
             }
         }
         let piece: Vec<usize> = (0..n).map(|k| root(&mut piece_parent, k)).collect();
+        // The uses of edges not shared by exactly two facets: (facet, from, to).
+        let boundary: Vec<(usize, u32, u32)> = (0..3 * n)
+            .filter(|&u| uses[u] != 2)
+            .map(|u| {
+                let (a, b) = edge_of(u as u32);
+                (u / 3, a, b)
+            })
+            .collect();
         // Closed shells and cracked ones are checked; of the pieces, those with an opening.
         for (group, open_only) in [(&shell, false), (&piece, true)] {
-            if let Some((first, volume)) = self.inward_group(group, &open_facet, open_only) {
+            if let Some((first, volume)) = self.inward_group(group, &open_facet, &boundary, open_only) {
                 return Err(MeshError::Inward {
                     file: file(),
                     at: self.origins[first],
@@ -916,13 +927,19 @@ impl Mesh {
     /// group is one when the other enclosing groups wind about a point of it at least once
     /// ([`winding_number`]); only groups whose boxes hold that point are summed, so a solid
     /// with cavities costs a pass over its facets per cavity.
-    fn inward_group(&self, group: &[usize], open_facet: &[bool], open_only: bool) -> Option<(usize, f64)> {
+    fn inward_group(
+        &self,
+        group: &[usize],
+        open_facet: &[bool],
+        boundary: &[(usize, u32, u32)],
+        open_only: bool,
+    ) -> Option<(usize, f64)> {
         let n = self.facets.len();
         let mut open = vec![false; n];
         let mut volume = vec![0.0f64; n];
-        // Per group: the sum of its facets' vector areas, and of their areas.
-        let mut vector_area = vec![[0.0f64; 3]; n];
+        // Per group: its facets' area, and the summed sizes of its openings.
         let mut area = vec![0.0f64; n];
+        let openings = self.openings(group, boundary);
         let mut lo = vec![[f64::INFINITY; 3]; n];
         let mut hi = vec![[f64::NEG_INFINITY; 3]; n];
         // The signed volume about a point of each group, not about the origin: at geocentric
@@ -936,7 +953,6 @@ impl Mesh {
             let o = *anchor[r].get_or_insert(p[0]);
             let q = p.map(|x| v3::sub(x, o));
             volume[r] += v3::dot(q[0], v3::cross(q[1], q[2])) / 6.0;
-            vector_area[r] = v3::add(vector_area[r], v3::scale(f.normal, f.area));
             area[r] += f.area;
             for q in p {
                 for c in 0..3 {
@@ -946,7 +962,7 @@ impl Mesh {
             }
             open[r] |= open_facet[k];
         }
-        let encloses = |k: usize| !open[k] || v3::norm(vector_area[k]) <= CRACKED_SHELL_VECTOR_AREA * area[k];
+        let encloses = |k: usize| !open[k] || openings[k] <= CRACKED_SHELL_VECTOR_AREA * area[k];
         (0..n).find_map(|k| {
             let checked = if open[k] { encloses(k) } else { !open_only };
             if group[k] != k || !checked {
@@ -971,6 +987,52 @@ impl Mesh {
             let cavity = self.winding_number(&around, p) >= 0.5;
             (!cavity).then_some((first, volume[k]))
         })
+    }
+
+    /// Per group (indexed by its root, as `group`), the summed sizes of its openings: the
+    /// lengths of the vector areas of the connected runs of `boundary` edges (uses of edges not
+    /// shared by exactly two facets: facet, from, to) that touch it, each about a point of its
+    /// own.
+    fn openings(&self, group: &[usize], boundary: &[(usize, u32, u32)]) -> Vec<f64> {
+        let mut parent: std::collections::HashMap<u32, u32> = std::collections::HashMap::new();
+        fn root(p: &mut std::collections::HashMap<u32, u32>, mut v: u32) -> u32 {
+            loop {
+                let u = *p.entry(v).or_insert(v);
+                if u == v {
+                    return v;
+                }
+                let w = *p.entry(u).or_insert(u);
+                p.insert(v, w);
+                v = w;
+            }
+        }
+        for &(_, a, b) in boundary {
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            if ra != rb {
+                parent.insert(ra, rb);
+            }
+        }
+        // Each run's vector area, about its root vertex.
+        let mut run_area: std::collections::HashMap<u32, [f64; 3]> = std::collections::HashMap::new();
+        let mut touches: Vec<(usize, u32)> = Vec::with_capacity(boundary.len());
+        for &(k, a, b) in boundary {
+            let r = root(&mut parent, a);
+            let o = self.vertices[r as usize];
+            let (pa, pb) = (
+                v3::sub(self.vertices[a as usize], o),
+                v3::sub(self.vertices[b as usize], o),
+            );
+            let s = run_area.entry(r).or_insert([0.0; 3]);
+            *s = v3::add(*s, v3::scale(v3::cross(pa, pb), 0.5));
+            touches.push((group[k], r));
+        }
+        touches.sort_unstable();
+        touches.dedup();
+        let mut out = vec![0.0; group.len()];
+        for (g, r) in touches {
+            out[g] += v3::norm(run_area[&r]);
+        }
+        out
     }
 
     /// How many times `facets` wind about `p`: the sum of the solid angles they subtend at it
@@ -1593,6 +1655,30 @@ mod tests {
     }
 
     const TETRA: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\no body\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n";
+
+    /// A square pipe open at both ends, its faces turned inwards (a duct's inner surface):
+    /// its two openings cancel in the sum of the facets' vector areas, and it was taken for a
+    /// cracked closed shell and refused as inside out. Its openings have a size: an open
+    /// shell, taken either way round.
+    #[test]
+    fn a_pipe_open_at_both_ends_is_an_open_shell_either_way_round() {
+        let v = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
+        let sides = ["1 2 6 5", "2 3 7 6", "3 4 8 7", "4 1 5 8"];
+        for inward in [false, true] {
+            let faces: String = sides
+                .iter()
+                .map(|f| {
+                    let mut ids: Vec<&str> = f.split(' ').collect();
+                    if inward {
+                        ids.reverse();
+                    }
+                    format!("f {}\n", ids.join(" "))
+                })
+                .collect();
+            let m = obj(&format!("{v}{faces}")).unwrap_or_else(|e| panic!("inward {inward}: {e}"));
+            assert!(m.closed.iter().all(|&c| !c), "inward {inward}");
+        }
+    }
 
     /// A bad vertex index or a vertex that is not finite is named at its own line (the reader
     /// named the file's last line, or the first face using the vertex); of two refusals, the
