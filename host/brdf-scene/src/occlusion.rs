@@ -3,7 +3,8 @@
 //! crate's SAH build) keeps each ray at O(log n) facets.
 //!
 //! The traversal and the tests are conservative, so that no occluder is missed through
-//! rounding: the boxes are padded by [`PAD`] of the mesh size, a ray lying in the plane of a
+//! rounding: the boxes are padded by [`PAD`] of each facet's scale and at least
+//! [`PAD_OF_DIAGONAL`] of the mesh size, a ray lying in the plane of a
 //! box face counts as entering it (the crate's own slab test treats that case as a miss),
 //! and a triangle is hit up to [`EDGE_SLACK`] beyond its edges, so a ray through the edge
 //! shared by two occluding facets cannot slip between them. A hit counts only when the ray's
@@ -19,9 +20,17 @@ use nalgebra::Point3;
 
 use crate::mesh::{v3, Mesh};
 
-/// Padding of each facet's box, as a fraction of the mesh's bounding-box diagonal: far above
-/// f64 rounding of coordinates (1e-16), far below any facet.
+/// Padding of each facet's box, as a fraction of the facet's scale (its size plus its
+/// distance from the coordinate origin, what its coordinates' rounding is relative to): far
+/// above f64 rounding (1e-16), far below the facet. A fraction of the whole mesh's size put
+/// a 1 m pad on every facet of a 2 cm sphere beside a facet 1e9 m away: every ray met every
+/// box (20,000 facets took 7.6 s, against 0.05 s without the far facet).
 pub const PAD: f64 = 1e-9;
+
+/// The least padding of a box, as a fraction of the mesh's bounding-box diagonal: a ray from
+/// a facet across the mesh meets a box with a rounding of about 1e-16 of that distance, 45
+/// times less.
+pub const PAD_OF_DIAGONAL: f64 = 1e-14;
 
 /// Barycentric slack of the ray-triangle test: a ray passing within 1e-12 (relative to the
 /// triangle's size) outside an edge still hits, closing the cracks between neighbours.
@@ -89,7 +98,7 @@ impl std::fmt::Debug for Occluder {
 impl Occluder {
     /// Builds the hierarchy (in parallel on all cores).
     pub fn new(mesh: &Mesh) -> Occluder {
-        let pad = PAD * mesh.diagonal();
+        let least = PAD_OF_DIAGONAL * mesh.diagonal();
         let tris: Vec<Tri> = mesh
             .facets
             .iter()
@@ -110,8 +119,13 @@ impl Occluder {
             .enumerate()
             .map(|(index, f)| {
                 let p = f.vertices.map(|i| mesh.vertices[i as usize]);
-                let lo = [0, 1, 2].map(|k| p[0][k].min(p[1][k]).min(p[2][k]) - pad);
-                let hi = [0, 1, 2].map(|k| p[0][k].max(p[1][k]).max(p[2][k]) + pad);
+                let lo = [0, 1, 2].map(|k| p[0][k].min(p[1][k]).min(p[2][k]));
+                let hi = [0, 1, 2].map(|k| p[0][k].max(p[1][k]).max(p[2][k]));
+                let far = p.iter().flatten().fold(0.0_f64, |m, c| m.max(c.abs()));
+                let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+                let pad = (PAD * (far + size)).max(least);
+                let lo = lo.map(|c| c - pad);
+                let hi = hi.map(|c| c + pad);
                 Shape {
                     index,
                     aabb: Aabb::with_bounds(Point3::from(lo), Point3::from(hi)),
