@@ -190,8 +190,8 @@ impl Sample {
 /// in sequence, and each facet's corners (in that numbering), normal, area, material and
 /// shell closure in arrays of their own (the few bytes a view reads of each facet, where the
 /// mesh's facets hold 72); and the facets cut into clusters, runs of at most
-/// [`CLUSTER_FACETS`] consecutive facets whose normals lie within 30 degrees of the first's
-/// ([`CLUSTER_COS`]): a view skips a cluster of a closed shell seen wholly from
+/// `CLUSTER_FACETS` consecutive facets whose normals lie within 30 degrees of the first's
+/// (`CLUSTER_COS`): a view skips a cluster of a closed shell seen wholly from
 /// behind without reading its facets, and the facing test one facing away from source or
 /// receiver (about half the facets of a closed target whose file lists neighbouring facets
 /// together, as exporters do; a file in random order makes clusters of a facet or two, and
