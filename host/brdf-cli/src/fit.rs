@@ -322,25 +322,27 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
     )?;
     let s = &r.search;
     match &s.not_converged {
-        None if s.at_cost_floor => writeln!(
-            out,
-            "  converged: true (the best cost {:e} is at its rounding floor: the data are fitted to rounding, and no search can improve on it; {} of {} chains and hops reached it; {} chains, {} lobe-on probes, {} basin hops)",
-            r.cost,
-            s.agreeing,
-            s.chains + s.hops,
-            s.chains,
-            s.lobe_probes,
-            s.hops
-        )?,
-        None => writeln!(
-            out,
-            "  converged: true ({} of {} chains and hops reached the best cost; {} chains, {} lobe-on probes, {} basin hops)",
-            s.agreeing,
-            s.chains + s.hops,
-            s.chains,
-            s.lobe_probes,
-            s.hops
-        )?,
+        None => {
+            let reached = if s.at_cost_floor {
+                format!(
+                    "the best cost {:e} is at its rounding floor: the data are fitted to rounding, and no search can improve on it; {} of {} chains and hops reached it",
+                    r.cost,
+                    s.agreeing,
+                    s.chains + s.hops
+                )
+            } else {
+                format!(
+                    "{} of {} chains and hops reached the best cost",
+                    s.agreeing,
+                    s.chains + s.hops
+                )
+            };
+            writeln!(
+                out,
+                "  converged: true ({reached}; {} chains, {} lobe-on probes, {} basin hops)",
+                s.chains, s.lobe_probes, s.hops
+            )?
+        }
         Some(why) => writeln!(out, "  converged: false: {why}")?,
     }
     if let Some(m) = s.sample {

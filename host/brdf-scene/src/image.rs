@@ -699,14 +699,7 @@ fn facing_positions(
     out: &mut Vec<QueryBatch>,
     materials: usize,
 ) {
-    out.resize_with(materials, QueryBatch::default);
-    for b in out.iter_mut() {
-        b.cos_theta_i.clear();
-        b.cos_theta_r.clear();
-        b.cos_phi.clear();
-        b.weight.clear();
-        b.facet.clear();
-    }
+    QueryBatch::empty_per_material(out, materials);
     for cluster in &mesh.clusters {
         if cluster.all_away(v) || cluster.all_away(s) {
             continue;

@@ -39,6 +39,19 @@ pub struct QueryBatch {
 }
 
 impl QueryBatch {
+    /// `out` as `materials` empty batches, their memory kept (a sweep's per-thread scratch).
+    pub(crate) fn empty_per_material(out: &mut Vec<QueryBatch>, materials: usize) {
+        out.resize_with(materials, QueryBatch::default);
+        out.truncate(materials);
+        for b in out.iter_mut() {
+            b.cos_theta_i.clear();
+            b.cos_theta_r.clear();
+            b.cos_phi.clear();
+            b.weight.clear();
+            b.facet.clear();
+        }
+    }
+
     /// Queries in the batch.
     pub fn len(&self) -> usize {
         self.weight.len()
@@ -115,14 +128,7 @@ pub fn facing_queries_into(
     let v = aspect.receiver();
     let s = aspect.source(scene.sensor.mode);
     let mono = scene.sensor.mode == Mode::Monostatic;
-    out.resize_with(scene.materials.len(), QueryBatch::default);
-    for b in out.iter_mut() {
-        b.cos_theta_i.clear();
-        b.cos_theta_r.clear();
-        b.cos_phi.clear();
-        b.weight.clear();
-        b.facet.clear();
-    }
+    QueryBatch::empty_per_material(out, scene.materials.len());
     for (k, f) in scene.mesh.facets.iter().enumerate() {
         let Some([mu_i, mu_r, cos_phi]) = facing(f.normal, s, v, mono) else {
             continue;
