@@ -15,8 +15,11 @@
 //! samples it crosses times the difference of their σ per area (each of those decides which
 //! facet covers it; what [`LaserImage::sigma_bound`] reports).
 //!
-//! Memory: 16 bytes per sample (its depth, facet and side), at most [`MAX_SAMPLES`], and 16 bytes
-//! per pixel.
+//! Memory: 16 bytes per sample (its depth, facet and side; 17 in a bistatic source's buffer,
+//! with its doubt), at most [`MAX_SAMPLES`] a buffer, and 16 bytes per pixel; a sweep keeps a
+//! receiver's (and, bistatic, a source's) buffer per thread, and per thread about 100 bytes
+//! per facet (its terms, sample counts and queries) and 24 per vertex (48 bistatic), besides
+//! the mesh's layout ([`RasterMesh`]).
 
 use std::f64::consts::PI;
 
