@@ -46,6 +46,26 @@ fn sigmas(s: &Scene) -> Vec<f64> {
     lrcs(s, &|| {}).aspects.iter().map(|a| a.lrcs).collect()
 }
 
+/// The image of `s`'s first aspect at `pixels` x `supersample`, asserted to hold `exact` within
+/// its stated sampling bound (`what` names the case in the message).
+fn image_within_bound(
+    s: &Scene,
+    exact: f64,
+    pixels: usize,
+    supersample: usize,
+    what: &str,
+) -> brdf_scene::image::LaserImage {
+    use brdf_scene::image::{image, ImageOptions};
+    let img = image(s, &s.aspects()[0], &ImageOptions { pixels, supersample }).unwrap();
+    assert!(
+        (img.lrcs() - exact).abs() <= img.sigma_bound(),
+        "{what}, {pixels} pixels x {supersample}: {} against {exact}, bound {}",
+        img.lrcs(),
+        img.sigma_bound()
+    );
+    img
+}
+
 fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs().max(f64::MIN_POSITIVE)
 }
@@ -1086,7 +1106,6 @@ fn a_fine_plate_does_not_shadow_itself_at_grazing_light() {
 /// the exact σ, and the area σ lies within its bound of it, at resonance and off it.
 #[test]
 fn a_sheet_finer_than_the_samples_stays_within_its_bound() {
-    use brdf_scene::image::{image, ImageOptions};
     let sample = 10.0 / 1024.0;
     let period = sample / (3f64.sqrt() / 2.0);
     let height = period / 2.0 * (PI / 6.0).tan();
@@ -1110,22 +1129,8 @@ fn a_sheet_finer_than_the_samples_stays_within_its_bound() {
     let exact = sigmas(&s)[0];
     let mut worst: f64 = 0.0;
     for pixels in [256, 300, 512] {
-        let got = image(
-            &s,
-            &s.aspects()[0],
-            &ImageOptions {
-                pixels,
-                supersample: 4,
-            },
-        )
-        .unwrap();
+        let got = image_within_bound(&s, exact, pixels, 4, "corrugated sheet");
         worst = worst.max(rel(got.lrcs(), exact));
-        assert!(
-            (got.lrcs() - exact).abs() <= got.sigma_bound(),
-            "{pixels} pixels: {} against {exact}, bound {}",
-            got.lrcs(),
-            got.sigma_bound()
-        );
     }
     // The case is one: the teeth alias (several percent off at some resolution).
     assert!(worst > 0.05, "{worst}");
@@ -1197,7 +1202,6 @@ fn the_largest_image_offered_is_drawn() {
 /// as much as any two terms differ; σ by area lies within its bound at every resolution.
 #[test]
 fn decals_just_in_front_of_a_plate_stay_within_the_bound() {
-    use brdf_scene::image::{image, ImageOptions};
     let (side, pitch, n) = (0.035, 0.0625, 16);
     let mut b = MeshBuilder::new();
     // Facing +x (the sensor at azimuth 0, elevation 0).
@@ -1221,13 +1225,7 @@ fn decals_just_in_front_of_a_plate_stay_within_the_bound() {
     let covered = (n * n) as f64 * side * side;
     let exact = 4.0 * (0.01 * (1.0 - covered) + covered);
     for (pixels, supersample) in [(8, 4), (32, 1), (64, 4), (256, 4)] {
-        let img = image(&s, &s.aspects()[0], &ImageOptions { pixels, supersample }).unwrap();
-        assert!(
-            (img.lrcs() - exact).abs() <= img.sigma_bound(),
-            "{pixels} pixels x {supersample}: {} against {exact}, bound {}",
-            img.lrcs(),
-            img.sigma_bound()
-        );
+        image_within_bound(&s, exact, pixels, supersample, "decals");
     }
 }
 
@@ -1239,7 +1237,6 @@ fn decals_just_in_front_of_a_plate_stay_within_the_bound() {
 /// turned from their own, now enter the bound.
 #[test]
 fn the_foot_of_a_wall_in_bistatic_light_stays_within_the_bound() {
-    use brdf_scene::image::{image, ImageOptions};
     let mut b = MeshBuilder::new();
     let plate = b.part("plate");
     let v: Vec<u32> = [
@@ -1278,13 +1275,7 @@ fn the_foot_of_a_wall_in_bistatic_light_stays_within_the_bound() {
     );
     assert!(sigmas(&s)[0].abs() < 1e-12, "{}", sigmas(&s)[0]);
     for (pixels, supersample) in [(256, 4), (32, 4), (32, 1)] {
-        let img = image(&s, &s.aspects()[0], &ImageOptions { pixels, supersample }).unwrap();
-        assert!(
-            img.lrcs().abs() <= img.sigma_bound(),
-            "{pixels} x {supersample}: {} against 0, bound {}",
-            img.lrcs(),
-            img.sigma_bound()
-        );
+        image_within_bound(&s, 0.0, pixels, supersample, "open");
     }
     // The same as closed solids, a wall a sample thick standing on a slab (no edge of one
     // facet; the foot is a silhouette, the wall's bottom turned away): only the wall's top is
@@ -1310,13 +1301,7 @@ fn the_foot_of_a_wall_in_bistatic_light_stays_within_the_bound() {
         sigmas(&s)[0]
     );
     for (pixels, supersample) in [(256, 4), (64, 4), (1024, 1)] {
-        let img = image(&s, &s.aspects()[0], &ImageOptions { pixels, supersample }).unwrap();
-        assert!(
-            (img.lrcs() - exact).abs() <= img.sigma_bound(),
-            "closed, {pixels} x {supersample}: {} against {exact}, bound {}",
-            img.lrcs(),
-            img.sigma_bound()
-        );
+        image_within_bound(&s, exact, pixels, supersample, "closed");
     }
 }
 
