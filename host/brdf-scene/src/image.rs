@@ -282,6 +282,21 @@ impl std::fmt::Debug for RasterMesh {
 }
 
 impl RasterMesh {
+    /// The facets a view along `-d` draws, and whether each faces it: all but those of closed
+    /// shells seen from behind (each lies behind a front face of its own shell), clusters of
+    /// those skipped whole.
+    fn drawn(&self, d: [f64; 3]) -> impl Iterator<Item = (usize, bool)> + '_ {
+        self.clusters
+            .iter()
+            .filter(move |c| !(c.closed && c.all_away(d)))
+            .flat_map(move |c| {
+                (c.start as usize..c.end as usize).filter_map(move |k| {
+                    let front = v3::dot(self.normal[k], d) > 0.0;
+                    (front || !self.closed[k]).then_some((k, front))
+                })
+            })
+    }
+
     /// The layout of `mesh`, whose facet `k` is of material `material[k]`.
     pub fn new(mesh: &crate::mesh::Mesh, material: &[u32]) -> RasterMesh {
         let mut number = vec![u32::MAX; mesh.vertices.len()];
@@ -376,19 +391,9 @@ impl Buffer {
             *p = [snap((p[0] - x0) / step), snap((p[1] - y0) / step), p[2]];
         }
         let mesh = scene.raster_mesh();
-        for cluster in &mesh.clusters {
-            // A closed shell's facet seen from behind lies behind one of its front faces.
-            if cluster.closed && cluster.all_away(view.d) {
-                continue;
-            }
-            for k in cluster.start as usize..cluster.end as usize {
-                let front = v3::dot(mesh.normal[k], view.d) > 0.0;
-                if mesh.closed[k] && !front {
-                    continue;
-                }
-                let [a, bb, c] = mesh.corners[k].map(|i| projected[i as usize]);
-                self.triangle(k as u32, front, a, bb, c);
-            }
+        for (k, front) in mesh.drawn(view.d) {
+            let [a, bb, c] = mesh.corners[k].map(|i| projected[i as usize]);
+            self.triangle(k as u32, front, a, bb, c);
         }
     }
 
@@ -412,31 +417,23 @@ impl Buffer {
         self.doubt.clear();
         self.doubt.resize(self.samples.len(), false);
         let (nx, ny) = (self.nx as i64, self.ny as i64);
-        for cluster in &mesh.clusters {
-            if cluster.closed && cluster.all_away(view.d) {
-                continue;
-            }
-            for k in cluster.start as usize..cluster.end as usize {
-                if seen[k] || (mesh.closed[k] && v3::dot(mesh.normal[k], view.d) <= 0.0) {
-                    continue;
-                }
-                let p = mesh.corners[k].map(|i| projected[i as usize]);
-                let near = p[0][2].min(p[1][2]).min(p[2][2]);
-                for e in 0..3 {
-                    let (a, b) = (p[e], p[(e + 1) % 3]);
-                    let steps = (2.0 * (b[0] - a[0]).abs().max((b[1] - a[1]).abs()))
-                        .ceil()
-                        .min(1e7) as usize;
-                    for m in 0..=steps {
-                        let f = if steps == 0 { 0.0 } else { m as f64 / steps as f64 };
-                        let (x, y) = (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]));
-                        let (ci, cj) = (x.floor() as i64, y.floor() as i64);
-                        for j in (cj - 1).max(0)..=(cj + 1).min(ny - 1) {
-                            for i in (ci - 1).max(0)..=(ci + 1).min(nx - 1) {
-                                let t = (j * nx + i) as usize;
-                                if self.samples[t].depth > near {
-                                    self.doubt[t] = true;
-                                }
+        for (k, _) in mesh.drawn(view.d).filter(|&(k, _)| !seen[k]) {
+            let p = mesh.corners[k].map(|i| projected[i as usize]);
+            let near = p[0][2].min(p[1][2]).min(p[2][2]);
+            for e in 0..3 {
+                let (a, b) = (p[e], p[(e + 1) % 3]);
+                let steps = (2.0 * (b[0] - a[0]).abs().max((b[1] - a[1]).abs()))
+                    .ceil()
+                    .min(1e7) as usize;
+                for m in 0..=steps {
+                    let f = if steps == 0 { 0.0 } else { m as f64 / steps as f64 };
+                    let (x, y) = (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]));
+                    let (ci, cj) = (x.floor() as i64, y.floor() as i64);
+                    for j in (cj - 1).max(0)..=(cj + 1).min(ny - 1) {
+                        for i in (ci - 1).max(0)..=(ci + 1).min(nx - 1) {
+                            let t = (j * nx + i) as usize;
+                            if self.samples[t].depth > near {
+                                self.doubt[t] = true;
                             }
                         }
                     }
