@@ -56,10 +56,10 @@ pub struct ImageCmd {
     aspect: Option<String>,
     /// Pixels along the image's longer side (1 to 4096, and pixels x supersample at most
     /// 4096: at most 1022 with the default --supersample 4).
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = brdf_scene::image::IMAGE_PIXELS)]
     pixels: usize,
     /// Depth-buffer samples per pixel along each side (1 to 16).
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = brdf_scene::image::SUPERSAMPLE)]
     supersample: usize,
     /// The picture (.png or .svg).
     #[arg(short = 'o', long)]
@@ -105,9 +105,10 @@ pub struct LrcsCmd {
     /// aspect; `--pixels`, `--supersample` set its resolution).
     #[arg(long, value_enum, default_value = "centroid")]
     visibility: Visibility,
-    /// With --visibility area: pixels along the image's longer side (1 to 4096, and pixels x
-    /// supersample at most 4096: at most 1022 with the default --supersample 4; 256 unless
-    /// given).
+    /// With --visibility area: pixels along each aspect's longer side (1 to 4096, and pixels
+    /// x supersample at most 4096: at most 1022 with the default --supersample 4; 128 unless
+    /// given, 512 samples a side: the stated sampling bound shrinks about as the pixel size,
+    /// the time grows up to its square).
     #[arg(long)]
     pixels: Option<usize>,
     /// With --visibility area: depth-buffer samples per pixel along each side (1 to 16; 4
@@ -220,6 +221,10 @@ impl LrcsCmd {
         }
         let n = scene.aspects().len();
         let bar = progress::bar(n, "aspects");
+        let by_area = brdf_scene::image::ImageOptions {
+            pixels: self.pixels.unwrap_or(brdf_scene::image::SWEEP_PIXELS),
+            supersample: self.supersample.unwrap_or(brdf_scene::image::SUPERSAMPLE),
+        };
         let result = match self.visibility {
             Visibility::Centroid => {
                 if self.pixels.is_some() || self.supersample.is_some() {
@@ -228,11 +233,7 @@ impl LrcsCmd {
                 lrcs(&scene, &|| bar.inc(1))
             }
             Visibility::Area => {
-                let options = brdf_scene::image::ImageOptions {
-                    pixels: self.pixels.unwrap_or(256),
-                    supersample: self.supersample.unwrap_or(4),
-                };
-                brdf_scene::lrcs::lrcs_by_area(&scene, &options, &|| bar.inc(1), &brdf_fit::Stop::new())?
+                brdf_scene::lrcs::lrcs_by_area(&scene, &by_area, &|| bar.inc(1), &brdf_fit::Stop::new())?
                     .context("the sweep was stopped")?
             }
         };
@@ -267,9 +268,9 @@ impl LrcsCmd {
             eprintln_lossy!(
                 "visibility by area ({} pixels, {}x{} samples each): sampling bound {worst} \
                  (azimuth {}, elevation {})",
-                self.pixels.unwrap_or(256),
-                self.supersample.unwrap_or(4),
-                self.supersample.unwrap_or(4),
+                by_area.pixels,
+                by_area.supersample,
+                by_area.supersample,
                 a.azimuth,
                 a.elevation
             );

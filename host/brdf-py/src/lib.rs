@@ -107,6 +107,9 @@ fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "F64_REFORMULATION_REL",
         brdf_core::tolerance::F64_REFORMULATION_REL,
     )?;
+    // Laser images' default resolution (one home: brdf_scene::image).
+    m.add("IMAGE_PIXELS", brdf_scene::image::IMAGE_PIXELS)?;
+    m.add("SUPERSAMPLE", brdf_scene::image::SUPERSAMPLE)?;
     m.add_class::<Settings>()?;
     m.add_function(wrap_pyfunction!(eval_angles, m)?)?;
     m.add_function(wrap_pyfunction!(table_covers, m)?)?;

@@ -122,7 +122,7 @@ pub(crate) type SceneImage = (usize, usize, f64, Vec<f64>, Vec<f64>, f64, [f64; 
 /// `brdf scene image` through the same library call (`brdf_scene::image::image`), at the
 /// aspect given or the sweep's first.
 #[pyfunction]
-#[pyo3(signature = (path, azimuth=None, elevation=None, pixels=256, supersample=4))]
+#[pyo3(signature = (path, azimuth=None, elevation=None, pixels=brdf_scene::image::IMAGE_PIXELS, supersample=brdf_scene::image::SUPERSAMPLE))]
 pub(crate) fn scene_image(
     py: Python<'_>,
     path: String,

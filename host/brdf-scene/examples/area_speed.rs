@@ -1,9 +1,10 @@
 //! σ by area (`--visibility area`, each aspect's laser image summed) for a Lambertian
 //! icosphere of 20 x 4^LEVEL facets (level 8: 1,310,720) over 72 x 3 aspects, against the
 //! closed form (8/3) pi rho r^2; prints the mesh's build time, the sweep's wall time and the
-//! worst relative error and sampling bound. Asserts nothing about time.
+//! worst relative error and sampling bound. Asserts nothing about time. With `OUT.obj`, also
+//! writes the sphere there (level 8: a 71 MB OBJ), for timing `brdf scene lrcs` on it.
 //!
-//!     cargo run --release -p brdf-scene --example area_speed [LEVEL] [PIXELS] [SUPERSAMPLE]
+//!     cargo run --release -p brdf-scene --example area_speed [LEVEL] [PIXELS] [SUPERSAMPLE] [OUT.obj]
 
 use std::f64::consts::PI;
 use std::time::Instant;
@@ -21,11 +22,23 @@ fn main() {
             .and_then(|a| a.parse().ok())
             .unwrap_or(default)
     };
-    let (level, pixels, supersample) = (arg(1, 8) as u32, arg(2, 256), arg(3, 4));
+    let (level, pixels, supersample) = (
+        arg(1, 8) as u32,
+        arg(2, brdf_scene::image::SWEEP_PIXELS),
+        arg(3, brdf_scene::image::SUPERSAMPLE),
+    );
     let (r, rho) = (1.0, 0.4);
     let t = Instant::now();
     let mut b = MeshBuilder::new();
     b.icosphere(r, level, "ball");
+    if let Some(out) = std::env::args().nth(4) {
+        let file = std::fs::File::create(&out).expect("OUT.obj can be written");
+        b.write_obj(
+            std::io::BufWriter::new(file),
+            &format!("icosphere of radius {r} m, level {level}"),
+        )
+        .expect("OUT.obj written");
+    }
     let mesh = b.build("icosphere").expect("a valid mesh");
     let n = mesh.facets.len();
     let build = t.elapsed().as_secs_f64();

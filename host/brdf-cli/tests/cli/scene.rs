@@ -518,19 +518,17 @@ fn image_draws_sigma_and_range_and_its_pixels_sum_to_sigma() {
 /// `brdf scene lrcs --visibility area`: every aspect's σ by the part of each facet seen, each
 /// with its sampling bound in the JSON; on the bundled target (small facets, little shadow)
 /// it agrees with the centroid σ to within that bound plus the centroid's own shadow error.
+/// At a sweep's default resolution, which the summary line names.
 #[test]
 fn lrcs_by_area_states_each_aspects_bound() {
-    let area: serde_json::Value = serde_json::from_str(&ok(&brdf(&[
-        "scene",
-        "lrcs",
-        &scene(),
-        "--visibility",
-        "area",
-        "--pixels",
-        "128",
-        "--json",
-    ])))
-    .unwrap();
+    let run = brdf(&["scene", "lrcs", &scene(), "--visibility", "area", "--json"]);
+    let area: serde_json::Value = serde_json::from_str(&ok(&run)).unwrap();
+    let said = format!(
+        "visibility by area ({} pixels, {1}x{1} samples each)",
+        brdf_scene::image::SWEEP_PIXELS,
+        brdf_scene::image::SUPERSAMPLE
+    );
+    assert!(String::from_utf8_lossy(&run.stderr).contains(&said), "{said}");
     let centroid: serde_json::Value =
         serde_json::from_str(&ok(&brdf(&["scene", "lrcs", &scene(), "--json"]))).unwrap();
     let (a, c) = (
@@ -544,7 +542,8 @@ fn lrcs_by_area_states_each_aspects_bound() {
         let bound = x["sampling_bound"].as_f64().unwrap();
         // The bound takes every sample an edge between facets of different σ per area
         // crosses at its worst, and every sample a silhouette crosses at the brightest
-        // facet's σ per area (what lies beyond may be it): 69% of σ at most at 128 pixels.
+        // facet's σ per area (what lies beyond may be it): 69% of σ at most at 128 pixels
+        // (README, "Pixels against time and accuracy").
         assert!(bound > 0.0 && bound < sa, "{x}");
         assert!(y.get("sampling_bound").is_none());
         // The parts add up.

@@ -917,7 +917,7 @@ def scene_profile(scene, bin_m: float, pulse_m: Optional[float] = None) -> Dict[
 
 
 def scene_image(
-    scene, azimuth: Optional[float] = None, elevation: Optional[float] = None, *, pixels: int = 256, supersample: int = 4
+    scene, azimuth: Optional[float] = None, elevation: Optional[float] = None, *, pixels: int = _brdf.IMAGE_PIXELS, supersample: int = _brdf.SUPERSAMPLE
 ) -> Dict[str, Any]:
     """The laser image of the scene file ``scene`` at one aspect (``azimuth`` and
     ``elevation`` in degrees, or the sweep's first), as ``brdf scene image`` draws it: sigma
