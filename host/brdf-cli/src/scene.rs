@@ -420,6 +420,21 @@ impl ImageCmd {
             img.lrcs(),
             img.sigma_bound(),
         );
+        if img.sigma.iter().all(|&v| v == 0.0) {
+            // A target thinner than a sample is missed by every sample; say so, with the
+            // bound, rather than the plot's bare "nothing to plot".
+            anyhow::bail!(
+                "{}: no sample sees a lit facet at azimuth {}, elevation {}, so sigma is 0 and \
+                 there is nothing to draw; the sampling bound says up to {:.4e} m^2 may be \
+                 missed (parts thinner than a sample, {:.4e} m, slip between samples: give \
+                 more --pixels or --supersample)",
+                self.scene.display(),
+                aspect.azimuth_deg,
+                aspect.elevation_deg,
+                img.sigma_bound(),
+                img.pixel_m / self.supersample as f64
+            );
+        }
         let title = format!(
             "{}: azimuth {}°, elevation {}°, σ = {:.4e} m²",
             self.scene.display(),

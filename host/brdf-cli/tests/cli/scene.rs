@@ -513,6 +513,42 @@ fn image_draws_sigma_and_range_and_its_pixels_sum_to_sigma() {
         dir.path().join("x.jpg").to_str().unwrap(),
     ]);
     assert!(!o.status.success());
+    // A rod 100 m long and 1 cm thick seen broadside at 64 pixels (samples 39 cm wide): no
+    // sample sees it; refused naming the bound and the sample size, no picture written.
+    let rod = dir.path().join("rod.obj");
+    let mut text = String::from("o rod\n");
+    for x in [0.0, 100.0] {
+        for (y, z) in [(0.0, 0.0), (0.01, 0.0), (0.01, 0.01), (0.0, 0.01)] {
+            text += &format!("v {x} {y} {z}\n");
+        }
+    }
+    text += "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+    std::fs::write(&rod, text).unwrap();
+    let toml = dir.path().join("rod.toml");
+    std::fs::write(
+        &toml,
+        "mesh = \"rod.obj\"\n[[material]]\npart = \"*\"\nmodel = \"lambert\"\nparams = \"rho0=0.4\"\n\
+         [sensor]\nmode = \"monostatic\"\nazimuth_deg = [0, 1, 5]\nelevation_deg = [0, 1, 5]\n",
+    )
+    .unwrap();
+    let out_png = dir.path().join("rod.png");
+    let o = brdf(&[
+        "scene",
+        "image",
+        toml.to_str().unwrap(),
+        "--aspect",
+        "90,0",
+        "--pixels",
+        "64",
+        "-o",
+        out_png.to_str().unwrap(),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && e.contains("no sample sees a lit facet") && e.contains("give more --pixels"),
+        "{e}"
+    );
+    assert!(!out_png.exists());
 }
 
 /// `brdf scene lrcs --visibility area`: every aspect's σ by the part of each facet seen, each
