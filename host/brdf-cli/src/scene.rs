@@ -84,6 +84,9 @@ pub struct ProfileCmd {
     /// Write the CSV here instead of standard output.
     #[arg(short = 'o', long)]
     output: Option<PathBuf>,
+    /// Draw sigma per range bin against aspect, log colour scale (.svg or .png).
+    #[arg(long)]
+    plot: Option<PathBuf>,
 }
 
 /// `brdf scene lrcs`.
@@ -476,9 +479,19 @@ impl ImageCmd {
 impl ProfileCmd {
     fn run(self) -> Result<()> {
         use brdf_scene::profile::{check, profile, ProfileOptions};
+        if let Some(plot) = &self.plot {
+            brdf_plot::check_path(plot)?; // before the sweep, not after it
+        }
         let scene = load(&self.scene)?;
-        if let Some(out) = &self.output {
-            crate::common::not_an_input("-o", out, scene.files())?;
+        for (flag, out) in [("-o", &self.output), ("--plot", &self.plot)] {
+            if let Some(out) = out {
+                crate::common::not_an_input(flag, out, scene.files())?;
+            }
+        }
+        if let (Some(o), Some(p)) = (&self.output, &self.plot) {
+            if crate::common::same_file(o, p) {
+                anyhow::bail!("-o and --plot name the same file {}", o.display());
+            }
         }
         let options = ProfileOptions {
             bin_m: self.bin_m,
@@ -509,6 +522,25 @@ impl ProfileCmd {
             }
         }
         out.flush().context("cannot write the output")?;
+        if let Some(plot) = &self.plot {
+            let columns: Vec<brdf_plot::ProfileColumn<'_>> = profiles
+                .iter()
+                .map(|p| brdf_plot::ProfileColumn {
+                    azimuth: p.azimuth,
+                    elevation: p.elevation,
+                    first_bin: p.first_bin,
+                    sigma: &p.sigma,
+                })
+                .collect();
+            let title = format!(
+                "{}: σ per {} m range bin{}",
+                self.scene.display(),
+                self.bin_m,
+                self.pulse_m.map_or(String::new(), |w| format!(", pulse {w} m"))
+            );
+            brdf_plot::range_profile(plot, &title, self.bin_m, &columns)?;
+            eprintln_lossy!("wrote {}", plot.display());
+        }
         Ok(())
     }
 }

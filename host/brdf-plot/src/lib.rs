@@ -20,7 +20,8 @@
 //! One file per chart: `in_plane.rs` ([`in_plane`]), `map.rs` ([`hemisphere_map`]),
 //! `residuals.rs` ([`residuals`]), `tradeoff.rs` ([`tradeoff`], [`pareto_front`]),
 //! `polar.rs` ([`polar`]), `spectrum.rs` ([`spectrum`]: a spectral fit against wavelength) and
-//! `image.rs` ([`laser_image`]: σ per pixel and range); `common.rs` holds what they share (font, palette, the SVG/PNG
+//! `image.rs` ([`laser_image`]: σ per pixel and range), `profile.rs` ([`range_profile`]: σ per
+//! range bin against aspect); `common.rs` holds what they share (font, palette, the SVG/PNG
 //! backend choice, log ranges).
 
 use brdf_core::AnyModel;
@@ -30,6 +31,7 @@ mod image;
 mod in_plane;
 mod map;
 mod polar;
+mod profile;
 mod residuals;
 mod spectrum;
 mod tradeoff;
@@ -39,6 +41,7 @@ pub use image::{laser_image, Pixels};
 pub use in_plane::in_plane;
 pub use map::hemisphere_map;
 pub use polar::{polar, PolarCurve, POLAR_RANGE_DB};
+pub use profile::{range_profile, ProfileColumn};
 pub use residuals::residuals;
 pub use spectrum::spectrum;
 pub use tradeoff::{pareto_front, tradeoff, TradePoint, SAME_ERROR};

@@ -438,6 +438,47 @@ fn profile_bins_sum_to_each_aspects_sigma() {
     }
     let out = brdf(&["scene", "profile", &scene(), "--bin-m", "0.1", "--pulse-m", "-1"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("--pulse-m -1.0: not a length above 0"));
+    // --plot: the picture beside the CSV, the CSV unchanged; a format or folder the plot
+    // cannot take, or -o naming the same file, refused before the sweep (no CSV written).
+    let dir = tempfile::tempdir().unwrap();
+    let (png, csv) = (dir.path().join("p.png"), dir.path().join("p.csv"));
+    let out = brdf(&[
+        "scene",
+        "profile",
+        &scene(),
+        "--bin-m",
+        "0.1",
+        "-o",
+        csv.to_str().unwrap(),
+        "--plot",
+        png.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
+    let plain = ok(&brdf(&["scene", "profile", &scene(), "--bin-m", "0.1"]));
+    assert_eq!(std::fs::read_to_string(&csv).unwrap(), plain);
+    let jpg = dir.path().join("p.jpg");
+    let gone = dir.path().join("none").join("p.png");
+    let (csv2, png2) = (dir.path().join("q.csv"), dir.path().join("q.png"));
+    for (output, plot, says) in [
+        (&csv2, &jpg, "unknown plot format"),
+        (&csv2, &gone, "does not exist"),
+        (&png2, &png2, "same file"),
+    ] {
+        let o = brdf(&[
+            "scene",
+            "profile",
+            &scene(),
+            "--bin-m",
+            "0.1",
+            "-o",
+            output.to_str().unwrap(),
+            "--plot",
+            plot.to_str().unwrap(),
+        ]);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && e.contains(says) && !output.exists(), "{e}");
+    }
 }
 
 /// `brdf scene image`: the picture, and the pixels as CSV summing to the σ it states (by the
