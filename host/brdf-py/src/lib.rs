@@ -109,6 +109,7 @@ fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     // Laser images' default resolution (one home: brdf_scene::image).
     m.add("IMAGE_PIXELS", brdf_scene::image::IMAGE_PIXELS)?;
+    m.add("SWEEP_PIXELS", brdf_scene::image::SWEEP_PIXELS)?;
     m.add("SUPERSAMPLE", brdf_scene::image::SUPERSAMPLE)?;
     m.add_class::<Settings>()?;
     m.add_function(wrap_pyfunction!(eval_angles, m)?)?;

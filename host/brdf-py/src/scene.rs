@@ -19,16 +19,25 @@ pub(crate) type SceneLrcs = (
     Vec<String>,
 );
 
-/// `brdf scene lrcs` through the same library calls (`brdf_scene::lrcs::lrcs`,
-/// `LrcsReport`): the JSON `--json` prints, then per aspect azimuth, elevation, σ, each
-/// material's share and the facets seen, then the materials' parts.
+/// `brdf scene lrcs` through the same library calls (`brdf_scene::lrcs::lrcs`, or with
+/// `area` (pixels, supersample) `lrcs_by_area`; `LrcsReport`): the JSON `--json` prints, then
+/// per aspect azimuth, elevation, σ, each material's share and the facets seen, then the
+/// materials' parts.
 #[pyfunction]
-pub(crate) fn scene_lrcs(py: Python<'_>, path: String) -> PyResult<SceneLrcs> {
-    use brdf_scene::lrcs::{lrcs_until, LrcsReport};
+#[pyo3(signature = (path, area=None))]
+pub(crate) fn scene_lrcs(py: Python<'_>, path: String, area: Option<(usize, usize)>) -> PyResult<SceneLrcs> {
+    use brdf_scene::lrcs::{lrcs_by_area, lrcs_until, LrcsReport};
     let scene = scene_at(&path)?;
     // Ctrl-C raises at once (`interruptible`); the sweep then ends within one aspect's work.
     crate::fit::interruptible(py, move |stop| -> Result<SceneLrcs, String> {
-        let result = lrcs_until(&scene, &|| {}, stop).ok_or("the sweep was stopped")?;
+        let result = match area {
+            None => lrcs_until(&scene, &|| {}, stop),
+            Some((pixels, supersample)) => {
+                let options = brdf_scene::image::ImageOptions { pixels, supersample };
+                lrcs_by_area(&scene, &options, &|| {}, stop).map_err(|e| e.to_string())?
+            }
+        }
+        .ok_or("the sweep was stopped")?;
         let text = serde_json::to_string_pretty(&LrcsReport::new(path, &scene, &result))
             .map_err(|e| e.to_string())?;
         let a = &result.aspects;

@@ -36,6 +36,31 @@ def test_lrcs_is_the_cli_sweep(cli, root):
     assert (got.lrcs > 0).all()
 
 
+def test_lrcs_by_area_is_the_cli_sweep_with_its_bounds(cli, root):
+    want = json.loads(cli("scene", "lrcs", "--json", "--visibility", "area", root / SCENE).stdout)
+    got = brdf.scene_lrcs(root / SCENE, visibility="area")
+    report = json.loads(got.to_json())
+    assert report.pop("seconds") >= 0 and want.pop("seconds") >= 0
+    assert report == want
+    assert got.sampling_bound.tolist() == [a["sampling_bound"] for a in want["aspects"]]
+    assert (got.sampling_bound > 0).all()
+    assert brdf.scene_lrcs(root / SCENE).sampling_bound is None
+    # The resolution given reaches the sweep: the bound shrinks with the pixel size.
+    fine = brdf.scene_lrcs(root / SCENE, visibility="area", pixels=2 * brdf._brdf.SWEEP_PIXELS, supersample=4)
+    assert fine.sampling_bound.max() < got.sampling_bound.max()
+    for kwargs, error in [
+        ({"visibility": "Area"}, ValueError),
+        ({"visibility": 1}, ValueError),
+        ({"pixels": 64}, ValueError),
+        ({"visibility": "area", "pixels": 64.0}, TypeError),
+        ({"visibility": "area", "pixels": True}, TypeError),
+        ({"visibility": "area", "supersample": 0}, ValueError),
+        ({"visibility": "area", "pixels": 5000}, ValueError),
+    ]:
+        with pytest.raises(error):
+            brdf.scene_lrcs(root / SCENE, **kwargs)
+
+
 def test_domain_is_the_cli_file(cli, root):
     rows = list(csv.DictReader(io.StringIO(cli("scene", "domain", root / SCENE).stdout)))
     got = brdf.scene_domain(root / SCENE)

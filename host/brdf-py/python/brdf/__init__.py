@@ -826,7 +826,8 @@ class SceneLrcs:
     --json`` prints for the same scene (its ``seconds`` is this run's). For a scene that lists
     wavelengths (``[sensor] wavelength_um = [0.45, 0.55]``), ``wavelengths`` (µm) and
     ``by_wavelength`` (sigma at each: shape (aspects, wavelengths); ``lrcs`` is its first
-    column); both None otherwise.
+    column); both None otherwise. ``sampling_bound`` (m^2 per aspect) with
+    ``visibility="area"``, None otherwise.
     """
 
     def __init__(self, text, azimuth, elevation, lrcs, by_material, facets_seen, parts):
@@ -839,6 +840,10 @@ class SceneLrcs:
         self.facets_seen = np.array(facets_seen, dtype=np.int64)
         self.parts: List[str] = list(parts)
         self.seconds: float = self.report["seconds"]
+        bounds = [a.get("sampling_bound") for a in self.report["aspects"]]
+        self.sampling_bound: Optional[np.ndarray] = (
+            np.array(bounds, dtype=np.float64) if bounds and all(b is not None for b in bounds) else None
+        )
         w = self.report.get("wavelengths_um")
         self.wavelengths: Optional[np.ndarray] = None if w is None else np.array(w, dtype=np.float64)
         self.by_wavelength: Optional[np.ndarray] = (
@@ -857,14 +862,35 @@ class SceneLrcs:
         return f"SceneLrcs({self.report['scene']!r}, {len(self.lrcs)} aspects, parts {self.parts})"
 
 
-def scene_lrcs(scene) -> SceneLrcs:
+def scene_lrcs(
+    scene, *, visibility: str = "centroid", pixels: Optional[int] = None, supersample: Optional[int] = None
+) -> SceneLrcs:
     """Laser radar cross-section of the scene file ``scene`` (TOML: a mesh, a material per
     part, a sensor sweep) at every aspect of its sweep, with each material's exact model
     (f64), as ``brdf scene lrcs``: sigma = sum over the facets seen by source and receiver
-    of 4 pi f_r cos(theta_i) cos(theta_r) A. Runs on all cores. Raises ValueError with the
-    command's message when the scene cannot be used.
+    of 4 pi f_r cos(theta_i) cos(theta_r) A. ``visibility``: ``"centroid"`` (a facet counts
+    whole when its centroid is seen) or ``"area"`` (the part of each facet seen, as ``brdf
+    scene lrcs --visibility area``: each aspect's laser image summed at ``pixels`` along its
+    longer side, ``SWEEP_PIXELS`` unless given, ``supersample`` samples a pixel each way, 4
+    unless given; ``sampling_bound`` then holds each aspect's bound, m^2). Runs on all cores.
+    Raises ValueError with the command's message when the scene cannot be used.
     """
-    return SceneLrcs(*_brdf.scene_lrcs(os.fspath(scene)))
+    if not isinstance(visibility, str) or visibility not in ("centroid", "area"):
+        raise ValueError(f"visibility {visibility!r}: give 'centroid' or 'area'")
+    for name, v in (("pixels", pixels), ("supersample", supersample)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer))):
+            raise TypeError(f"{name}: {type(v).__name__} is not a whole number")
+        if v is not None and visibility != "area":
+            raise ValueError(f"{name} sets the resolution of visibility='area'")
+        if v is not None and int(v) < 1:
+            raise ValueError(f"{name} {v}: at least 1")
+    area = None
+    if visibility == "area":
+        area = (
+            _brdf.SWEEP_PIXELS if pixels is None else int(pixels),
+            _brdf.SUPERSAMPLE if supersample is None else int(supersample),
+        )
+    return SceneLrcs(*_brdf.scene_lrcs(os.fspath(scene), area))
 
 
 def scene_domain(scene) -> Dict[str, Any]:

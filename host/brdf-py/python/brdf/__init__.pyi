@@ -138,6 +138,7 @@ class SceneLrcs:
     facets_seen: np.ndarray
     parts: List[str]
     seconds: float
+    sampling_bound: Optional[np.ndarray]
     def __init__(
         self,
         text: str,
@@ -150,7 +151,13 @@ class SceneLrcs:
     ) -> None: ...
     def to_json(self) -> str: ...
 
-def scene_lrcs(scene: Union[str, os.PathLike]) -> SceneLrcs: ...
+def scene_lrcs(
+    scene: Union[str, os.PathLike],
+    *,
+    visibility: str = "centroid",
+    pixels: Optional[int] = None,
+    supersample: Optional[int] = None,
+) -> SceneLrcs: ...
 def scene_domain(scene: Union[str, os.PathLike]) -> Dict[str, Any]: ...
 class SceneSelection:
     report: Dict[str, Any]
