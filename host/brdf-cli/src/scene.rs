@@ -285,11 +285,25 @@ impl LrcsCmd {
                  thinner than a sample (give more --pixels), or is the mesh wound inside out?"
             );
         } else if result.aspects.iter().all(|a| a.facets_seen == 0) {
-            eprintln_lossy!(
-                "warning: no facet faces the sensor at any aspect, so sigma is 0 everywhere: is \
-                 the mesh wound inside out (facets are counter-clockwise seen from outside), or \
-                 does the sweep see only back faces?"
-            );
+            // Facing but hidden (a plate under another) is not wound inside out.
+            let facing = scene.aspects().iter().any(|a| {
+                brdf_scene::queries::facing_queries(&scene, a, |_, _| true)
+                    .iter()
+                    .any(|b| !b.is_empty())
+            });
+            if facing {
+                eprintln_lossy!(
+                    "warning: no facet is seen at any aspect, so sigma is 0 everywhere: facets \
+                     face source and receiver, but other facets hide each one's centroid from \
+                     one or the other"
+                );
+            } else {
+                eprintln_lossy!(
+                    "warning: no facet faces the sensor at any aspect, so sigma is 0 everywhere: \
+                     is the mesh wound inside out (facets are counter-clockwise seen from \
+                     outside), or does the sweep see only back faces?"
+                );
+            }
         }
         for (k, m) in scene.materials.iter().enumerate() {
             let share = result.outside_coverage(k);

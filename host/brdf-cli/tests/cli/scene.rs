@@ -294,6 +294,21 @@ fn lrcs_that_sees_no_facet_at_any_aspect_says_so() {
     let above = scene("60");
     ok(&above);
     assert!(!String::from_utf8_lossy(&above.stderr).contains("no facet faces"));
+    // A plate facing the sensor, hidden under a wider one turned away: seen nowhere, but
+    // not wound inside out, and the warning says which.
+    std::fs::write(
+        dir.path().join("t.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv -10 -10 1\nv 30 -10 1\nv -10 30 1\nf 1 2 3\nf 4 6 5\n",
+    )
+    .unwrap();
+    let hidden = scene("80");
+    let csv = ok(&hidden);
+    assert!(csv.lines().skip(1).all(|l| l.ends_with(",0")), "{csv}");
+    let e = String::from_utf8_lossy(&hidden.stderr);
+    assert!(
+        e.contains("hide each one's centroid") && !e.contains("inside out"),
+        "{e}"
+    );
 }
 
 /// The bundled target's hull painted with the 31 bands of Garnet Red (one `brdf fit` of the
