@@ -212,16 +212,10 @@ impl LrcsCmd {
             }
             scene = scene.with_shard(k, n).map_err(anyhow::Error::msg)?;
         }
-        for (flag, out) in [("-o", &self.output), ("--plot", &self.plot)] {
-            if let Some(out) = out {
-                crate::common::not_an_input(flag, out, scene.files())?;
-            }
-        }
-        if let (Some(o), Some(p)) = (&self.output, &self.plot) {
-            if crate::common::same_file(o, p) {
-                anyhow::bail!("-o and --plot name the same file {}", o.display());
-            }
-        }
+        crate::common::distinct_outputs(
+            &[("-o", self.output.as_deref()), ("--plot", self.plot.as_deref())],
+            &scene.files(),
+        )?;
         let n = scene.aspects().len();
         let bar = progress::bar(n, "aspects");
         let by_area = brdf_scene::image::ImageOptions {
@@ -497,16 +491,10 @@ impl ProfileCmd {
             brdf_plot::check_path(plot)?; // before the sweep, not after it
         }
         let scene = load(&self.scene)?;
-        for (flag, out) in [("-o", &self.output), ("--plot", &self.plot)] {
-            if let Some(out) = out {
-                crate::common::not_an_input(flag, out, scene.files())?;
-            }
-        }
-        if let (Some(o), Some(p)) = (&self.output, &self.plot) {
-            if crate::common::same_file(o, p) {
-                anyhow::bail!("-o and --plot name the same file {}", o.display());
-            }
-        }
+        crate::common::distinct_outputs(
+            &[("-o", self.output.as_deref()), ("--plot", self.plot.as_deref())],
+            &scene.files(),
+        )?;
         let options = ProfileOptions {
             bin_m: self.bin_m,
             pulse_m: self.pulse_m,

@@ -41,7 +41,7 @@ fn cells(columns: &[ProfileColumn<'_>], k0: i64, rows: usize, bc: usize, br: usi
 
 /// Draws σ per range bin against aspect, in bins of `bin_m` (range upwards, aspects in the
 /// sweep's order left to right), on a log10 colour scale six decades deep (bins at 0 left
-/// white). More than [`MAX_DRAWN_CELLS`] aspects or bins are drawn in blocks (σ summed over a
+/// white). More than 280 aspects or bins (`MAX_DRAWN_CELLS`) are drawn in blocks (σ summed over a
 /// block's bins, averaged over its aspects; the title says so).
 pub fn range_profile(
     path: &Path,
