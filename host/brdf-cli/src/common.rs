@@ -388,7 +388,7 @@ pub fn not_an_input<'a>(flag: &str, out: &Path, inputs: impl IntoIterator<Item =
 
 /// Refuses outputs (flags and their paths, `None` where not given) that are one of the
 /// command's `inputs` ([`not_an_input`]) or name the same file as each other.
-pub fn distinct_outputs<'a>(outputs: &[(&str, Option<&Path>)], inputs: &[&'a Path]) -> Result<()> {
+pub fn distinct_outputs(outputs: &[(&str, Option<&Path>)], inputs: &[&Path]) -> Result<()> {
     let given: Vec<(&str, &Path)> = outputs.iter().filter_map(|&(f, p)| p.map(|p| (f, p))).collect();
     for (k, &(flag, out)) in given.iter().enumerate() {
         not_an_input(flag, out, inputs.iter().copied())?;
