@@ -272,30 +272,32 @@ impl LrcsCmd {
                 a.elevation
             );
         }
-        if result.aspects.iter().all(|a| a.facets_seen == 0) && self.visibility == Visibility::Area {
-            eprintln_lossy!(
-                "warning: no sample of any aspect sees a lit facet, so sigma is 0 everywhere (each \
-                 aspect's sampling bound says how much may be missing): are the target's parts \
-                 thinner than a sample (give more --pixels), or is the mesh wound inside out?"
-            );
-        } else if result.aspects.iter().all(|a| a.facets_seen == 0) {
-            // Facing but hidden (a plate under another) is not wound inside out.
+        if result.aspects.iter().all(|a| a.facets_seen == 0) {
+            // Facing but unseen (hidden by other facets, or thinner than a sample) is not wound
+            // inside out.
             let facing = scene.aspects().iter().any(|a| {
                 brdf_scene::queries::facing_queries(&scene, a, |_, _| true)
                     .iter()
                     .any(|b| !b.is_empty())
             });
-            if facing {
-                eprintln_lossy!(
-                    "warning: no facet is seen at any aspect, so sigma is 0 everywhere: facets \
-                     face source and receiver, but other facets hide each one's centroid from \
-                     one or the other"
-                );
-            } else {
+            if !facing {
                 eprintln_lossy!(
                     "warning: no facet faces the sensor at any aspect, so sigma is 0 everywhere: \
                      is the mesh wound inside out (facets are counter-clockwise seen from \
                      outside), or does the sweep see only back faces?"
+                );
+            } else if self.visibility == Visibility::Area {
+                eprintln_lossy!(
+                    "warning: no sample of any aspect sees a lit facet, so sigma is 0 everywhere \
+                     (each aspect's sampling bound says how much may be missing): facets face \
+                     source and receiver, but others hide them, or they are thinner than a \
+                     sample (give more --pixels)"
+                );
+            } else {
+                eprintln_lossy!(
+                    "warning: no facet is seen at any aspect, so sigma is 0 everywhere: facets \
+                     face source and receiver, but other facets hide each one's centroid from \
+                     one or the other"
                 );
             }
         }
@@ -372,16 +374,13 @@ impl ImageCmd {
         use brdf_scene::scene::Aspect;
         brdf_plot::check_path(&self.output)?;
         let scene = load(&self.scene)?;
-        for (flag, out) in [("-o", Some(&self.output)), ("--csv", self.csv.as_ref())] {
-            if let Some(out) = out {
-                crate::common::not_an_input(flag, out, scene.files())?;
-            }
-        }
-        if let Some(csv) = &self.csv {
-            if crate::common::same_file(csv, &self.output) {
-                anyhow::bail!("-o and --csv name the same file {}", csv.display());
-            }
-        }
+        crate::common::distinct_outputs(
+            &[
+                ("-o", Some(self.output.as_path())),
+                ("--csv", self.csv.as_deref()),
+            ],
+            &scene.files(),
+        )?;
         let aspect = match &self.aspect {
             None => scene.aspects()[0],
             Some(text) => {
@@ -431,6 +430,15 @@ impl ImageCmd {
             img.lrcs(),
             img.sigma_bound(),
         );
+        if img.sigma.iter().all(|&v| v == 0.0) && img.sigma_bound() == 0.0 {
+            anyhow::bail!(
+                "{}: no facet faces source and receiver at azimuth {}, elevation {}, or every \
+                 one is in shadow, so sigma is 0 and there is nothing to draw",
+                self.scene.display(),
+                aspect.azimuth_deg,
+                aspect.elevation_deg
+            );
+        }
         if img.sigma.iter().all(|&v| v == 0.0) {
             // A target thinner than a sample is missed by every sample; say so, with the
             // bound, rather than the plot's bare "nothing to plot".

@@ -160,12 +160,12 @@ impl View {
                     }),
             )
             .map_err(err)?;
-        colour_bar(
-            &bar_area,
-            "log10 σ per bin (m²)",
-            (log_lo, span),
-            (13, 30, 50, 40),
-        )
+        let caption = if bc > 1 || br > 1 {
+            "log10 σ per block (m²)"
+        } else {
+            "log10 σ per bin (m²)"
+        };
+        colour_bar(&bar_area, caption, (log_lo, span), (13, 30, 50, 40))
     }
 }
 
@@ -173,9 +173,9 @@ impl View {
 mod tests {
     use super::*;
 
-    /// Draws a sweep's profiles, and in blocks a sweep too long to draw cell by cell, whose
-    /// blocks keep each aspect's σ (summed over bins, averaged over aspects); a sweep that
-    /// sees nothing is refused.
+    /// Draws a sweep's profiles, and in blocks a sweep too long to draw cell by cell (the
+    /// title and colour bar say so), whose blocks keep each aspect's σ (summed over bins,
+    /// averaged over aspects); a sweep that sees nothing is refused.
     #[test]
     fn draws_sigma_per_bin_and_blocks_keep_the_sums() {
         let sigma: Vec<Vec<f64>> = (0..20)
@@ -206,6 +206,15 @@ mod tests {
         let cell = cells(&columns, k0, rows, 2, 3);
         assert_eq!(cell.len(), 10 * 17);
         assert!((cell.iter().sum::<f64>() * 2.0 - total).abs() < 1e-12 * total);
+        // 600 aspects: drawn in blocks of 3, as the title and the colour bar say.
+        let many: Vec<ProfileColumn<'_>> = (0..600).map(|a| columns[a % 20]).collect();
+        let p = dir.path().join("many.svg");
+        range_profile(&p, "t", 0.1, &many).unwrap();
+        let svg = std::fs::read_to_string(&p).unwrap();
+        assert!(
+            svg.contains("blocks of 3 aspects x 1 bins") && svg.contains("σ per block"),
+            "title"
+        );
         let none: Vec<ProfileColumn<'_>> = columns
             .iter()
             .map(|c| ProfileColumn { sigma: &[], ..*c })

@@ -110,6 +110,8 @@ fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // Laser images' default resolution (one home: brdf_scene::image).
     m.add("IMAGE_PIXELS", brdf_scene::image::IMAGE_PIXELS)?;
     m.add("SWEEP_PIXELS", brdf_scene::image::SWEEP_PIXELS)?;
+    m.add("MAX_PIXELS", brdf_scene::image::MAX_PIXELS)?;
+    m.add("MAX_SUPERSAMPLE", brdf_scene::image::MAX_SUPERSAMPLE)?;
     m.add("SUPERSAMPLE", brdf_scene::image::SUPERSAMPLE)?;
     m.add_class::<Settings>()?;
     m.add_function(wrap_pyfunction!(eval_angles, m)?)?;

@@ -46,7 +46,7 @@ def test_lrcs_by_area_is_the_cli_sweep_with_its_bounds(cli, root):
     assert (got.sampling_bound > 0).all()
     assert brdf.scene_lrcs(root / SCENE).sampling_bound is None
     # The resolution given reaches the sweep: the bound shrinks with the pixel size.
-    fine = brdf.scene_lrcs(root / SCENE, visibility="area", pixels=2 * brdf._brdf.SWEEP_PIXELS, supersample=4)
+    fine = brdf.scene_lrcs(root / SCENE, visibility="area", pixels=2 * brdf.SWEEP_PIXELS, supersample=brdf.SUPERSAMPLE)
     assert fine.sampling_bound.max() < got.sampling_bound.max()
     for kwargs, error in [
         ({"visibility": "Area"}, ValueError),
@@ -56,6 +56,8 @@ def test_lrcs_by_area_is_the_cli_sweep_with_its_bounds(cli, root):
         ({"visibility": "area", "pixels": True}, TypeError),
         ({"visibility": "area", "supersample": 0}, ValueError),
         ({"visibility": "area", "pixels": 5000}, ValueError),
+        ({"visibility": "area", "pixels": 2**64}, ValueError),
+        ({"visibility": "area", "supersample": 2**70}, ValueError),
     ]:
         with pytest.raises(error):
             brdf.scene_lrcs(root / SCENE, **kwargs)

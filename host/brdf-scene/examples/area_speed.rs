@@ -2,7 +2,7 @@
 //! icosphere of 20 x 4^LEVEL facets (level 8: 1,310,720) over 72 x 3 aspects, against the
 //! closed form (8/3) pi rho r^2; prints the mesh's build time, the sweep's wall time and the
 //! worst relative error and sampling bound. Asserts nothing about time. With `OUT.obj`, also
-//! writes the sphere there (level 8: a 71 MB OBJ), for timing `brdf scene lrcs` on it.
+//! writes the sphere there (level 8: a 70 MB OBJ), for timing `brdf scene lrcs` on it.
 //!
 //!     cargo run --release -p brdf-scene --example area_speed [LEVEL] [PIXELS] [SUPERSAMPLE] [OUT.obj]
 
@@ -31,6 +31,9 @@ fn main() {
     let t = Instant::now();
     let mut b = MeshBuilder::new();
     b.icosphere(r, level, "ball");
+    let mesh = b.build("icosphere").expect("a valid mesh");
+    let n = mesh.facets.len();
+    let build = t.elapsed().as_secs_f64();
     if let Some(out) = std::env::args().nth(4) {
         let file = std::fs::File::create(&out).expect("OUT.obj can be written");
         b.write_obj(
@@ -39,9 +42,6 @@ fn main() {
         )
         .expect("OUT.obj written");
     }
-    let mesh = b.build("icosphere").expect("a valid mesh");
-    let n = mesh.facets.len();
-    let build = t.elapsed().as_secs_f64();
     let sensor = Sensor {
         mode: Mode::Monostatic,
         azimuth_deg: (0..72).map(|k| 5.0 * k as f64).collect(),

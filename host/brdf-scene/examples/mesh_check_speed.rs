@@ -1,8 +1,8 @@
 //! Time to build and check meshes whose facet sizes are spread (the coplanar-overlap check's
 //! grid in levels, `mesh::coincidence_grid`): a 327,680-facet sphere beside one facet 1e9 m
 //! away and above a 2 km ground plate; a flat ground of 720,000 facets with 691,200 facets of
-//! building walls standing on it; a 1,310,720-facet sphere alone; and 4,000 stacked copies of
-//! a box (refused). Prints each time; asserts nothing about time.
+//! building walls standing on it; a tube of 80,000 full-length slivers beside small facets;
+//! a 1,310,720-facet sphere alone; and 4,000 stacked copies of a box (refused). Prints each time; asserts nothing about time.
 //!
 //!     cargo run --release -p brdf-scene --example mesh_check_speed
 
@@ -70,6 +70,29 @@ fn main() {
         }
     }
     time("a flat ground and building walls", &b);
+
+    // A tube of 80,000 full-length slivers (10 m long, 0.5 m radius) beside 99,856 small
+    // facets: the slivers sit in a few large cells of a level of their own.
+    let mut b = MeshBuilder::new();
+    let tube = b.part("tube");
+    let k = 80_000;
+    let rim = |i: usize| {
+        let a = std::f64::consts::TAU * i as f64 / k as f64;
+        (0.5 * a.cos(), 0.5 * a.sin())
+    };
+    for i in 0..k {
+        let ((y0, z0), (y1, z1)) = (rim(i), rim(i + 1));
+        let v = [[-5.0, y0, z0], [5.0, y1, z1], [5.0, y0, z0]].map(|p| b.vertex(p));
+        b.triangle(v, tube);
+    }
+    b.plate(
+        [0.0, 0.0, 10.0],
+        [3.16, 0.0, 0.0],
+        [0.0, 3.16, 0.0],
+        (158, 316),
+        "small",
+    );
+    time("a tube of slivers beside small facets", &b);
 
     let mut b = MeshBuilder::new();
     b.icosphere(1.0, 8, "ball");

@@ -280,11 +280,11 @@ pub struct Mesh {
 /// level 0's narrowest side where that is wider ([`Grid::side`]): they grow alike along every
 /// axis, so that a wall among flat ground facets (whose median height is their padding, a
 /// few mm) rises a few levels to cells about its own height, not to cells 4^l times the
-/// ground's in width too (a city of 1.4 million facets took 48 s so, against 2.6 s). One facet far
+/// ground's in width too (a city of 1.4 million facets took 48 s so, against 1.7 s). One facet far
 /// larger than the rest (a ground plate beside a fine target, a facet 1e9 m away) sits in a
 /// high level of its own, where cells as wide as it took the whole target into a few cells
-/// (a 327,680-facet sphere took 87 s beside a facet 1e9 m away, 2.4 s above a 1 km ground
-/// plate). Level 0 as (cell, facet) pairs sorted by cell: 16 bytes per pair, each cell a key
+/// (`mesh_check_speed`: a 327,680-facet sphere took 85.6 s beside a facet 1e9 m away, 19.6 s
+/// above a 2 km ground plate). Level 0 as (cell, facet) pairs sorted by cell: 16 bytes per pair, each cell a key
 /// of [`CELL_BITS`] bits per axis where it fits (a map of cells to lists took about 300 bytes
 /// per facet), hashed otherwise; the levels above likewise, with a map from cell to its run.
 /// Facets `left_out[k]` are not placed (copies of others). Built and sorted on all cores.
@@ -729,8 +729,9 @@ impl Mesh {
 
     /// No two facets facing the same way overlap in the same plane ([`COINCIDENT_ABS_M`],
     /// [`COINCIDENT_REL`], [`OVERLAP_REL`]). Facets are binned by their boxes (padded by their
-    /// tolerance) in a uniform 3-D grid of cells about one facet wide, and only pairs sharing
-    /// a cell are compared, each pair once. Planes are compared locally (each facet's vertices
+    /// tolerance) in a grid of cells in levels, each facet in cells about its own size
+    /// ([`coincidence_grid`]), and only pairs whose boxes meet in a cell are compared, each
+    /// pair once. Planes are compared locally (each facet's vertices
     /// against the other's plane), never by their offsets from the coordinate origin, where a
     /// normal rounded by 1e-4 moves a plane 5 m from the origin by 0.5 mm.
     ///
@@ -756,20 +757,16 @@ impl Mesh {
                 (lo, hi)
             })
             .collect();
-        // Copies: facets on the same three welded vertices, wound alike (a part written
+        // Copies: facets on the same three welded vertices in the same order (a part written
         // twice, stacked copies). Of each set the first two are compared, and the others are
         // left out of the grid: a pair with a later copy has the same outcome as the pair with
-        // the first, which comes no later in facet order (4,000 stacked copies of a box put
-        // 48,000 facets around 8 hubs and in a few cells: 6.5 s to refuse).
+        // the first ([`Mesh::overlap`]), which comes no later in facet order (4,000 stacked copies of a box put
+        // 48,000 facets around 8 hubs and in a few cells: 6.7 s to refuse).
         let mut copies: Vec<([u32; 3], u32)> = self
             .facets
             .par_iter()
             .enumerate()
-            .map(|(k, f)| {
-                let v = f.vertices;
-                let i = (0..3).min_by_key(|&i| v[i]).unwrap_or(0);
-                ([v[i], v[(i + 1) % 3], v[(i + 2) % 3]], k as u32)
-            })
+            .map(|(k, f)| (f.vertices, k as u32))
             .collect();
         copies.par_sort_unstable();
         let mut left_out = vec![false; self.facets.len()];
@@ -870,9 +867,8 @@ impl Mesh {
                 }
             }
         }
-        // The pairs of one cell's run of (key, facet) entries, each tested where the pair's
-        // common box begins (each pair once), of facets of one level (runs of the levels
-        // above may hold cells of several, whose hashes collide).
+        // The pairs of one cell's run of level 0's (key, facet) entries, each tested where
+        // the pair's common box begins (each pair once).
         let in_run = |list: &mut Vec<(u32, usize)>, members: &[(u64, u32)]| {
             let mut found = None;
             let at = members[0].0;
@@ -907,13 +903,45 @@ impl Mesh {
             }
             found
         };
+        // A cell of the levels above: its facets sorted along the axis they are thinnest
+        // along ([`UpperRun`]), each compared with those after it that begin before its end
+        // there (a tube of 80,000 full-length slivers beside finer facets sits in a few such
+        // cubes, and was compared all against all).
+        let in_upper_run = |members: &[(u64, u32)]| {
+            let mut found = None;
+            let at = members[0].0;
+            let axis = grid.upper_runs.get(&at).map_or(0, |r| r.axis);
+            for (i, &(_, a)) in members.iter().enumerate() {
+                let (a, ba) = (a as usize, &boxes[a as usize]);
+                for &(_, b) in &members[i + 1..] {
+                    let (b, bb) = (b as usize, &boxes[b as usize]);
+                    if bb.0[axis] > ba.1[axis] {
+                        break; // this one and those after begin beyond a's end
+                    }
+                    let (level, ha) = (grid.level[a], hub_of[a]);
+                    if grid.level[b] != level || (hub_of[b] == ha && ha != u32::MAX) || passed(a, b) {
+                        continue;
+                    }
+                    let start = [0, 1, 2].map(|c| ba.0[c].max(bb.0[c]));
+                    if (0..3).any(|c| start[c] > ba.1[c].min(bb.1[c])) || grid.key_at(start, level) != at {
+                        continue;
+                    }
+                    test(a, b, &mut found);
+                }
+            }
+            found
+        };
         // Cells in parallel, each keeping the first pair it finds in facet order.
-        let in_cells = grid
-            .entries
-            .par_chunk_by(|x, y| x.0 == y.0)
-            .chain(grid.upper.par_chunk_by(|x, y| x.0 == y.0))
-            .map_init(Vec::new, |list, members| in_run(list, members))
-            .reduce(|| None, first_pair);
+        let in_cells = first_pair(
+            grid.entries
+                .par_chunk_by(|x, y| x.0 == y.0)
+                .map_init(Vec::new, |list, members| in_run(list, members))
+                .reduce(|| None, first_pair),
+            grid.upper
+                .par_chunk_by(|x, y| x.0 == y.0)
+                .map(in_upper_run)
+                .reduce(|| None, first_pair),
+        );
         // Each facet against those of the levels above its own, in their cells it meets.
         let across = (0..self.facets.len())
             .into_par_iter()
@@ -985,7 +1013,15 @@ impl Mesh {
     /// How deep facets `a` and `b` overlap when they lie on each other, facing the same way
     /// within `t` (their tolerances summed) of each other's plane ([`Mesh::check_coincident`]).
     fn overlap(&self, a: usize, b: usize, t: f64) -> Option<f64> {
+        // Compared in the plane of the larger (then by its vertices), not of the first in
+        // the file: the outcome is then the same for every copy of a facet, which the check
+        // relies on to compare the first copy only.
+        let key = |f: &Facet| (f.area, f.vertices);
         let (fa, fb) = (&self.facets[a], &self.facets[b]);
+        let (fa, fb) = match key(fa).0.total_cmp(&key(fb).0).then(key(fa).1.cmp(&key(fb).1)) {
+            std::cmp::Ordering::Less => (fb, fa),
+            _ => (fa, fb),
+        };
         if v3::dot(fa.normal, fb.normal) <= 0.0 {
             return None;
         }
@@ -2044,7 +2080,7 @@ mod tests {
 
     /// One box far larger than the rest (a 2 km ground plate beside 10,000 facets 1 cm wide)
     /// sits in a level of its own: cells as wide as it put all the small ones in one cell
-    /// (a 327,680-facet sphere beside a facet 1e9 m away took 87 s to check).
+    /// (a 327,680-facet sphere beside a facet 1e9 m away took 85.6 s to check).
     #[test]
     fn a_facet_far_larger_than_the_rest_sits_in_a_level_of_its_own() {
         let mut boxes: Vec<([f64; 3], [f64; 3])> = (0..10_000)
@@ -2088,7 +2124,7 @@ mod tests {
 
     /// Random soups of facets whose sizes span five decades, in planes at random tilts, facing
     /// either way, some with a fan of slivers about a hub (one turn, or a turn and a quarter,
-    /// which lies on itself) and some with three copies of a facet: the pair the grid names,
+    /// which lies on itself) and some with a facet written four times: the pair the grid names,
     /// or none, is the first in facet order that comparing every pair finds.
     #[test]
     fn the_grid_names_the_pair_that_comparing_every_pair_finds() {
@@ -2147,17 +2183,15 @@ mod tests {
             }
             let facets = triangles
                 .iter()
-                .enumerate()
-                .map(|(k, &ids)| {
+                .map(|&ids| {
                     let p = ids.map(|i| vertices[i as usize]);
                     let c = v3::cross(v3::sub(p[1], p[0]), v3::sub(p[2], p[0]));
-                    let _ = k;
                     Facet {
                         vertices: ids,
                         part: 0,
                         normal: v3::scale(c, 1.0 / v3::norm(c)),
                         area: v3::norm(c) / 2.0,
-                        centroid: p[0],
+                        centroid: v3::scale(v3::add(v3::add(p[0], p[1]), p[2]), 1.0 / 3.0),
                     }
                 })
                 .collect::<Vec<_>>();
@@ -2200,7 +2234,7 @@ mod tests {
     /// Walls among flat ground facets (whose median height is their padding, 4 µm) sit in
     /// cells about their own size: cells of higher levels grow alike along every axis from
     /// level 0's narrowest side (grown from each axis's own, a 2.5 m wall's cells were 2,000
-    /// km wide, and a city of 1.4 million facets took 48 s to check against 2.6 s).
+    /// km wide, and a city of 1.4 million facets took 48 s to check against 1.7 s).
     #[test]
     fn walls_on_flat_ground_sit_in_cells_of_their_own_size() {
         let mut boxes: Vec<([f64; 3], [f64; 3])> = (0..10_000)
@@ -2217,8 +2251,8 @@ mod tests {
         assert!(sides.iter().all(|&w| (1.25..=8.0).contains(&w)), "{sides:?}");
     }
 
-    /// Copies of a facet (the same three vertices, wound alike) are compared by the first two
-    /// and left out of the grid: 4,000 stacked copies of a box are refused at once (6.5 s
+    /// Copies of a facet (the same three vertices in the same order) are compared by the first two
+    /// and left out of the grid: 4,000 stacked copies of a box are refused at once (6.7 s
     /// before, every pair of 48,000 facets around 8 hubs tried), naming the first copy of the
     /// first face; a pair earlier in file order than any copies is named first; copies wound
     /// the other way (a two-sided plate) are no copies.

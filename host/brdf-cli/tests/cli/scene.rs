@@ -621,6 +621,18 @@ fn lrcs_by_area_states_each_aspects_bound() {
         brdf_scene::image::SUPERSAMPLE
     );
     assert!(String::from_utf8_lossy(&run.stderr).contains(&said), "{said}");
+    // The help states the same defaults.
+    let help = ok(&brdf(&["scene", "lrcs", "--help"]));
+    let help = help.split_whitespace().collect::<Vec<_>>().join(" ");
+    for (default, flag) in [
+        (brdf_scene::image::SWEEP_PIXELS, "pixels"),
+        (brdf_scene::image::SUPERSAMPLE, "supersample"),
+    ] {
+        assert!(
+            help.contains(&format!("{default} unless given")),
+            "--{flag}: {help}"
+        );
+    }
     let centroid: serde_json::Value =
         serde_json::from_str(&ok(&brdf(&["scene", "lrcs", &scene(), "--json"]))).unwrap();
     let (a, c) = (

@@ -23,6 +23,9 @@ from . import _brdf
 
 __all__ = [
     "MODELS",
+    "SWEEP_PIXELS",
+    "IMAGE_PIXELS",
+    "SUPERSAMPLE",
     "FitResult",
     "SceneLrcs",
     "SceneSelection",
@@ -48,6 +51,10 @@ _log = logging.getLogger("brdf")
 
 #: Model names accepted by every function (as ``brdf --model``).
 MODELS: List[str] = list(_brdf.MODELS)
+# Laser images' and sweeps' default resolutions (brdf_scene::image).
+SWEEP_PIXELS: int = _brdf.SWEEP_PIXELS
+IMAGE_PIXELS: int = _brdf.IMAGE_PIXELS
+SUPERSAMPLE: int = _brdf.SUPERSAMPLE
 
 
 def _params_text(params: Union[str, Mapping[str, float]]) -> str:
@@ -871,19 +878,19 @@ def scene_lrcs(
     of 4 pi f_r cos(theta_i) cos(theta_r) A. ``visibility``: ``"centroid"`` (a facet counts
     whole when its centroid is seen) or ``"area"`` (the part of each facet seen, as ``brdf
     scene lrcs --visibility area``: each aspect's laser image summed at ``pixels`` along its
-    longer side, ``SWEEP_PIXELS`` unless given, ``supersample`` samples a pixel each way, 4
-    unless given; ``sampling_bound`` then holds each aspect's bound, m^2). Runs on all cores.
+    longer side, ``brdf.SWEEP_PIXELS`` unless given, ``supersample`` samples a pixel each
+    way, ``brdf.SUPERSAMPLE`` unless given; ``sampling_bound`` then holds each aspect's bound, m^2). Runs on all cores.
     Raises ValueError with the command's message when the scene cannot be used.
     """
     if not isinstance(visibility, str) or visibility not in ("centroid", "area"):
         raise ValueError(f"visibility {visibility!r}: give 'centroid' or 'area'")
-    for name, v in (("pixels", pixels), ("supersample", supersample)):
+    for name, v, most in (("pixels", pixels, _brdf.MAX_PIXELS), ("supersample", supersample, _brdf.MAX_SUPERSAMPLE)):
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer))):
             raise TypeError(f"{name}: {type(v).__name__} is not a whole number")
         if v is not None and visibility != "area":
             raise ValueError(f"{name} sets the resolution of visibility='area'")
-        if v is not None and int(v) < 1:
-            raise ValueError(f"{name} {v}: at least 1")
+        if v is not None and not 1 <= int(v) <= most:
+            raise ValueError(f"{name} {v}: give 1 to {most}")
     area = None
     if visibility == "area":
         area = (

@@ -8,6 +8,9 @@ Params = Union[str, Mapping[str, float]]
 ArrayLike = npt.ArrayLike
 
 MODELS: List[str]
+SWEEP_PIXELS: int
+IMAGE_PIXELS: int
+SUPERSAMPLE: int
 
 def eval(
     model: str,
