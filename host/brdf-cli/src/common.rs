@@ -393,7 +393,10 @@ pub fn distinct_outputs(outputs: &[(&str, Option<&Path>)], inputs: &[&Path]) -> 
     for (k, &(flag, out)) in given.iter().enumerate() {
         not_an_input(flag, out, inputs.iter().copied())?;
         if let Some(&(other, _)) = given[..k].iter().find(|(_, p)| same_file(p, out)) {
-            bail!("{other} and {flag} name the same file {}", out.display());
+            bail!(
+                "{other} and {flag} name the same file {}: one would overwrite the other",
+                out.display()
+            );
         }
     }
     Ok(())

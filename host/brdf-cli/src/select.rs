@@ -77,20 +77,17 @@ pub struct SelectCmd {
 
 impl SelectCmd {
     pub fn run(self) -> Result<()> {
-        if let (Some(o), Some(c)) = (&self.output, &self.chosen) {
-            if crate::common::same_file(o, c) {
-                bail!(
-                    "-o and --chosen name the same file {}: one would overwrite the other",
-                    o.display()
-                );
-            }
-        }
-        let inputs = [self.data.as_deref(), self.scene.as_deref()];
-        for (out, flag) in [(&self.output, "-o"), (&self.chosen, "--chosen")] {
-            if let Some(out) = out {
-                crate::common::not_an_input(flag, out, inputs.into_iter().flatten())?;
-            }
-        }
+        let inputs: Vec<&std::path::Path> = [self.data.as_deref(), self.scene.as_deref()]
+            .into_iter()
+            .flatten()
+            .collect();
+        crate::common::distinct_outputs(
+            &[
+                ("-o", self.output.as_deref()),
+                ("--chosen", self.chosen.as_deref()),
+            ],
+            &inputs,
+        )?;
         let Some(data) = self.data.clone() else {
             return self.run_scene();
         };

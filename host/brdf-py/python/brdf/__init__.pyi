@@ -162,6 +162,17 @@ def scene_lrcs(
     supersample: Optional[int] = None,
 ) -> SceneLrcs: ...
 def scene_domain(scene: Union[str, os.PathLike]) -> Dict[str, Any]: ...
+def scene_profile(
+    scene: Union[str, os.PathLike], bin_m: float, pulse_m: Optional[float] = None
+) -> Dict[str, Any]: ...
+def scene_image(
+    scene: Union[str, os.PathLike],
+    azimuth: Optional[float] = None,
+    elevation: Optional[float] = None,
+    *,
+    pixels: int = ...,
+    supersample: int = ...,
+) -> Dict[str, Any]: ...
 class SceneSelection:
     report: Dict[str, Any]
     materials: List[Dict[str, Any]]
