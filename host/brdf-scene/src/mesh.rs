@@ -886,16 +886,15 @@ impl Mesh {
                     run_end = i + list[i..].iter().take_while(|e| e.0 == ha).count();
                 }
                 let from = if ha == u32::MAX { i + 1 } else { run_end };
-                let level = grid.level[a];
                 for &(_, b) in &list[from..] {
-                    if grid.level[b] != level || passed(a, b) {
+                    if passed(a, b) {
                         continue;
                     }
                     let (ba, bb) = (&boxes[a], &boxes[b]);
                     let start = [0, 1, 2].map(|c| ba.0[c].max(bb.0[c]));
                     // Boxes apart, or the pair is met again in the cell where their common
                     // box begins (tested there only).
-                    if (0..3).any(|c| start[c] > ba.1[c].min(bb.1[c])) || grid.key_at(start, level) != at {
+                    if (0..3).any(|c| start[c] > ba.1[c].min(bb.1[c])) || grid.key_at(start, 0) != at {
                         continue;
                     }
                     test(a, b, &mut found);

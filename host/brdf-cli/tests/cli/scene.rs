@@ -457,17 +457,20 @@ fn profile_bins_sum_to_each_aspects_sigma() {
     // cannot take, or -o naming the same file, refused before the sweep (no CSV written).
     let dir = tempfile::tempdir().unwrap();
     let (png, csv) = (dir.path().join("p.png"), dir.path().join("p.csv"));
-    let out = brdf(&[
-        "scene",
-        "profile",
-        &scene(),
-        "--bin-m",
-        "0.1",
-        "-o",
-        csv.to_str().unwrap(),
-        "--plot",
-        png.to_str().unwrap(),
-    ]);
+    let plotted = |output: &std::path::Path, plot: &std::path::Path| {
+        brdf(&[
+            "scene",
+            "profile",
+            &scene(),
+            "--bin-m",
+            "0.1",
+            "-o",
+            output.to_str().unwrap(),
+            "--plot",
+            plot.to_str().unwrap(),
+        ])
+    };
+    let out = plotted(&csv, &png);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
     let plain = ok(&brdf(&["scene", "profile", &scene(), "--bin-m", "0.1"]));
@@ -480,17 +483,7 @@ fn profile_bins_sum_to_each_aspects_sigma() {
         (&csv2, &gone, "does not exist"),
         (&png2, &png2, "same file"),
     ] {
-        let o = brdf(&[
-            "scene",
-            "profile",
-            &scene(),
-            "--bin-m",
-            "0.1",
-            "-o",
-            output.to_str().unwrap(),
-            "--plot",
-            plot.to_str().unwrap(),
-        ]);
+        let o = plotted(output, plot);
         let e = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success() && e.contains(says) && !output.exists(), "{e}");
     }

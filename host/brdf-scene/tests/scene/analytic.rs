@@ -1237,6 +1237,21 @@ fn decals_just_in_front_of_a_plate_stay_within_the_bound() {
 /// turned from their own, now enter the bound.
 #[test]
 fn the_foot_of_a_wall_in_bistatic_light_stays_within_the_bound() {
+    // Lambertian, source and receiver 180 degrees apart in azimuth, both at 25 degrees
+    // elevation.
+    let backlit = |mesh| {
+        scene(
+            mesh,
+            lambert(0.5),
+            sensor(
+                Mode::Bistatic {
+                    separation_deg: 180.0,
+                },
+                &[0.0],
+                &[25.0],
+            ),
+        )
+    };
     let mut b = MeshBuilder::new();
     let plate = b.part("plate");
     let v: Vec<u32> = [
@@ -1262,17 +1277,7 @@ fn the_foot_of_a_wall_in_bistatic_light_stays_within_the_bound() {
     .collect();
     b.triangle([w[0], w[1], w[2]], wall);
     b.triangle([w[0], w[2], w[3]], wall);
-    let s = scene(
-        b.build("wall").unwrap(),
-        lambert(0.5),
-        sensor(
-            Mode::Bistatic {
-                separation_deg: 180.0,
-            },
-            &[0.0],
-            &[25.0],
-        ),
-    );
+    let s = backlit(b.build("wall").unwrap());
     assert!(sigmas(&s)[0].abs() < 1e-12, "{}", sigmas(&s)[0]);
     for (pixels, supersample) in [(256, 4), (32, 4), (32, 1)] {
         image_within_bound(&s, 0.0, pixels, supersample, "open");
@@ -1283,17 +1288,7 @@ fn the_foot_of_a_wall_in_bistatic_light_stays_within_the_bound() {
     let mut b = MeshBuilder::new();
     b.cuboid([-1.0, -1.0, -0.05], [1.0, 1.0, 0.0], [1, 1, 1], "plate");
     b.cuboid([-0.001, -1.0, 0.0], [0.001, 1.0, 0.5], [1, 1, 1], "wall");
-    let s = scene(
-        b.build("closed wall").unwrap(),
-        lambert(0.5),
-        sensor(
-            Mode::Bistatic {
-                separation_deg: 180.0,
-            },
-            &[0.0],
-            &[25.0],
-        ),
-    );
+    let s = backlit(b.build("closed wall").unwrap());
     let exact = 4.0 * 0.5 * 25f64.to_radians().sin().powi(2) * 0.002 * 2.0;
     assert!(
         rel(sigmas(&s)[0], exact) < 1e-12,
