@@ -29,18 +29,154 @@ pub const MAX_COORDINATE_M: f64 = 1e30;
 /// noise; a real surface has no such facet.
 pub const DEGENERATE_SINE: f64 = 1e-10;
 
-/// Two facets facing the same way lie in one plane when every vertex of each is within
-/// `COINCIDENT_ABS_M + COINCIDENT_REL * scale` of the other's plane (per facet, summed over
-/// the pair; `scale` is the facet's largest coordinate magnitude plus its longest edge). The
-/// absolute part covers coordinates written to six decimals in metres (rounded by up to
-/// 5e-7 m, so a decal on a tilted hull sits up to 1e-6 m off it); the relative part covers
-/// six significant digits (`%g`, 5e-6 of the coordinate) and f32 STL (6e-8). Both are far
-/// below a modelled offset: a decal lifted 1 mm off a hull 10 m from the origin is 1e-4
-/// relative, and is accepted (it then occludes the hull under it).
+/// Two facets facing the same way lie in one plane when every vertex of the smaller is within
+/// the pair's in-plane tolerance of the larger's plane: the sum of each facet's
+/// `abs_m + rel * scale` ([`Precision`] of the mesh's coordinates; `scale` is the facet's
+/// largest coordinate magnitude plus its longest edge), plus a few roundings of f64
+/// ([`ARITHMETIC_REL`]). The precision is read from the file: what it writes is one step of
+/// the format, and never looser than this (six decimals in metres: rounded by up to 5e-7 m,
+/// so a decal on a tilted hull sits up to 1e-6 m off it) and [`COINCIDENT_REL`] (six
+/// significant digits, `%g`: 5e-6 of the coordinate). Both are far below a modelled offset: a
+/// decal lifted 1 mm off a hull 10 m from the origin is accepted (it then occludes the hull
+/// under it).
 pub const COINCIDENT_ABS_M: f64 = 1e-6;
 
-/// Relative part of the in-plane tolerance; see [`COINCIDENT_ABS_M`].
+/// Relative part of the loosest in-plane tolerance; see [`COINCIDENT_ABS_M`].
 pub const COINCIDENT_REL: f64 = 1e-5;
+
+/// Relative error of a distance from a facet's plane computed in f64 (16 roundings): added to
+/// every [`Precision`]'s `rel`, and, divided by the facet's `2A/L^2` (about the sine of its
+/// smallest angle, which its normal's error grows with), to its longest edge's share.
+pub const ARITHMETIC_REL: f64 = 16.0 * f64::EPSILON;
+
+/// How finely a mesh's coordinates are known: a coordinate `c` lies within `abs_m + rel * |c|`
+/// (one step of the format it was written in) of where its writer meant it. It sets the
+/// in-plane tolerance of the coincidence check ([`COINCIDENT_ABS_M`]).
+///
+/// A text mesh's is read from its digits ([`Precision::of_text`]): the most decimals and the
+/// most significant digits any coordinate is written with, never looser than
+/// [`Precision::WRITTEN`] (a file of round numbers keeps that) and never finer than one step
+/// of f32 where every coordinate could have been written from an f32 (at most nine
+/// significant digits, or exactly an f32's value: exporters that widen f32 to f64 write 17
+/// digits of it). So survey coordinates written to six decimals, 5e6 m from the origin, are
+/// compared within about 1e-5 m, not the 50 m that six significant digits would allow there (a
+/// 0.5 m decal lying on a 1 m facet was accepted, and counted twice); written from an f32, they
+/// are within about 1 m there, which is what an f32 resolves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Precision {
+    /// Absolute part, m.
+    pub abs_m: f64,
+    /// Relative part (of the coordinate's magnitude).
+    pub rel: f64,
+}
+
+impl Precision {
+    /// The loosest assumed: six decimals in metres and six significant digits.
+    pub const WRITTEN: Precision = Precision {
+        abs_m: COINCIDENT_ABS_M,
+        rel: COINCIDENT_REL,
+    };
+    /// Single precision (a binary STL): one step of an f32, 2^-23 of the coordinate.
+    pub const SINGLE: Precision = Precision {
+        abs_m: 0.0,
+        rel: f32::EPSILON as f64,
+    };
+    /// Computed in double precision (a mesh built in memory): only [`ARITHMETIC_REL`].
+    pub const DOUBLE: Precision = Precision { abs_m: 0.0, rel: 0.0 };
+
+    /// The precision of coordinates written as `tokens` (decimal text, as an OBJ or ASCII STL
+    /// writes them); [`Precision::WRITTEN`] when one is not a plain decimal number.
+    pub fn of_text<'a>(tokens: impl IntoIterator<Item = &'a str>) -> Precision {
+        let mut d = WrittenDigits::default();
+        for t in tokens {
+            d.add(t);
+        }
+        d.precision()
+    }
+}
+
+/// The digits a text mesh's coordinates are written with, gathered while it is read
+/// ([`Precision::of_text`]).
+#[derive(Debug)]
+struct WrittenDigits {
+    /// Most significant digits of a coordinate (`5000000.125` has 10).
+    sig: u32,
+    /// Most decimals, less the exponent (`1.25e-3` has 5).
+    dec: i32,
+    /// Every coordinate could have been written from an f32.
+    single: bool,
+    /// Some coordinate was not a plain decimal (`inf`, hexadecimal, an exponent out of range).
+    unread: bool,
+    /// Some coordinate was read.
+    seen: bool,
+}
+
+impl Default for WrittenDigits {
+    fn default() -> Self {
+        WrittenDigits {
+            sig: 0,
+            dec: i32::MIN,
+            single: true,
+            unread: false,
+            seen: false,
+        }
+    }
+}
+
+impl WrittenDigits {
+    fn add(&mut self, token: &str) {
+        let Some((sig, dec)) = written_digits(token) else {
+            self.unread = true;
+            return;
+        };
+        self.seen = true;
+        self.sig = self.sig.max(sig);
+        self.dec = self.dec.max(dec);
+        // What an f32 writer prints lies within half its last digit of an f32: its shortest
+        // decimals, all 17 digits of it widened to f64, or a fixed count of decimals.
+        if self.single {
+            let half_step = 0.5 * 10f64.powi(-dec.clamp(-400, 400));
+            self.single = token
+                .parse::<f64>()
+                .is_ok_and(|v| (v - f64::from(v as f32)).abs() <= half_step * (1.0 + 1e-9));
+        }
+    }
+
+    fn precision(&self) -> Precision {
+        if self.unread || !self.seen {
+            return Precision::WRITTEN;
+        }
+        let step = |digits: i32| 10f64.powi(digits.clamp(-400, 400));
+        let digits_rel = step(1 - self.sig as i32);
+        let rel = if self.single {
+            digits_rel.max(Precision::SINGLE.rel)
+        } else {
+            digits_rel
+        };
+        Precision {
+            abs_m: step(-self.dec).min(COINCIDENT_ABS_M),
+            rel: rel.min(COINCIDENT_REL),
+        }
+    }
+}
+
+/// `(significant digits, decimals less the exponent)` of a decimal number as written:
+/// `5000000.125` gives (10, 3), `-1.50e-3` (3, 5), `0.000000` (0, 6), `5e6` (1, -6); None for
+/// what is not one (`inf`, `nan`, hexadecimal, an exponent that does not fit).
+fn written_digits(token: &str) -> Option<(u32, i32)> {
+    let t = token.strip_prefix(['+', '-']).unwrap_or(token);
+    let (mantissa, exp) = match t.find(['e', 'E']) {
+        Some(k) => (&t[..k], t[k + 1..].parse::<i32>().ok()?),
+        None => (t, 0),
+    };
+    let (int, frac) = mantissa.split_once('.').unwrap_or((mantissa, ""));
+    let digits = || int.bytes().chain(frac.bytes());
+    if int.len() + frac.len() == 0 || !digits().all(|b| b.is_ascii_digit()) || exp.abs() > 100_000 {
+        return None;
+    }
+    let sig = digits().skip_while(|&b| b == b'0').count() as u32;
+    Some((sig, frac.len() as i32 - exp))
+}
 
 /// Two coplanar facets overlap when they interpenetrate deeper than this fraction of the
 /// smaller one's size (the square root of its area), and deeper than their in-plane
@@ -271,6 +407,8 @@ pub struct Mesh {
     /// Per facet: the facet across each of its edges (vertex 0 to 1, 1 to 2, 2 to 0), or
     /// `u32::MAX` where no other facet, or more than one, shares that edge.
     pub neighbours: Vec<[u32; 3]>,
+    /// How finely the coordinates are known (read from the file's digits).
+    pub precision: Precision,
 }
 
 /// The grid the coincidence check compares facets in: cells in levels, each facet in the
@@ -606,13 +744,15 @@ impl Mesh {
         }
     }
 
-    /// Builds and checks a mesh from triangles: `(vertex indices, part index, origin)`.
+    /// Builds and checks a mesh from triangles: `(vertex indices, part index, origin)`, with
+    /// coordinates known to `precision` ([`Precision::DOUBLE`] where they were computed).
     /// Vertices at bit-identical positions are welded first.
     pub fn from_triangles(
         file: PathBuf,
         vertices: Vec<[f64; 3]>,
         triangles: &[([u32; 3], u32, Origin)],
         parts: Vec<String>,
+        precision: Precision,
     ) -> Result<Mesh, MeshError> {
         let name = file.display().to_string();
         if triangles.is_empty() {
@@ -702,6 +842,7 @@ impl Mesh {
             origins,
             closed: Vec::new(),
             neighbours: Vec::new(),
+            precision,
         };
         (mesh.closed, mesh.neighbours) = mesh.check_winding()?;
         mesh.check_coincident()?;
@@ -999,14 +1140,16 @@ impl Mesh {
         }
     }
 
-    /// A facet's in-plane tolerance ([`COINCIDENT_ABS_M`], [`COINCIDENT_REL`]).
+    /// A facet's in-plane tolerance ([`COINCIDENT_ABS_M`], [`Precision`], [`ARITHMETIC_REL`]).
     fn in_plane_tolerance(&self, f: &Facet) -> f64 {
         let p = f.vertices.map(|i| self.vertices[i as usize]);
         let far = p.iter().flatten().fold(0.0_f64, |m, c| m.max(c.abs()));
         let edge = (0..3)
             .map(|k| v3::norm(v3::sub(p[(k + 1) % 3], p[k])))
             .fold(0.0, f64::max);
-        COINCIDENT_ABS_M + COINCIDENT_REL * (far + edge)
+        let sine = 2.0 * f.area / (edge * edge);
+        let Precision { abs_m, rel } = self.precision;
+        abs_m + (rel + ARITHMETIC_REL) * (far + edge) + ARITHMETIC_REL * edge / sine
     }
 
     /// How deep facets `a` and `b` overlap when they lie on each other, facing the same way
@@ -1026,12 +1169,14 @@ impl Mesh {
         }
         let corners = |f: &Facet| f.vertices.map(|i| self.vertices[i as usize]);
         let (pa, pb) = (corners(fa), corners(fb));
-        // In one plane first (neighbours on a curved surface are not), then apart at a
-        // shared vertex (the slivers of a fan), then the full test.
-        let off = |p: &[[f64; 3]; 3], q: [f64; 3], n: [f64; 3]| {
-            p.iter().all(|v| v3::dot(v3::sub(*v, q), n).abs() <= t)
-        };
-        if !(off(&pb, pa[0], fa.normal) && off(&pa, pb[0], fb.normal)) {
+        // In one plane first (neighbours on a curved surface are not): the smaller's vertices
+        // in the larger's plane, whose normal is the better known (the larger's vertices
+        // against the smaller's plane, extrapolated, missed a 1 cm decal on a 100 m facet),
+        // then apart at a shared vertex (the slivers of a fan), then the full test.
+        if !pb
+            .iter()
+            .all(|v| v3::dot(v3::sub(*v, pa[0]), fa.normal).abs() <= t)
+        {
             return None;
         }
         let [u, w] = plane_frame(fa.normal);
@@ -1343,7 +1488,7 @@ impl Mesh {
                 return models.map(|_| unreachable!("an error"));
             }
         }
-        let face_lines = face_lines?;
+        let (face_lines, precision) = face_lines?;
         let models = models?;
         let mut vertices: Vec<[f64; 3]> = Vec::new();
         let mut triangles = Vec::new();
@@ -1390,10 +1535,11 @@ impl Mesh {
                 fan(&file, &vertices, &idx, part, origin, &mut triangles)?;
             }
         }
-        Self::from_triangles(path.to_path_buf(), vertices, &triangles, parts)
+        Self::from_triangles(path.to_path_buf(), vertices, &triangles, parts, precision)
     }
 
-    /// STL (ASCII or binary) through `stl_io`: one part, named after the file's stem.
+    /// STL: one part, named after the file's stem. Binary through `stl_io` (f32, as stored);
+    /// ASCII read here, in f64 ([`read_ascii_stl`]).
     fn from_stl(path: &Path, bytes: &[u8]) -> Result<Mesh, MeshError> {
         let file = path.display().to_string();
         let refuse = |at: Origin, message: String| MeshError::Parse {
@@ -1468,47 +1614,39 @@ impl Mesh {
                 ),
             ));
         }
-        // A bare `solid` (no name, which the format allows) made the reader fail with "failed
-        // to fill whole buffer": the name is not used, so one is supplied.
-        let named;
-        let bytes = match bytes.strip_prefix(b"solid") {
-            Some(rest) if !binary && rest.first().is_some_and(|&c| c == b'\n' || c == b'\r') => {
-                named = [b"solid unnamed".as_slice(), rest].concat();
-                named.as_slice()
-            }
-            _ => bytes,
+        // Three vertices per facet, and each facet's stored normal.
+        let (vertices, normals, precision) = if bytes.starts_with(b"solid") && !binary {
+            read_ascii_stl(&file, &String::from_utf8_lossy(bytes))?
+        } else {
+            let stl = stl_io::read_stl(&mut std::io::Cursor::new(bytes)).map_err(|e| MeshError::Stl {
+                file: file.clone(),
+                message: e.to_string(),
+            })?;
+            let at = |i: usize| [0, 1, 2].map(|c| f64::from(stl.vertices[i][c]));
+            let vertices = stl.faces.iter().flat_map(|f| f.vertices.map(at)).collect();
+            let normals = stl
+                .faces
+                .iter()
+                .map(|f| [0, 1, 2].map(|c| f64::from(f.normal[c])))
+                .collect();
+            (vertices, normals, Precision::SINGLE)
         };
-        let mut cursor = std::io::Cursor::new(bytes);
-        let stl = stl_io::read_stl(&mut cursor).map_err(|e| MeshError::Stl {
-            file: file.clone(),
-            message: e.to_string(),
-        })?;
-        let vertices: Vec<[f64; 3]> = stl
-            .vertices
-            .iter()
-            .map(|v| [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])])
-            .collect();
-        let triangles: Vec<([u32; 3], u32, Origin)> = stl
-            .faces
-            .iter()
-            .enumerate()
-            .map(|(k, f)| (f.vertices.map(|i| i as u32), 0, Origin::Facet(k + 1)))
+        let triangles: Vec<([u32; 3], u32, Origin)> = (0..normals.len() as u32)
+            .map(|k| ([3 * k, 3 * k + 1, 3 * k + 2], 0, Origin::Facet(k as usize + 1)))
             .collect();
         let part = path
             .file_stem()
             .map_or_else(|| "stl".to_owned(), |s| s.to_string_lossy().into_owned());
-        let mesh = Self::from_triangles(path.to_path_buf(), vertices, &triangles, vec![part])?;
+        let mesh = Self::from_triangles(path.to_path_buf(), vertices, &triangles, vec![part], precision)?;
         // The winding decides which side faces out; an STL also stores a normal per facet. An
         // open shell wound inside out has no volume to give it away, and its stored normals
         // were the only sign (sigma was -0 at every aspect). Stored normals that are unit
         // vectors and point against the winding on most facets: refused.
-        let stored: Vec<(usize, f64)> = stl
-            .faces
+        let stored: Vec<(usize, f64)> = normals
             .iter()
             .zip(&mesh.facets)
             .enumerate()
-            .filter_map(|(k, (f, facet))| {
-                let n = [f.normal[0], f.normal[1], f.normal[2]].map(f64::from);
+            .filter_map(|(k, (&n, facet))| {
                 let len = v3::norm(n);
                 ((0.9..=1.1).contains(&len)).then(|| (k, v3::dot(n, facet.normal) / len))
             })
@@ -1529,6 +1667,99 @@ impl Mesh {
         }
         Ok(mesh)
     }
+}
+
+/// An ASCII STL's vertices (three per facet, in f64), each facet's stored normal, and the
+/// precision its digits give ([`Precision::of_text`]). The STL reader keeps f32: a plate
+/// 6.4e6 m from the origin written to six decimals snapped 0.2 m wider, and sigma rose 15%.
+/// Keywords in lower case, one statement per line, blank lines skipped; a line that is not the
+/// statement due is named.
+#[allow(clippy::type_complexity)]
+fn read_ascii_stl(file: &str, text: &str) -> Result<(Vec<[f64; 3]>, Vec<[f64; 3]>, Precision), MeshError> {
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(k, l)| (k as u64 + 1, l))
+        .filter(|(_, l)| !l.trim().is_empty());
+    let mut last = 1;
+    let mut digits = WrittenDigits::default();
+    // The next line: its number, which of the statements due it is, and its words after the
+    // keyword (which may be two words); or the line and what was due.
+    let mut statement = |due: &[&str]| -> Result<(u64, usize, Vec<&str>), MeshError> {
+        let Some((n, line)) = lines.next() else {
+            return Err(MeshError::Parse {
+                file: file.to_owned(),
+                at: Origin::Line(last),
+                message: format!("the file ends where `{}` is due", due.join("` or `")),
+            });
+        };
+        last = n;
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match due.iter().position(|d| {
+            let k: Vec<&str> = d.split(' ').collect();
+            words.len() >= k.len() && words[..k.len()] == k[..]
+        }) {
+            Some(i) => Ok((n, i, words[due[i].split(' ').count()..].to_vec())),
+            None => Err(MeshError::Parse {
+                file: file.to_owned(),
+                at: Origin::Line(n),
+                message: format!(
+                    "`{}` where `{}` is due (an ASCII STL: solid, then facet normal, outer loop, \
+                     three vertex lines, endloop and endfacet per facet, then endsolid; keywords \
+                     in lower case)",
+                    line.trim(),
+                    due.join("` or `")
+                ),
+            }),
+        }
+    };
+    let three = |n: u64, words: &[&str], what: &str| -> Result<[f64; 3], MeshError> {
+        let refuse = |message: String| MeshError::Parse {
+            file: file.to_owned(),
+            at: Origin::Line(n),
+            message,
+        };
+        if words.len() != 3 {
+            return Err(refuse(format!(
+                "{what} needs 3 numbers, this one has {}",
+                words.len()
+            )));
+        }
+        let mut v = [0.0; 3];
+        for (c, w) in v.iter_mut().zip(words) {
+            *c = w
+                .parse()
+                .map_err(|_| refuse(format!("{what}: `{w}` is not a number")))?;
+        }
+        Ok(v)
+    };
+    statement(&["solid"])?;
+    let (mut vertices, mut normals) = (Vec::new(), Vec::new());
+    loop {
+        let (n, which, words) = statement(&["facet normal", "endsolid"])?;
+        if which == 1 {
+            break;
+        }
+        normals.push(three(n, &words, "facet normal")?);
+        let (n, _, words) = statement(&["outer loop"])?;
+        if !words.is_empty() {
+            return Err(MeshError::Parse {
+                file: file.to_owned(),
+                at: Origin::Line(n),
+                message: "`outer loop` takes no more words".into(),
+            });
+        }
+        for _ in 0..3 {
+            let (n, _, words) = statement(&["vertex"])?;
+            for w in &words {
+                digits.add(w);
+            }
+            vertices.push(three(n, &words, "vertex")?);
+        }
+        statement(&["endloop"])?;
+        statement(&["endfacet"])?;
+    }
+    Ok((vertices, normals, digits.precision()))
 }
 
 /// Largest mesh file read, bytes: a binary STL of 20 million facets (50 bytes each), an OBJ
@@ -1664,7 +1895,7 @@ const OBJ_STATEMENTS: [&str; 36] = [
 /// statements that cannot be a facet (fewer than three vertices, a polyline of three or more
 /// vertices, which the reader would take for a face), vertex weights other than 1 and words
 /// that are not OBJ statements, with their line.
-fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
+fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<(Vec<u64>, Precision), MeshError> {
     // A carriage return not followed by a line feed ends no line for the reader: a file with
     // classic Mac line ends was one line, refused for having "no facets".
     if let Some(at) = (0..bytes.len()).find(|&i| bytes[i] == b'\r' && bytes.get(i + 1) != Some(&b'\n')) {
@@ -1683,6 +1914,7 @@ fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
     // further ahead (the reader takes those if the vertex comes later).
     let mut vertices = 0i64;
     let mut ahead: Vec<(u64, i64)> = Vec::new();
+    let mut digits = WrittenDigits::default();
     let parse_error = |at: Origin, message: String| MeshError::Parse {
         file: file.to_owned(),
         at,
@@ -1755,6 +1987,9 @@ fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
                 {
                     return Err(parse_error(at, format!("vertex coordinate `{c}` is not finite")));
                 }
+                for c in w.iter().take(3) {
+                    digits.add(c);
+                }
                 if w.len() == 4 && w[3].parse::<f64>() != Ok(1.0) {
                     return Err(MeshError::Parse {
                         file: file.to_owned(),
@@ -1797,7 +2032,7 @@ fn scan_obj_faces(file: &str, bytes: &[u8]) -> Result<Vec<u64>, MeshError> {
             format!("vertex index {i}: the file has {vertices} vertices"),
         ));
     }
-    Ok(out)
+    Ok((out, digits.precision()))
 }
 
 /// A `BufRead` over bytes that knows which line the reader last took, so that an error of
@@ -1993,6 +2228,61 @@ mod tests {
     /// Files the readers misread were refused with misleading messages: an OBJ with lines
     /// ended by CR alone ("no facets"), an ASCII STL beginning `SOLID` or blanks before `solid`
     /// ("binary STL header counts 1347374924 facets"). Each now says what it is.
+    #[test]
+    fn an_ascii_stl_is_read_in_double_precision_and_its_statements_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.stl");
+        // A 1.3 m square plate facing +x, 6.4e6 m out, written to six decimals: read as f32,
+        // its width snapped to 1.5 m (sigma 15% high).
+        let y0 = 6.4e6 + 0.123;
+        let v = |y: f64, z: f64| format!("vertex 0 {:.6} {:.6}\n", y0 + y, z);
+        let tri = |a: String, b: String, c: String| {
+            format!("facet normal 1 0 0\nouter loop\n{a}{b}{c}endloop\nendfacet\n")
+        };
+        let plate = tri(v(0.0, 0.0), v(1.3, 0.0), v(1.3, 1.3)) + &tri(v(0.0, 0.0), v(1.3, 1.3), v(0.0, 1.3));
+        for head in ["solid plate\n", "solid\tplate\n", "solid\n"] {
+            std::fs::write(&p, format!("{head}{plate}endsolid\n")).unwrap();
+            let mesh = Mesh::load(&p).unwrap();
+            let area: f64 = mesh.facets.iter().map(|f| f.area).sum();
+            assert!((area - 1.69).abs() < 1e-9, "{head:?}: area {area}");
+            assert!(mesh.precision.rel < 1e-11, "{:?}", mesh.precision);
+        }
+        // A statement out of place, or a vertex short of a number, is named at its line.
+        let cases = [
+            (
+                plate.replacen("endloop\n", "", 1),
+                "line 7",
+                "`endfacet` where `endloop` is due",
+            ),
+            (
+                plate.replacen(" 0.000000\n", "\n", 1),
+                "line 4",
+                "vertex needs 3 numbers",
+            ),
+            (
+                plate.replacen("normal 1 0 0", "normal 1 0 x", 1),
+                "line 2",
+                "`x` is not a number",
+            ),
+            (
+                plate.replacen("outer loop", "outer loop 3", 1),
+                "line 3",
+                "takes no more words",
+            ),
+        ];
+        for (body, line, says) in cases {
+            std::fs::write(&p, format!("solid t\n{body}endsolid t\n")).unwrap();
+            let e = Mesh::load(&p).unwrap_err().to_string();
+            assert!(e.contains(line) && e.contains(says), "{e}");
+        }
+        std::fs::write(&p, format!("solid t\n{plate}")).unwrap();
+        let e = Mesh::load(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("ends where `facet normal` or `endsolid` is due"),
+            "{e}"
+        );
+    }
+
     #[test]
     fn line_ends_and_stl_keywords_the_readers_cannot_take_are_named() {
         let e = obj("o p\rv 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r")
@@ -2202,6 +2492,7 @@ mod tests {
                 parts: vec!["soup".into()],
                 closed: Vec::new(),
                 neighbours: Vec::new(),
+                precision: Precision::WRITTEN,
             };
             let tol: Vec<f64> = mesh.facets.iter().map(|f| mesh.in_plane_tolerance(f)).collect();
             let n = mesh.facets.len();
@@ -2890,6 +3181,144 @@ mod coincident_tests {
                 text.push_str(&format!("f 1 {} {}\n", i + 2, (i + 1) % k + 2));
             }
         }
+        text
+    }
+
+    #[test]
+    fn written_digits_and_the_precision_they_give() {
+        assert_eq!(written_digits("5000000.125"), Some((10, 3)));
+        assert_eq!(written_digits("-1.50e-3"), Some((3, 5)));
+        assert_eq!(written_digits("+0.000000"), Some((0, 6)));
+        assert_eq!(written_digits("5e+06"), Some((1, -6)));
+        assert_eq!(written_digits(".5"), Some((1, 1)));
+        for not in ["inf", "nan", "0x1p3", "1e", ".", "-", "1e999999", "1.2.3"] {
+            assert_eq!(written_digits(not), None, "{not}");
+        }
+        let p = |t: &[&str]| Precision::of_text(t.iter().copied());
+        // Six decimals at survey coordinates: the decimals, and the 13 digits, hold.
+        let survey = p(&["5000000.125000", "-3.500000", "0.000000"]);
+        assert_eq!(survey.abs_m, 1e-6);
+        assert!((survey.rel - 1e-12).abs() < 1e-24, "{survey:?}");
+        // `%g`: six significant digits.
+        let g = p(&["5.12346e+06", "0.123457", "1.5e-07"]);
+        assert!((g.rel - 1e-5).abs() < 1e-17 && g.abs_m < 1e-6, "{g:?}");
+        // Round numbers, or a word the digits cannot be read from: the loosest.
+        assert_eq!(p(&["0", "1", "-3", "2.5"]), Precision::WRITTEN);
+        assert_eq!(p(&["5000000.125000", "inf"]), Precision::WRITTEN);
+        assert_eq!(p(&[]), Precision::WRITTEN);
+        // Shortest decimals of f64 values, and of f32 values widened to f64 (17 digits, but
+        // each exactly an f32): double, single.
+        let double = p(&["5000000.123456789", "0.1"]);
+        assert!(double.rel < 1e-14 && double.abs_m <= 1e-9, "{double:?}");
+        let widened = p(&["0.10000000149011612", "5000000.5"]);
+        assert_eq!(widened.rel, Precision::SINGLE.rel, "{widened:?}");
+        // An f32's shortest decimals, or an f32 at six decimals: single at best; a digit that
+        // no f32 is within half of is double.
+        assert_eq!(p(&["0.12345679", "12.5"]).rel, Precision::SINGLE.rel);
+        assert_eq!(p(&["1000.123413", "-0.5"]).rel, Precision::SINGLE.rel);
+        assert!(p(&["0.123456789", "12.5"]).rel < Precision::SINGLE.rel);
+    }
+
+    /// `plate_and_decal` moved to `(x0, y0, z0)` and written to six decimals.
+    fn survey_plate_and_decal(x0: f64, y0: f64, z0: f64, z: f64) -> String {
+        let shift = |l: &str| {
+            let c: Vec<f64> = l[2..].split(' ').map(|c| c.parse().unwrap()).collect();
+            format!("v {:.6} {:.6} {:.6}", c[0] + x0, c[1] + y0, c[2] + z0)
+        };
+        plate_and_decal(z, true)
+            .lines()
+            .map(|l| {
+                if l.starts_with("v ") {
+                    shift(l)
+                } else {
+                    l.to_owned()
+                }
+            })
+            .map(|l| l + "\n")
+            .collect()
+    }
+
+    #[test]
+    fn a_decal_at_survey_coordinates_is_refused_at_six_decimals() {
+        // At 5e6 m the tolerance was 1e-5 of the coordinates, 50 m: the decal was within it
+        // of the plate but overlapped it by less, and was counted twice.
+        // (Offsets that are not round: a file whose every coordinate is also an f32's value
+        // reads as single precision, compared within about 1 m there.)
+        let offsets = [
+            (5e6 + 0.123457, 4.2e6 + 0.654321, 0.0),
+            (0.0, 0.0, 6.4e6 + 0.318529),
+            (-3.1e6 - 0.271828, 2.2e6 + 0.141421, 4.9e6 + 0.577215),
+        ];
+        for (x0, y0, z0) in offsets {
+            let e = obj(&survey_plate_and_decal(x0, y0, z0, 0.0))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("lie on each other"), "{e}");
+            // Lifted 1 mm: accepted.
+            obj(&survey_plate_and_decal(x0, y0, z0, 1e-3)).unwrap();
+        }
+        // Tilted there, written to six decimals: the decal is refused, and a vertex on a
+        // neighbour's edge is no overlap.
+        let far = |text: String| {
+            text.lines()
+                .map(|l| match l.strip_prefix("v ") {
+                    Some(c) => {
+                        let c: Vec<f64> = c.split(' ').map(|c| c.parse().unwrap()).collect();
+                        format!(
+                            "v {:.6} {:.6} {:.6}\n",
+                            c[0] + 4.7e6,
+                            c[1] - 2.3e6 + 0.1,
+                            c[2] + 3.9e6
+                        )
+                    }
+                    None => format!("{l}\n"),
+                })
+                .collect::<String>()
+        };
+        let e = obj(&far(tilted_six_decimals(0.0, 1.0))).unwrap_err().to_string();
+        assert!(e.contains("lie on each other"), "{e}");
+        obj(&far(tilted_six_decimals(1e-3, 1.0))).unwrap();
+        let mesh = obj(&far(tilted_six_decimals(1e-3, 1.0))).unwrap();
+        assert!(
+            mesh.precision.abs_m == 1e-6 && mesh.precision.rel < 1e-11,
+            "{:?}",
+            mesh.precision
+        );
+    }
+
+    #[test]
+    fn a_small_decal_on_a_large_tilted_facet_is_refused() {
+        // A 1 cm decal on a 100 m plate: the plate's vertices against the decal's plane, 100 m
+        // out, were off by the decal's rounding times 1e4, and the pair was not compared.
+        let e = obj(&tilted_six_decimals_decal(0.0)).unwrap_err().to_string();
+        assert!(e.contains("lie on each other"), "{e}");
+        obj(&tilted_six_decimals_decal(1e-3)).unwrap();
+    }
+
+    /// A 100 m plate turned 37 degrees about x and 23 about y, with a 1 cm decal at height `z`
+    /// near its middle, written to six decimals.
+    fn tilted_six_decimals_decal(z: f64) -> String {
+        let (a, b) = (37f64.to_radians(), 23f64.to_radians());
+        let place = |p: [f64; 3]| {
+            let (y, z) = (p[1] * a.cos() - p[2] * a.sin(), p[1] * a.sin() + p[2] * a.cos());
+            let (x, z) = (p[0] * b.cos() + z * b.sin(), -p[0] * b.sin() + z * b.cos());
+            format!("v {:.6} {:.6} {:.6}\n", x + 5.0, y - 3.0, z + 7.0)
+        };
+        let corners = [
+            [0.0, 0.0, 0.0],
+            [100.0, 0.0, 0.0],
+            [100.0, 100.0, 0.0],
+            [0.0, 100.0, 0.0],
+        ];
+        let d = 0.01;
+        let decal = [
+            [50.0, 30.0, z],
+            [50.0 + d, 30.0, z],
+            [50.0 + d, 30.0 + d, z],
+            [50.0, 30.0 + d, z],
+        ];
+        let mut text: String = corners.iter().chain(&decal).map(|p| place(*p)).collect();
+        text.push_str("o plate\nf 1 2 3\nf 1 3 4\no decal\nf 5 6 7\nf 5 7 8\n");
         text
     }
 

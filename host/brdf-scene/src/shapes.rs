@@ -6,7 +6,7 @@ use std::collections::HashMap;
 use std::io::Write;
 use std::path::PathBuf;
 
-use crate::mesh::{Mesh, MeshError, Origin};
+use crate::mesh::{Mesh, MeshError, Origin, Precision};
 
 /// Collects vertices and triangles by part, then checks them into a [`Mesh`] or writes OBJ.
 #[derive(Clone, Debug, Default)]
@@ -73,6 +73,7 @@ impl MeshBuilder {
             self.vertices.clone(),
             &tris,
             self.parts.clone(),
+            Precision::DOUBLE,
         )
     }
 

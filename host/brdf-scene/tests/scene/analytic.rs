@@ -15,7 +15,7 @@ use std::f64::consts::PI;
 use brdf_core::tolerance::F64_REFORMULATION_REL;
 use brdf_core::{AnyModel, Brdf, ModelKind};
 use brdf_scene::lrcs::lrcs;
-use brdf_scene::mesh::Mesh;
+use brdf_scene::mesh::{Mesh, Precision};
 use brdf_scene::occlusion::{EDGE_SLACK, T_MIN};
 use brdf_scene::scene::{direction, Mode, Scene, SceneMaterial, Sensor};
 use brdf_scene::shapes::{target, MeshBuilder, TargetSpec};
@@ -1031,7 +1031,14 @@ fn a_two_sided_sheet_is_seen_from_both_sides_by_area() {
         let down = [([0, 2, 1], 0, Origin::Facet(2)), ([0, 3, 2], 0, Origin::Facet(3))];
         let sides = [up, down];
         let tris: Vec<_> = order.iter().flat_map(|&k| sides[k as usize]).collect();
-        let mesh = Mesh::from_triangles("sheet.obj".into(), v.clone(), &tris, vec!["sheet".into()]).unwrap();
+        let mesh = Mesh::from_triangles(
+            "sheet.obj".into(),
+            v.clone(),
+            &tris,
+            vec!["sheet".into()],
+            Precision::DOUBLE,
+        )
+        .unwrap();
         for mode in [Mode::Monostatic, Mode::Bistatic { separation_deg: 20.0 }] {
             let s = scene(
                 mesh.clone(),
