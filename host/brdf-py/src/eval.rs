@@ -341,6 +341,9 @@ pub(crate) fn eval_batch<T: Float + Send + Sync>(
     parallel: bool,
 ) -> Result<Vec<T>, Failure> {
     let m: AnyModel<T> = build(kind, params)?;
+    if let [ci, cr, cp] = inputs[..] {
+        check_zenith_cosines::<T>([ci, cr, cp])?;
+    }
     let cols: Vec<Vec<T>> = inputs
         .iter()
         .map(|c| c.iter().map(|&v| T::from_f64(v)).collect())
@@ -354,6 +357,35 @@ pub(crate) fn eval_batch<T: Float + Send + Sync>(
     par::eval(&Batch::new(&m), what, &mut out, parallel).map_err(batch_failure)?;
     finite(&out, kind)?;
     Ok(out)
+}
+
+/// Refuses a zenith cosine below 0 (a zenith beyond 90 deg, below the horizon) as
+/// `brdf.eval` refuses a zenith beyond 90 deg ([`brdf_fit::params::check_eval_degrees`]); the
+/// core takes zenith cosines in [-1, 1] and gives 0 below the horizon. The first direction any
+/// check fails is the one named: at a value the core refuses (not finite, outside [-1, 1])
+/// this stops and leaves the core to name it. Each value is judged as the core sees it,
+/// rounded to `T`, and named as given.
+pub(crate) fn check_zenith_cosines<T: Float>(cols: [&[f64]; 3]) -> Result<(), Failure> {
+    const NAMES: [&str; 3] = ["cos_theta_i", "cos_theta_r", "cos_phi"];
+    for i in 0..cols[0].len() {
+        for (k, name) in NAMES.iter().enumerate() {
+            let given = cols[k][i];
+            let c = T::from_f64(given).to_f64();
+            if !(-1.0..=1.0).contains(&c) {
+                return Ok(());
+            }
+            if k < 2 && c < 0.0 {
+                return Err(Failure::At(
+                    i,
+                    format!(
+                        "{name} = {} is outside [0, 1] (a zenith beyond 90 deg, below the horizon)",
+                        brdf_core::Compact(given)
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// `Batch::cosines` (3 arrays) or `Batch::vectors` (6 arrays: wi x, y, z, wr x, y, z).

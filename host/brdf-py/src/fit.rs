@@ -299,7 +299,10 @@ pub(crate) fn read_paths(
     Ok((sets, notes))
 }
 
-/// `brdf fit` on one dataset given as arrays (degrees; `sigma`/`weight` optional).
+/// `brdf fit` on one dataset given as arrays (degrees; `sigma`/`weight` optional): (the
+/// report as JSON text, the reader's warnings). Checked as [`fit_paths`] checks a file's
+/// datasets (`brdf_fit::fittable`: `bands='shared'` is refused, one dataset being no bands of
+/// a measurement).
 #[pyfunction]
 #[pyo3(signature = (settings, name, theta_i, theta_r, phi, brdf, sigma=None, weight=None))]
 #[allow(clippy::too_many_arguments)]
@@ -313,10 +316,13 @@ pub(crate) fn fit_arrays<'py>(
     brdf: PyReadonlyArray1<'py, f64>,
     sigma: Option<PyReadonlyArray1<'py, f64>>,
     weight: Option<PyReadonlyArray1<'py, f64>>,
-) -> PyResult<String> {
+) -> PyResult<(String, Vec<String>)> {
     let columns = (&theta_i, &theta_r, &phi, &brdf, sigma.as_ref(), weight.as_ref());
-    let mut reports = fit_datasets(py, settings, vec![dataset(name, settings, columns)?])?;
-    Ok(reports.remove(0))
+    let (d, notes) = dataset(name, settings, columns)?;
+    let (datasets, _) = brdf_fit::fittable(&settings.settings, vec![d], false)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let mut reports = fit_datasets(py, settings, datasets)?;
+    Ok((reports.remove(0), notes))
 }
 
 /// The six columns of an array dataset (degrees; `sigma`/`weight` optional).
@@ -330,8 +336,14 @@ pub(crate) type Columns<'a, 'py> = (
 );
 
 /// A dataset from arrays for `settings` (which must not name file options), each row checked
-/// as `brdf fit` checks a CSV row (readings at or below zero kept, as `brdf fit` keeps them).
-pub(crate) fn dataset(name: String, settings: &Settings, columns: Columns<'_, '_>) -> PyResult<Dataset> {
+/// as `brdf fit` checks a CSV row (readings at or below zero kept, as `brdf fit` keeps them),
+/// and the warnings a file's reader gives of the same rows (zeniths that look like radians:
+/// [`Dataset::radians_warning`], as `load_csv` and the importers warn).
+pub(crate) fn dataset(
+    name: String,
+    settings: &Settings,
+    columns: Columns<'_, '_>,
+) -> PyResult<(Dataset, Vec<String>)> {
     settings.for_arrays()?;
     let (theta_i, theta_r, phi, brdf, sigma, weight) = columns;
     if sigma.is_some() && weight.is_some() {
@@ -361,7 +373,9 @@ pub(crate) fn dataset(name: String, settings: &Settings, columns: Columns<'_, '_
             Point::from_degrees(row, true, i as u64 + 1).map_err(|e| Failure::At(i, e.to_string()))
         })
         .collect::<Result<Vec<Point>, Failure>>()?;
-    Ok(Dataset { name, points })
+    let d = Dataset { name, points };
+    let notes = d.radians_warning().into_iter().collect();
+    Ok((d, notes))
 }
 
 /// What `select_path` and `select_arrays` return, as `pack` does: `((selection JSON,

@@ -20,6 +20,11 @@ pub(crate) fn select_dataset<'py>(
     let (budget, max_theta_i, max_theta_r, allow_nonphysical, sequence) = options;
     let limits = (max_theta_i, max_theta_r);
     let checked = (|| -> Result<(), String> {
+        // One dataset is no bands of a measurement (a file's bands are refused before, by
+        // `one_dataset`): shared bands would be ignored, refused as `brdf fit` refuses them.
+        if settings.settings.bands == brdf_fit::spectral::BandShape::Shared {
+            return Err(brdf_fit::FitError::NoBands.to_string());
+        }
         check_budget(budget)?;
         for (name, v) in [("max_theta_i", limits.0), ("max_theta_r", limits.1)] {
             if !(0.0..=90.0).contains(&v) {
@@ -99,7 +104,8 @@ pub(crate) fn select_path<'py>(
     select_dataset(py, settings, d, options, notes)
 }
 
-/// `brdf select` on one dataset given as arrays: see [`select_dataset`] and [`Selected`].
+/// `brdf select` on one dataset given as arrays: see [`select_dataset`] and [`Selected`]; the
+/// notes are the reader's warnings of the rows (as a file's), then the points left out.
 #[pyfunction]
 #[pyo3(signature = (settings, name, theta_i, theta_r, phi, brdf, sigma, weight, options))]
 #[allow(clippy::too_many_arguments)]
@@ -116,6 +122,6 @@ pub(crate) fn select_arrays<'py>(
     options: SelectArgs,
 ) -> PyResult<Selected<'py>> {
     let columns = (&theta_i, &theta_r, &phi, &brdf, sigma.as_ref(), weight.as_ref());
-    let d = dataset(name, settings, columns)?;
-    select_dataset(py, settings, d, options, Vec::new())
+    let (d, notes) = dataset(name, settings, columns)?;
+    select_dataset(py, settings, d, options, notes)
 }

@@ -358,3 +358,23 @@ def test_read_and_fit_carry_each_bands_wavelength(root):
     both = brdf.fit(root / "data/measured/cornell-spectral/garnet_red.astm", format="cornell", band=0.56)
     mid = brdf.eval_fit([r, both], 30, 30, 180, wavelength=0.555)
     np.testing.assert_allclose(mid, 0.5 * (r.eval(30, 30, 180) + both.eval(30, 30, 180)), rtol=1e-14)
+
+
+def test_zenith_cosines_below_zero_are_refused_as_zeniths_beyond_90_deg_are():
+    # Before: the docstring said zenith cosines lie in [0, 1], yet -0.1 (a zenith below the
+    # horizon, which brdf.eval refuses in degrees) gave 0.0 without a word.
+    names = r"cos_theta_i/cos_theta_r/cos_phi at index "
+    for precision in ("f64", "f32"):
+        with pytest.raises(ValueError, match=names + r"\[1\]: cos_theta_r = -0.1 is outside \[0, 1\]"):
+            brdf.eval_cosines("six", KHAKI, [1.0, 0.5], [1.0, -0.1], [1.0, 1.0], precision=precision)
+    with pytest.raises(ValueError, match=names + r"\[0, 1\]: cos_theta_i = -1 is outside \[0, 1\]"):
+        brdf.eval_cosines("six", KHAKI, [[1.0, -1.0]], 1.0, 1.0)
+    # The first bad element is the one named, whichever check it fails.
+    with pytest.raises(ValueError, match=names + r"\[0\]: cos_phi is not finite"):
+        brdf.eval_cosines("six", KHAKI, [1.0, -0.5], [1.0, 1.0], [np.nan, 1.0])
+    with pytest.raises(ValueError, match=names + r"\[0\]: cos_theta_i = -0.5 is outside \[0, 1\]"):
+        brdf.eval_cosines("six", KHAKI, [-0.5, 1.0], [1.0, 1.0], [1.0, np.nan])
+    # The horizon (0, as 90 deg) and every azimuth cosine are taken, as brdf.eval takes them.
+    got = brdf.eval_cosines("six", KHAKI, [0.0, -0.0, 0.5], [1.0, 1.0, 0.5], [-1.0, -1.0, -1.0])
+    want = brdf.eval("six", KHAKI, [90.0, 90.0, 60.0], [0.0, 0.0, 60.0], [180.0, 180.0, 180.0])
+    np.testing.assert_allclose(got, want, rtol=brdf._brdf.BATCH_F64_REL)

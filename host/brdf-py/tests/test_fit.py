@@ -1,8 +1,11 @@
 """`brdf.fit`: the report `brdf fit --json` prints, from files and from arrays."""
 
+import collections
 import collections.abc
 import csv
+import dataclasses
 import json
+import types
 import warnings
 
 import numpy as np
@@ -455,3 +458,133 @@ def test_a_result_with_a_parameter_outside_its_range_is_refused_by_field(cli, ro
         brdf.FitResult(json.dumps({**edited, "outside_ranges": ["rho0 = 3 is not in [0, 100]"]}))
     with pytest.raises(ValueError, match="refused"):
         brdf.pack([brdf.FitResult(json.dumps(from_fit))])
+
+
+def tiny(level=0.15, scale=1.0):
+    """Fifteen in-plane points of a Lambertian surface (a fit takes milliseconds); `scale`
+    multiplies the zeniths (pi / 180: the same angles in radians)."""
+    ti, tr = (a.ravel() for a in np.meshgrid([0.0, 20.0, 40.0], [0.0, 15.0, 30.0, 45.0, 60.0]))
+    n = ti.size
+    return {"theta_i": ti * scale, "theta_r": tr * scale, "phi": np.zeros(n), "brdf": np.full(n, level)}
+
+
+def tiny_csv(path, data, extra=None):
+    """`data` (and the columns of `extra`) written as a CSV file `brdf fit` reads."""
+    cols = dict(data, **(extra or {}))
+    rows = zip(*cols.values())
+    path.write_text(",".join(cols) + "\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n")
+    return path
+
+
+class FrameLike:
+    """What the dataset reader sees of a pandas or polars data frame: ``columns`` (a property
+    of the class) and a column by name."""
+
+    def __init__(self, cols):
+        self._cols = dict(cols)
+
+    @property
+    def columns(self):
+        return list(self._cols)
+
+    def __getitem__(self, key):
+        return self._cols[key]
+
+
+def test_an_object_dataset_has_its_fields_checked_as_a_dict_has_its_keys(tmp_path):
+    # Before: an object's fields beyond the six columns were ignored: a `sample` column
+    # merged two materials 1e4 apart into one fit reported converged, and `Sigma` (for
+    # `sigma`) dropped the uncertainties without a word.
+    a, b = tiny(0.15), tiny(1.5e3)
+    both = {k: np.concatenate([a[k], b[k]]) for k in a}
+    sample = np.array(["A"] * a["brdf"].size + ["B"] * b["brdf"].size)
+    rec = np.rec.fromarrays([sample, *both.values()], names=["sample", *both])
+    f = tiny_csv(tmp_path / "two.csv", both, {"sample": sample})
+    from_csv = np.genfromtxt(f, delimiter=",", names=True, dtype=None, encoding="utf-8").view(np.recarray)
+    # A file splits them by sample, as `brdf fit` does; arrays are one dataset, so a sample
+    # column is refused with the way to fit each (the dict path refused it as unknown).
+    assert [r.dataset for r in brdf.fit(str(f), model="lambert")] == [f"{f}[sample=A]", f"{f}[sample=B]"]
+    for data in (rec, from_csv, types.SimpleNamespace(**both, sample=sample), FrameLike(dict(both, sample=sample)), dict(both, sample=sample)):
+        with pytest.raises(ValueError, match=r"data: `sample`: .* fit each sample on its own .* or pass the path of a CSV file"):
+            brdf.fit(data, model="lambert")
+    with pytest.raises(ValueError, match=r"data: `sample`"):
+        brdf.select(rec)
+    sigma = np.full(a["brdf"].size, 0.01)
+    for data, match in (
+        (types.SimpleNamespace(**a, Sigma=sigma), r"data: unknown field\(s\) 'Sigma' of SimpleNamespace \(known: theta_i, "),
+        (FrameLike(dict(a, sigmas=sigma)), r"data: unknown field\(s\) 'sigmas' of FrameLike"),
+        (np.rec.fromarrays([*a.values(), sigma], names=[*a, "Sigma"]), r"data: unknown field\(s\) 'Sigma' of recarray"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            brdf.fit(data, model="lambert")
+    # The known fields fit as the dict does, whichever object holds them (a structured array
+    # by its fields too: they are not attributes), `sigma` used.
+    want = brdf.fit(dict(a, sigma=sigma), model="lambert")
+    structured = np.zeros(sigma.size, dtype=[(k, "f8") for k in (*a, "sigma")])
+    for k, v in dict(a, sigma=sigma).items():
+        structured[k] = v
+    Measured = dataclasses.make_dataclass("Measured", [*a, "sigma"])
+    Rows = collections.namedtuple("Rows", [*a, "sigma"])
+    for data in (
+        types.SimpleNamespace(**a, sigma=sigma),
+        Measured(**a, sigma=sigma),
+        Rows(**a, sigma=sigma),
+        structured,
+        structured.view(np.recarray),
+        FrameLike(dict(a, sigma=sigma)),
+    ):
+        got = brdf.fit(data, model="lambert")
+        assert (got.params, got.std_errors) == (want.params, want.std_errors), type(data)
+    # An object whose fields cannot be listed is refused, not read by the names asked for.
+    class Slotted:
+        __slots__ = tuple(a)
+
+    slotted = Slotted()
+    for k, v in a.items():
+        setattr(slotted, k, v)
+    with pytest.raises(TypeError, match="data: the fields of a Slotted cannot be listed; pass a dict"):
+        brdf.fit(slotted, model="lambert")
+    # A name is a string, whatever holds it (a number was ignored).
+    with pytest.raises(TypeError, match="data: `name` must be a string"):
+        brdf.fit(dict(a, name=5), model="lambert")
+    assert brdf.fit(types.SimpleNamespace(**a, name="plate"), model="lambert").dataset == "plate"
+    # A wavelength per point (a file's column) is refused as `sample` is; one number is the band.
+    per_point = types.SimpleNamespace(**a, wavelength=np.full(sigma.size, 0.55))
+    with pytest.raises(ValueError, match=r"data: `wavelength` holds a value per point.* fit each band on its own"):
+        brdf.fit(per_point, model="lambert")
+    one_band = types.SimpleNamespace(**a, wavelength=0.55)
+    assert brdf.fit(one_band, model="lambert").wavelength == 0.55
+    # A file's datasets are named by the file: `name=` with a path was ignored.
+    with pytest.raises(ValueError, match="name names an array dataset"):
+        brdf.fit(str(f), model="lambert", name="plate")
+
+
+def test_array_zeniths_that_look_like_radians_warn_as_a_file(tmp_path):
+    # Before: only files were checked; radians given as arrays were fitted as degrees
+    # without a word.
+    said = lambda caught: [str(w.message) for w in caught if "look like radians" in str(w.message)]  # noqa: E731
+    for scale, warned in ((np.pi / 180, True), (1.0, False)):
+        data = tiny(scale=scale)
+        f = tiny_csv(tmp_path / f"at{scale}.csv", data)
+        with warnings.catch_warnings(record=True) as from_file:
+            warnings.simplefilter("always")
+            brdf.fit(str(f), model="lambert")
+        with warnings.catch_warnings(record=True) as from_arrays:
+            warnings.simplefilter("always")
+            brdf.fit(data, model="lambert", name=str(f))
+        assert said(from_arrays) == said(from_file) and len(said(from_file)) == warned
+    with pytest.warns(UserWarning, match=r"^arrays: every theta_i and theta_r is below 1.5710 \(pi/2\)"):
+        brdf.fit(types.SimpleNamespace(**tiny(scale=np.pi / 180)), model="lambert")
+
+
+def test_shared_bands_are_refused_for_arrays_as_for_a_file(cli, tmp_path):
+    # Before: arrays (always one dataset, never the bands of a measurement) took
+    # bands='shared' and ignored it.
+    data = tiny()
+    f = tiny_csv(tmp_path / "one.csv", data)
+    p = cli("fit", "--model", "lambert", "--bands", "shared", f, check=False)
+    assert p.returncode != 0
+    for given in (str(f), data):
+        with pytest.raises(ValueError) as e:
+            brdf.fit(given, model="lambert", bands="shared")
+        assert str(e.value) in p.stderr and str(e.value).startswith("bands shared: no two datasets")

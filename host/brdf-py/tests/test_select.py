@@ -4,6 +4,7 @@ its warnings and its errors."""
 import json
 import warnings
 
+import numpy as np
 import pytest
 
 import brdf
@@ -175,3 +176,25 @@ def test_a_chosen_fitted_table_evaluates_as_the_cli(cli, root, tmp_path):
     with pytest.warns(UserWarning, match="outside the fitted table's coverage"):
         f32 = brdf.eval_fit(s.chosen_fit, ti, tr, phi, precision="f32")
     assert f32.dtype.name == "float32" and all(abs(a / b - 1) < 1e-2 for a, b in zip(f32, want))
+
+
+def test_arrays_warn_of_radians_and_refuse_shared_bands_as_a_file(tmp_path):
+    # Before: arrays in radians were selected over as degrees without the file's warning, and
+    # bands='shared' was taken and ignored (a selection is of one dataset, never the bands of
+    # a measurement; each band of a file is selected on its own).
+    ti, tr = (a.ravel() for a in np.meshgrid([0.0, 20.0, 40.0], [0.0, 15.0, 30.0, 45.0, 60.0]))
+    data = {"theta_i": np.radians(ti), "theta_r": np.radians(tr), "phi": np.zeros(ti.size), "brdf": np.full(ti.size, 0.15)}
+    f = tmp_path / "radians.csv"
+    f.write_text("theta_i,theta_r,phi,brdf\n" + "\n".join(",".join(map(str, r)) for r in zip(*data.values())) + "\n")
+    said = []
+    for given, name in ((str(f), None), (data, str(f))):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            brdf.select(given, name=name) if name else brdf.select(given)
+        said.append([str(w.message) for w in caught if "look like radians" in str(w.message)])
+    assert said[0] == said[1] and len(said[0]) == 1 and said[0][0].startswith(f"{f}: every theta_i")
+    for given in (str(f), data):
+        # The radians warning comes first, as the file's rows are read before the refusal.
+        with pytest.raises(ValueError, match=r"^bands shared: no two datasets are bands of one measurement .* it would be ignored"):
+            with pytest.warns(UserWarning, match="look like radians"):
+                brdf.select(given, bands="shared")

@@ -10,6 +10,7 @@ index instead of CSV line.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import os
@@ -243,8 +244,11 @@ def _eval_parts(parts, names, shape, cols, rows, precision, threads):
 
 
 def eval_cosines(model: str, params: Union[str, Mapping[str, float]], cos_theta_i, cos_theta_r, cos_phi, *, precision: str = "f64", threads: Optional[int] = None):
-    """The BRDF at cosines of the zenith angles and of the relative azimuth (each in
-    [-1, 1], zenith cosines in [0, 1]), broadcast like numpy; see :func:`eval`."""
+    """The BRDF at cosines of the zenith angles and of the relative azimuth, broadcast like
+    numpy; see :func:`eval`. Zenith cosines lie in [0, 1] (0 is the horizon) and ``cos_phi``
+    in [-1, 1]: a negative zenith cosine (a zenith beyond 90 degrees, below the horizon,
+    which :func:`eval` refuses too), a value outside [-1, 1] or one that is not finite raises
+    ValueError with the index of the first bad element."""
     dtype = _precision(precision)
     names = ("cos_theta_i", "cos_theta_r", "cos_phi")
     shape, cols = _columns(names, (cos_theta_i, cos_theta_r, cos_phi))
@@ -511,42 +515,104 @@ def _text(name: str, v) -> str:
 
 _DATA_KEYS = ("theta_i", "theta_r", "phi", "brdf", "sigma", "weight", "name", "wavelength")
 
+def _split_advice(column: str, each: str, alone: str) -> str:
+    """What to do with a field that would split a file into datasets (a CSV file's ``sample``
+    or ``wavelength`` column, which ``brdf fit`` splits by): arrays are one dataset."""
+    return (
+        f"arrays are one dataset; fit each {each} on its own ({alone}), or pass the path of a CSV "
+        f"file with a `{column}` column (brdf.fit fits each {each} of it, as `brdf fit` does)"
+    )
+
+
+
+def _data_fields(data):
+    """The fields of an array dataset, as ``(names, get)``: a mapping's keys; a structured
+    array's or record array's fields (``dtype.names``); a data frame's columns (pandas or
+    polars: a ``columns`` attribute of its class, columns by name); a named tuple's or a
+    dataclass's fields; another object's public attributes (``vars()``). ``get(name)`` reads
+    one of them.
+
+    Fields must be listed to be checked (an unknown one, such as ``Sigma`` or ``sample``,
+    would be ignored): an object whose fields cannot be (``__slots__``, attributes computed on
+    access) is refused with TypeError."""
+    if isinstance(data, Mapping):
+        return list(data), data.get
+    if isinstance(data, np.ndarray) and data.dtype.names is not None:
+        return list(data.dtype.names), lambda k: data[k]
+    if isinstance(data, np.ndarray):
+        raise TypeError(
+            f"data: an array of dtype {data.dtype} has no named columns; pass a dict of arrays "
+            "theta_i, theta_r, phi, brdf (or a structured array with those fields)"
+        )
+    if hasattr(type(data), "columns") and hasattr(data, "__getitem__"):
+        return list(data.columns), lambda k: data[k]
+    if isinstance(data, tuple) and isinstance(getattr(data, "_fields", None), tuple):
+        return list(data._fields), lambda k: getattr(data, k)
+    if dataclasses.is_dataclass(data) and not isinstance(data, type):
+        # Its fields, with or without __slots__.
+        return [f.name for f in dataclasses.fields(data)], lambda k: getattr(data, k)
+    try:
+        names = [k for k in vars(data) if not k.startswith("_")]
+    except TypeError:
+        raise TypeError(
+            f"data: the fields of a {type(data).__name__} cannot be listed; pass a dict of arrays "
+            "theta_i, theta_r, phi, brdf (optional sigma or weight, name, wavelength), or an "
+            "object with those attributes"
+        ) from None
+    return names, lambda k: getattr(data, k)
+
 
 def _data_name(data, given):
-    """The name of an array dataset: ``name=`` if given, else a dict's ``name`` (as
-    :func:`read` returns it), else ``arrays``; with the dataset's ``wavelength`` (µm, a dict
-    key or an attribute; None for none) as its band, ``NAME[wavelength=…]``, as a spectral
-    file's datasets are named (so that the fit carries it)."""
-    name = given
-    if name is None:
-        name = data["name"] if isinstance(data, Mapping) and isinstance(data.get("name"), str) else "arrays"
-    um = data.get("wavelength") if isinstance(data, Mapping) else getattr(data, "wavelength", None)
+    """The name of an array dataset: ``name=`` if given, else the dataset's ``name`` (a
+    string: a dict's key, as :func:`read` returns it, or a field), else ``arrays``; with the
+    dataset's ``wavelength`` (µm, one number; None for none) as its band,
+    ``NAME[wavelength=…]``, as a spectral file's datasets are named (so that the fit carries
+    it)."""
+    names, get = _data_fields(data)
+    field = get("name") if "name" in names else None
+    if field is not None and not isinstance(field, str):
+        raise TypeError(f"data: `name` must be a string (the dataset's name), not {type(field).__name__}")
+    name = given if given is not None else (field if field is not None else "arrays")
+    um = get("wavelength") if "wavelength" in names else None
     if um is None:
         return name
+    if np.ndim(um) != 0:
+        raise ValueError(
+            "data: `wavelength` holds a value per point, and a dataset is of one band: "
+            + _split_advice("wavelength", "band", "its rows, with `wavelength` one number in µm")
+        )
     return _brdf.named_band(name, _number("data: wavelength", um))
 
 
 def _array_columns(data):
-    """The columns of an array dataset (a dict or an object with attributes), flattened.
+    """The columns of an array dataset (a dict or another object with fields: see
+    :func:`_data_fields`), flattened.
 
     One value per measurement: every column has the same shape (none is broadcast, so a
-    column of shape (N, 1) beside ones of shape (N,) is an error, not N^2 points), and a dict
-    holds no other key (a typo such as ``sigmas`` would drop the uncertainties)."""
-    if isinstance(data, Mapping):
-        unknown = [k for k in data if k not in _DATA_KEYS]
-        if unknown:
-            raise ValueError(
-                f"data: unknown key(s) {', '.join(map(repr, unknown))} (known: {', '.join(_DATA_KEYS)})"
-            )
-    get = (lambda k: data.get(k)) if isinstance(data, Mapping) else (lambda k: getattr(data, k, None))
+    column of shape (N, 1) beside ones of shape (N,) is an error, not N^2 points), and the
+    dataset holds no other field (a typo such as ``sigmas`` would drop the uncertainties; a
+    ``sample`` column would merge the samples into one fit)."""
+    names, get = _data_fields(data)
+    if "sample" in names:
+        raise ValueError(
+            "data: `sample`: the samples would be merged into one fit: "
+            + _split_advice("sample", "sample", "its rows, without the `sample` field")
+        )
+    unknown = [k for k in names if k not in _DATA_KEYS]
+    if unknown:
+        what = "key(s)" if isinstance(data, Mapping) else "field(s)"
+        of = "" if isinstance(data, Mapping) else f" of {type(data).__name__}"
+        raise ValueError(
+            f"data: unknown {what} {', '.join(map(repr, unknown))}{of} (known: {', '.join(_DATA_KEYS)})"
+        )
     cols = {}
     for k in ("theta_i", "theta_r", "phi", "brdf"):
-        v = get(k)
+        v = get(k) if k in names else None
         if v is None:
             raise ValueError(f"data: missing `{k}` (need theta_i, theta_r, phi, brdf; optional sigma or weight)")
         cols[k] = _real(k, v)
     for k in ("sigma", "weight"):
-        v = get(k)
+        v = get(k) if k in names else None
         if v is not None:
             cols[k] = _real(k, v)
     names = list(cols)
@@ -559,6 +625,12 @@ def _array_columns(data):
         )
     shape, flat = _columns(names, list(cols.values()))
     return shape, dict(zip(names, flat))
+
+
+def _no_name_for_files(name) -> None:
+    """Refuses ``name=`` with files, where it would be ignored."""
+    if name is not None:
+        raise ValueError("name names an array dataset; a file's datasets are named by the file")
 
 
 def _is_paths(data) -> bool:
@@ -575,22 +647,35 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
     """Fits ``model`` to measured data, as ``brdf fit``.
 
     ``data`` is a path (or a list of paths) to any file ``brdf fit`` reads (``format=`` as
-    ``--format``: ``cornell``, ``nist``, ``merl-inplane``), or a dict / object with arrays
-    ``theta_i``, ``theta_r``, ``phi`` (degrees), ``brdf`` (1/sr) and optionally ``sigma``
-    or ``weight`` and ``wavelength`` (µm: the fit is of that band). Options as the CLI's
-    flags: ``chains``, ``agree``, ``hops``,
+    ``--format``: ``cornell``, ``nist``, ``merl-inplane``), or one dataset of arrays: a dict,
+    a structured or record array, a data frame (pandas, polars) or an object with attributes
+    (``types.SimpleNamespace``, a dataclass, a named tuple), holding ``theta_i``,
+    ``theta_r``, ``phi`` (degrees), ``brdf`` (1/sr) and optionally ``sigma`` or ``weight``,
+    ``name`` (a string) and ``wavelength`` (one number, µm: the fit is of that band). Any
+    other key, field or column is refused (ValueError: a misspelt ``sigmas`` would drop the
+    uncertainties), and so is an object whose fields cannot be listed (TypeError: pass a
+    dict). A ``sample`` column, or a wavelength per point, is refused with advice rather than
+    split: arrays are one dataset, so fit each sample (or band) on its own, or pass the path of
+    a CSV file, whose datasets are split by ``sample`` and ``wavelength`` as ``brdf fit``
+    splits them. Zeniths that all look like radians are warned of as for a file; the
+    file options (``format``, ``channel``, ``band``, ``skip_invalid``) and
+    ``bands='shared'`` are refused for arrays, where they would be ignored. Options as the
+    CLI's flags: ``chains``, ``agree``, ``hops``,
     ``anneal_evals``, ``loss``, ``loss_scale``, ``brightening``, ``budget_evals``,
     ``noise_floor`` (1/sr; estimated where readings are at or below zero when not given, 0
     for none), ``skip_invalid``, ``channel``, ``band`` (a wavelength in µm of a spectral
     file), ``bands`` (``independent``, the default, or ``shared``: one shape for all bands
-    of a spectral file, weights per band); ``name`` names an array dataset.
+    of a spectral file, weights per band; refused where no two datasets are bands of one
+    measurement, as ``brdf fit`` refuses it); ``name`` names an array dataset (a file's
+    datasets are named by the file: refused with a path).
 
     Returns a :class:`FitResult` for one dataset, a list of them for several (a file with
     ``sample``/``wavelength`` columns, or several files).
     """
-    name = _data_name(data, options.pop("name", None))
+    name = options.pop("name", None)
     s = _settings(model, seed, residual, engine, options)
     if _is_paths(data):
+        _no_name_for_files(name)
         paths = [os.fspath(data)] if isinstance(data, (str, os.PathLike)) else [os.fspath(p) for p in data]
         texts, notes = _brdf.fit_paths(s, paths)
         for note in notes:
@@ -598,14 +683,18 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
             warnings.warn(note, stacklevel=2)
         results = [_noted(FitResult(t)) for t in texts]
         return results[0] if len(results) == 1 else results
+    name = _data_name(data, name)
     shape, flat = _array_columns(data)
     try:
-        text = _brdf.fit_arrays(
+        text, notes = _brdf.fit_arrays(
             s, name, flat["theta_i"], flat["theta_r"], flat["phi"], flat["brdf"],
             flat.get("sigma"), flat.get("weight"),
         )
     except _brdf.ElementError as e:
         raise _located(["data"], shape, e) from None
+    for note in notes:
+        # What a file's reader warns of the same rows (zeniths that look like radians).
+        warnings.warn(note, stacklevel=2)
     return _noted(FitResult(text))
 
 
@@ -680,16 +769,21 @@ def select(
     over the angular domain a scene uses, as ``brdf select DATA``.
 
     ``data`` is one dataset: a path to any file ``brdf fit`` reads (``format=`` and
-    ``channel=`` as for :func:`fit`) or a dict / object with arrays ``theta_i``, ``theta_r``,
-    ``phi`` (degrees), ``brdf`` (1/sr) and optionally ``sigma`` or ``weight``. ``budget`` is
+    ``channel=`` as for :func:`fit`) or arrays ``theta_i``, ``theta_r``, ``phi`` (degrees),
+    ``brdf`` (1/sr) and optionally ``sigma`` or ``weight``, held and checked as for
+    :func:`fit` (a dict, a structured array, a data frame or an object with attributes; any
+    other field refused, a ``sample`` column with advice: select each sample on its own).
+    ``bands='shared'`` is refused (one dataset is no bands of a measurement; it would be
+    ignored). ``budget`` is
     the largest acceptable RMS relative error (a fraction: 0.02 is 2%; at most 1); the domain keeps the
     points with ``theta_i <= max_theta_i`` and ``theta_r <= max_theta_r`` (both default to
     ``max_theta``, degrees); ``allow_nonphysical`` lets the choice fall on a model that is not
     reciprocal or is unbounded at grazing; ``sequence`` is the sequence number of the
     returned blob. The fit options are :func:`fit`'s (``chains``, ``loss``, ...; the full
-    engine). Points left out of the domain and rows skipped are reported as warnings.
+    engine). Points left out of the domain, rows skipped and zeniths that look like radians
+    are reported as warnings.
     """
-    name = _data_name(data, options.pop("name", None))
+    name = options.pop("name", None)
     s = _settings("six", seed, residual, "full", options)
     mi = _number("max_theta_i", max_theta if max_theta_i is None else max_theta_i)
     mr = _number("max_theta_r", max_theta if max_theta_r is None else max_theta_r)
@@ -698,10 +792,12 @@ def select(
         raise ValueError(f"sequence {sequence}: outside 0..=4294967295")
     args = (_number("budget", budget), mi, mr, _flag("allow_nonphysical", allow_nonphysical), sequence)
     if isinstance(data, (str, os.PathLike)):
+        _no_name_for_files(name)
         done, notes, error = _brdf.select_path(s, os.fspath(data), args)
     elif _is_paths(data):
         raise TypeError("select works on one dataset: give one path")
     else:
+        name = _data_name(data, name)
         shape, flat = _array_columns(data)
         try:
             done, notes, error = _brdf.select_arrays(
