@@ -157,6 +157,14 @@ impl<T: Float, const N: usize> Samples<T, N> {
 /// every draw of `b` and so change every device answer (pinned bit for bit by the QEMU FIT
 /// tests and `known_answer_for_a_fixed_seed`), and the finite bounds on `kb`, `kd` and `rho0`
 /// are what the solved weights are clamped to here.
+///
+/// **Units.** Those weight bounds are in the unit of the readings the annealer is given, and
+/// the cost's sums are in f32: readings of another scale (a weight beyond its bound, readings
+/// near 1e-20 whose squared inverses overflow) fit a clamped or all-zero model, and the
+/// device's FIT says nothing of it (its answer has no flag). The model is linear in the
+/// weights and the cost relative, so give readings of unit size and multiply the weights
+/// back: the host's embedded engine (`brdf_fit::embedded`) divides by the largest reading and
+/// reports a weight left on its bound.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SearchBox<T> {
     /// Lower bounds.

@@ -165,3 +165,24 @@ pub fn f32_pow_ulps(y: f64) -> f64 {
 /// 1.4e-14 in f64, where no two directions an instrument tells apart pass for one, and to 7.6e-6
 /// in f32 (the device's FIT).
 pub const SAME_PAIR_EPS: f64 = 64.0;
+
+/// The embedded engine (`brdf fit --engine embedded`, the on-sensor annealer run on the host)
+/// against the full engine on the same data: its RMS relative error at most this many times
+/// the full engine's (the cross-check `embedded_within_10_percent_of_host`: a fixed budget of
+/// 20,000 f32 evaluations and no polish).
+pub const EMBEDDED_RMS_OF_HOST: f64 = 1.10;
+
+/// The embedded engine's linear weight (`kd`) against the full engine's on noise-free-ish
+/// synthetic data the weight is well determined by (0.5% noise, 135 points), relative: the
+/// annealer's answer is within [`EMBEDDED_RMS_OF_HOST`] in cost, which lets a weight move a
+/// few percent; 0.1 is well below the error of a weight clamped to a search bound (50% for
+/// `kd` = 20 held at 10).
+pub const EMBEDDED_WEIGHT_OF_HOST_REL: f64 = 0.1;
+
+/// The embedded engine's fit of readings multiplied by a constant against its fit of the
+/// readings as given, relative: the shape parameters equal, the linear weights multiplied by
+/// the constant. The host divides the readings by their largest in f64 before the f32 search
+/// (one rounding of 2^-53 each, far below f32's 2^-24, so the f32 samples are the same unless
+/// a reading lies within 1e-16 of an f32 rounding boundary) and multiplies the weights back in
+/// f64 (two roundings); 1e-12 leaves room and still catches any search that differs.
+pub const EMBEDDED_UNIT_SCALE_REL: f64 = 1e-12;

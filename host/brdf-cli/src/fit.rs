@@ -117,6 +117,9 @@ impl FitCmd {
             if let Some(note) = r.noise_floor.as_ref().and_then(|f| f.note.as_ref()) {
                 eprintln_lossy!("warning: {}: {note}", r.dataset);
             }
+            for note in &r.search.on_search_box {
+                eprintln_lossy!("warning: {}: {note}", r.dataset);
+            }
             if let (Some(w), Some(path)) = (csv.as_mut(), &self.output) {
                 w.row(r)
                     .with_context(|| format!("cannot write {}", path.display()))?;
@@ -286,6 +289,7 @@ impl ResultsCsv {
             .iter()
             .filter_map(|(n, u)| u.note.as_ref().map(|note| format!("{n}: {note}")))
             .chain(r.outside_ranges.iter().map(|o| format!("{o}: cannot be packed")))
+            .chain(r.search.on_search_box.iter().cloned())
             .collect();
         row.push(flags.join("; "));
         self.w.write_record(&row)?;
@@ -344,6 +348,9 @@ pub fn write_text(out: &mut impl Write, r: &FitReport) -> Result<()> {
             )?
         }
         Some(why) => writeln!(out, "  converged: false: {why}")?,
+    }
+    for note in &s.on_search_box {
+        writeln!(out, "  on the search bound: {note}")?;
     }
     if let Some(m) = s.sample {
         writeln!(

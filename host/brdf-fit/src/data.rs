@@ -195,10 +195,16 @@ pub enum DataError {
         /// Column name.
         column: String,
     },
-    /// A header names a column of [`COLUMNS`] in another case (`Sample`, `Theta_i`): column
-    /// names are matched exactly, so it would be missing or, for an optional column,
-    /// silently ignored (samples 1e4 apart in brightness fitted as one).
-    #[error("{file}: line 1: column `{column}` must be spelt `{expected}` (column names are lower case)")]
+    /// A header names a column of [`COLUMNS`] with a near miss ([`near_miss_column`]: in
+    /// another case, plural, with a unit, a letter off): column names are matched exactly,
+    /// so it would be missing or, for an optional column, silently ignored (`Sample` or
+    /// `samples`: samples 1e4 apart in brightness fitted as one; `weights`: an unweighted
+    /// fit).
+    #[error(
+        "{file}: line 1: column `{column}` must be spelt `{expected}` (column names are lower case, \
+         singular and without a unit, and any other column is ignored: if `{column}` is an \
+         unrelated column, rename it, e.g. `x_{column}`)"
+    )]
     MisspeltColumn {
         /// File path.
         file: String,
@@ -254,6 +260,16 @@ pub enum DataError {
         value: f64,
         /// Accepted range.
         range: &'static str,
+    },
+    /// The file's name ends in `]`: its datasets' names (`FILE`, `FILE[sample=..]`) would
+    /// read as groups of another file's ([`check_file_name`]).
+    #[error(
+        "{file}: a file name ending in `]` cannot name datasets: `FILE[sample=..,wavelength=..]` \
+         names a group of FILE, so `m[wavelength=0.5]` would read as a band of `m` (rename the file)"
+    )]
+    GroupLikeName {
+        /// File path.
+        file: String,
     },
     /// The file is empty, or has a header but no data rows (after skipping, if asked).
     #[error("{file}: empty file: no data rows")]
@@ -433,7 +449,8 @@ impl RowError {
 }
 
 /// Every column the canonical CSV reads, spelt as the header must spell it; any other column
-/// is ignored (a column that differs from one of these only in case is refused).
+/// is ignored, unless it is a near miss of one of these ([`near_miss_column`]), which is
+/// refused.
 pub const COLUMNS: [&str; 9] = [
     "theta_i",
     "theta_r",
@@ -445,6 +462,96 @@ pub const COLUMNS: [&str; 9] = [
     "sample",
     "wavelength",
 ];
+
+/// The optional columns of [`COLUMNS`]: a header one letter off one of these is refused
+/// ([`near_miss_column`]), since the column would be ignored rather than missed.
+const OPTIONAL_COLUMNS: [&str; 4] = ["sigma", "weight", "sample", "wavelength"];
+
+/// Units a header may append to a column name (`wavelength_um`, `theta_i_deg`,
+/// `wavelength (nm)`, `brdf [1/sr]`).
+const UNIT_SUFFIXES: [&str; 22] = [
+    "um",
+    "µm",
+    "μm",
+    "nm",
+    "mm",
+    "m",
+    "micron",
+    "microns",
+    "micrometre",
+    "micrometer",
+    "deg",
+    "degs",
+    "degree",
+    "degrees",
+    "rad",
+    "radian",
+    "radians",
+    "sr",
+    "1/sr",
+    "sr-1",
+    "sr^-1",
+    "persr",
+];
+
+/// The column of [`COLUMNS`] that `header` (trimmed) is a near miss of, when it is not one
+/// itself: the name in another case (`Sample`), plural (`samples`, `weights`), with a unit
+/// after `_`, `-`, a space or in brackets (`wavelength_um`, `theta_i_deg`,
+/// `wavelength (nm)`), or, for an optional column, one letter added, dropped, changed or two
+/// swapped after the same first letter (`sampel`, `wavelenght`; `height` is not `weight`).
+/// Such a column would be missing or, for an optional one, silently ignored, so `brdf fit`
+/// refuses it; any other extra column is ignored.
+pub fn near_miss_column(header: &str) -> Option<&'static str> {
+    let header = header.trim();
+    if COLUMNS.contains(&header) {
+        return None;
+    }
+    let lower = header.to_lowercase();
+    let known = |name: &str| -> Option<&'static str> {
+        let singular = name.strip_suffix('s');
+        if let Some(&c) = COLUMNS.iter().find(|c| **c == name || singular == Some(**c)) {
+            return Some(c);
+        }
+        OPTIONAL_COLUMNS
+            .iter()
+            .find(|c| name.chars().next() == c.chars().next() && one_edit_apart(name, c))
+            .copied()
+    };
+    known(&lower).or_else(|| {
+        let (base, unit) = split_unit(&lower)?;
+        UNIT_SUFFIXES.contains(&unit).then(|| known(base)).flatten()
+    })
+}
+
+/// `name` as (column, unit): `wavelength (nm)` and `wavelength[nm]` as (`wavelength`, `nm`),
+/// `theta_i_deg` as (`theta_i`, `deg`), split at the last `_`, `-` or space.
+fn split_unit(name: &str) -> Option<(&str, &str)> {
+    for (open, close) in [('(', ')'), ('[', ']')] {
+        if let Some(inner) = name.strip_suffix(close) {
+            let (base, unit) = inner.rsplit_once(open)?;
+            return Some((base.trim().trim_end_matches(['_', '-']), unit.trim()));
+        }
+    }
+    let k = name.rfind(['_', '-', ' '])?;
+    Some((name[..k].trim_end(), &name[k + 1..]))
+}
+
+/// Whether `a` becomes `b` by one insertion, deletion, substitution or swap of neighbours.
+fn one_edit_apart(a: &str, b: &str) -> bool {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    if a == b || a.len().abs_diff(b.len()) > 1 {
+        return false;
+    }
+    let first = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let (ra, rb) = (&a[first..], &b[first..]);
+    match ra.len().cmp(&rb.len()) {
+        std::cmp::Ordering::Less => ra == &rb[1..],
+        std::cmp::Ordering::Greater => &ra[1..] == rb,
+        std::cmp::Ordering::Equal => {
+            ra[1..] == rb[1..] || (ra.len() >= 2 && ra[0] == rb[1] && ra[1] == rb[0] && ra[2..] == rb[2..])
+        }
+    }
+}
 
 /// Column positions of one file.
 struct Columns {
@@ -473,7 +580,7 @@ fn find_columns(file: &str, headers: &csv::StringRecord) -> Result<Columns, Data
                 column: h.to_owned(),
             });
         }
-        if let Some(&expected) = COLUMNS.iter().find(|c| h != **c && h.eq_ignore_ascii_case(c)) {
+        if let Some(expected) = near_miss_column(h) {
             return Err(DataError::MisspeltColumn {
                 file: file.to_owned(),
                 column: h.to_owned(),
@@ -580,10 +687,25 @@ fn parse_row(
     Point::from_degrees(row, opts.dark_readings, line)
 }
 
+/// Refuses a file name (as shown: the path) that ends in `]`. A dataset is named by its file
+/// and group, `FILE[sample=..,wavelength=..]` ([`band_of_name`] reads the last `[..]`), so
+/// files named `m[wavelength=0.5]` and `m[wavelength=0.6]` packed as two bands of one
+/// material `m`; a sample may not hold the delimiters for the same reason ([`Loaded`]). A
+/// `[` or `]` elsewhere in the name is harmless and read as written.
+pub fn check_file_name(file: &str) -> Result<(), DataError> {
+    match file.ends_with(']') {
+        true => Err(DataError::GroupLikeName {
+            file: file.to_owned(),
+        }),
+        false => Ok(()),
+    }
+}
+
 /// Reads and validates one file. Without `skip_invalid` the first bad row is an error; with
 /// it, bad rows are listed in [`Loaded::skipped`] and the rest is used.
 pub fn load_csv(path: &Path, opts: LoadOptions) -> Result<Loaded, DataError> {
     let file = path.display().to_string();
+    check_file_name(&file)?;
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(true)
         .from_reader(open_input(path).map_err(|source| DataError::Io {
@@ -919,6 +1041,65 @@ mod tests {
         capital_sample: "theta_i,theta_r,phi,brdf,Sample\n0,0,0,0.1,A\n" => "line 1: column `Sample` must be spelt `sample`";
         capital_sigma: "theta_i,theta_r,phi,brdf,SIGMA\n0,0,0,0.1,0.01\n" => "line 1: column `SIGMA` must be spelt `sigma`";
         capital_theta_i: "Theta_i,theta_r,phi,brdf\n0,0,0,0.1\n" => "line 1: column `Theta_i` must be spelt `theta_i`";
+        // Near misses of an optional column were ignored as extra columns: `samples` fitted
+        // two materials as one, `weights` or `wavelength_um` left the fit unweighted or
+        // unbanded without a word.
+        plural_sample: "theta_i,theta_r,phi,brdf,samples\n0,0,0,0.1,A\n" => "line 1: column `samples` must be spelt `sample`";
+        plural_weight: "theta_i,theta_r,phi,brdf,weights\n0,0,0,0.1,2\n" => "line 1: column `weights` must be spelt `weight`";
+        plural_sigma: "theta_i,theta_r,phi,brdf,Sigmas\n0,0,0,0.1,0.01\n" => "line 1: column `Sigmas` must be spelt `sigma`";
+        unit_suffix_wavelength: "theta_i,theta_r,phi,brdf,wavelength_um\n0,0,0,0.1,0.5\n" => "line 1: column `wavelength_um` must be spelt `wavelength`";
+        unit_suffix_in_brackets: "theta_i,theta_r,phi,brdf,wavelength (nm)\n0,0,0,0.1,500\n" => "line 1: column `wavelength (nm)` must be spelt `wavelength`";
+        unit_suffix_angle: "theta_i_deg,theta_r,phi,brdf\n0,0,0,0.1\n" => "line 1: column `theta_i_deg` must be spelt `theta_i`";
+        transposed_letters: "theta_i,theta_r,phi,brdf,wavelenght\n0,0,0,0.1,0.5\n" => "line 1: column `wavelenght` must be spelt `wavelength`";
+        one_letter_off: "theta_i,theta_r,phi,brdf,sampel\n0,0,0,0.1,A\n" => "line 1: column `sampel` must be spelt `sample`";
+        near_miss_says_how_to_keep_a_column: "theta_i,theta_r,phi,brdf,weigth\n0,0,0,0.1,2\n" => "rename it";
+    }
+
+    /// A file named like a dataset group (`m[wavelength=0.5]`) gave datasets whose names
+    /// read as bands of `m`: two files packed as one banded material. Such a name is
+    /// refused; a `[` or `]` elsewhere in the name is read as written.
+    #[test]
+    fn a_file_name_that_reads_as_a_group_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = "theta_i,theta_r,phi,brdf\n0,0,0,0.1\n0,10,0,0.2\n";
+        for name in ["m[wavelength=0.5]", "m[sample=A]", "scan[3]"] {
+            let path = dir.path().join(name);
+            std::fs::write(&path, text).unwrap();
+            let e = load_csv(&path, LoadOptions::default()).unwrap_err().to_string();
+            assert!(
+                e.contains(&path.display().to_string()) && e.contains("a file name ending in `]`"),
+                "{name}: {e}"
+            );
+        }
+        for name in ["m[1].csv", "[draft] m.csv"] {
+            let path = dir.path().join(name);
+            std::fs::write(&path, text).unwrap();
+            let l = load_csv(&path, LoadOptions::default()).unwrap();
+            assert_eq!(l.datasets[0].name, path.display().to_string());
+            assert_eq!(split_wavelength(&l.datasets[0].name), None);
+        }
+    }
+
+    /// Extra columns unlike every known name are ignored, as before; so is a near miss
+    /// renamed as the refusal suggests.
+    #[test]
+    fn unrelated_extra_columns_are_still_ignored() {
+        for extra in [
+            "operator",
+            "x_samples",
+            "note",
+            "run",
+            "temperature_c",
+            "phi_i",
+            "brdf_model",
+        ] {
+            let (_f, r) = load(
+                &format!("theta_i,theta_r,phi,brdf,{extra}\n0,0,0,0.1,7\n0,10,0,0.2,8\n"),
+                LoadOptions::default(),
+            );
+            let l = r.unwrap_or_else(|e| panic!("{extra}: {e}"));
+            assert_eq!((l.datasets.len(), l.datasets[0].points.len()), (1, 2), "{extra}");
+        }
     }
 
     /// Few distinct incidences are one group each; continuous ones are 1-degree bins; every

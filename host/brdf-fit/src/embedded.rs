@@ -1,10 +1,22 @@
 //! The on-sensor annealer of `brdf-core` (f32, fixed memory, fixed budget) run on the host,
 //! with results in the same form as the full engine's, so the two compare side by side.
+//!
+//! **Units.** The annealer's search box bounds the linear weights (`kb` to 1e4, `kd` to 10,
+//! `rho0` to 100: [`SearchBox::for_kind`]) and squares readings over their sum in f32, so on
+//! readings as given its answer depended on their unit (`kd` = 20 fitted as 9.92; readings
+//! of 1e-20 fitted an all-zero model, of 1e-60 were refused). The model is linear in those
+//! weights and the cost is relative, so the host divides the readings by the largest (in
+//! f64) before the search and multiplies the weights back after: the same readings in any
+//! unit fit the same shape, the weights in that unit, and the box bounds the weights relative
+//! to the largest reading. A weight that ends on the box's upper bound is reported
+//! ([`crate::fit::SearchSummary::on_search_box`]): the best fit may lie beyond it. The device's
+//! FIT fits the readings it is sent as they are, its box in their unit (documented with
+//! [`SearchBox`]); a host sending readings of unit size gets the answer this engine gives.
 
 use std::time::Instant;
 
-use brdf_core::anneal::{anneal_kind, AnnealConfig, AnnealError, SampleError, Samples};
-use brdf_core::{ModelKind, MAX_PARAMS};
+use brdf_core::anneal::{anneal_kind, AnnealConfig, AnnealError, SampleError, Samples, SearchBox};
+use brdf_core::{Model, ModelKind, MAX_PARAMS};
 use rand_core::SeedableRng;
 use rand_pcg::Pcg32;
 use thiserror::Error;
@@ -55,10 +67,26 @@ pub enum EmbeddedError {
     },
 }
 
-/// Fits `kind` to `data` with the embedded f32 annealer and `budget` evaluations; the result
-/// is scored in f64 on `problem` exactly as a full fit is. With `seed` =
-/// [`brdf_core::anneal::DEVICE_SEED`] (the default fit seed) the parameters are the device's
-/// FIT answer for the same samples and budget.
+/// The parameters `kind` is linear in ([`Model::LINEAR`]): the weights the embedded engine
+/// scales with the readings.
+pub fn linear_params(kind: ModelKind) -> &'static [usize] {
+    use brdf_core::{FiveParam, Ggx, Lambert, Minnaert, SixParam, SixParamCos2};
+    match kind {
+        ModelKind::Six => <SixParam<f32> as Model<f32>>::LINEAR,
+        ModelKind::SixCos2 => <SixParamCos2<f32> as Model<f32>>::LINEAR,
+        ModelKind::Five => <FiveParam<f32> as Model<f32>>::LINEAR,
+        ModelKind::Minnaert => <Minnaert<f32> as Model<f32>>::LINEAR,
+        ModelKind::Ggx => <Ggx<f32> as Model<f32>>::LINEAR,
+        ModelKind::Lambert => <Lambert<f32> as Model<f32>>::LINEAR,
+    }
+}
+
+/// Fits `kind` to `data` with the embedded f32 annealer and `budget` evaluations, on the
+/// readings divided by the largest and the linear weights multiplied back (module docs:
+/// the fit does not depend on the readings' unit); the result is scored in f64 on `problem`
+/// exactly as a full fit is. With `seed` = [`brdf_core::anneal::DEVICE_SEED`] (the default
+/// fit seed) the parameters are the device's FIT answer for the same samples so divided and
+/// the same budget, the weights multiplied back.
 pub fn fit_embedded(
     kind: ModelKind,
     data: &Dataset,
@@ -74,14 +102,30 @@ pub fn fit_embedded(
             cap: HOST_CAPACITY,
         });
     }
+    // Readings of unit size: the largest is 1 (readings at or below 0 are refused below).
+    let largest = data.points.iter().map(|p| p.brdf).fold(0.0, f64::max);
+    let scale = if largest > 0.0 && largest.is_finite() {
+        largest
+    } else {
+        1.0
+    };
     let mut samples: Box<Samples<f32, HOST_CAPACITY>> = Box::default();
     for p in &data.points {
+        let y = (p.brdf / scale) as f32;
         samples
-            .push_angles(p.theta_i as f32, p.theta_r as f32, p.phi as f32, p.brdf as f32)
+            .push_angles(p.theta_i as f32, p.theta_r as f32, p.phi as f32, y)
             .map_err(|e: SampleError<f32>| EmbeddedError::Sample {
                 dataset: data.name.clone(),
                 line: p.line,
-                reason: e.to_string(),
+                reason: match e {
+                    SampleError::NonPositiveBrdf if p.brdf > 0.0 => format!(
+                        "brdf {} is below f32's range relative to the largest reading {} (the \
+                         embedded engine searches in f32 on readings divided by the largest)",
+                        brdf_core::Compact(p.brdf),
+                        brdf_core::Compact(largest)
+                    ),
+                    e => e.to_string(),
+                },
             })?;
     }
     let cfg = AnnealConfig {
@@ -95,9 +139,32 @@ pub fn fit_embedded(
             source,
         })?
         .params;
+    // The weights in the readings' unit; a weight on the box's upper bound (the solved
+    // weight clamped to it) is said, never silently kept.
+    let search_box = SearchBox::<f32>::for_kind(kind);
+    let linear = linear_params(kind);
+    let mut on_search_box = Vec::new();
     let natural: Vec<f64> = params[..kind.param_count()]
         .iter()
-        .map(|&v| f64::from(v))
+        .enumerate()
+        .map(|(j, &v)| {
+            if !linear.contains(&j) {
+                return f64::from(v);
+            }
+            let w = f64::from(v) * scale;
+            if v >= search_box.hi[j] {
+                on_search_box.push(format!(
+                    "{} = {} is on the embedded engine's search bound ({} times the largest \
+                     reading, {}): the best fit may lie beyond it (the full engine has no such \
+                     bound)",
+                    kind.param_names()[j],
+                    brdf_core::Compact(w),
+                    search_box.hi[j],
+                    brdf_core::Compact(largest)
+                ));
+            }
+            w
+        })
         .collect();
     let q = to_internal(kind, &natural);
     let mut params64 = [0.0; MAX_PARAMS];
@@ -120,6 +187,7 @@ pub fn fit_embedded(
                 "the embedded annealer runs a fixed budget with no convergence test".to_owned(),
             ),
             sample: None,
+            on_search_box,
         },
         seconds: started.elapsed().as_secs_f64(),
     })

@@ -173,6 +173,12 @@ pub struct SearchSummary {
     /// ([`SEARCH_POINTS`]); the polish saw every point.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sample: Option<usize>,
+    /// Parameters the search left on a bound of its box that the model's range lies beyond,
+    /// each as a sentence: the embedded engine's linear weights on their upper bound
+    /// ([`crate::embedded`]), where the best fit may lie further out. Empty for the full
+    /// engine, whose weights are bounded only below.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub on_search_box: Vec<String>,
 }
 
 /// The optimum found.
@@ -756,6 +762,7 @@ fn search(problem: &Problem, opts: &FitOptions) -> FitOutcome {
             at_cost_floor: best.cost <= rules.floor,
             not_converged,
             sample: None,
+            on_search_box: Vec::new(),
         },
         seconds: 0.0,
     }

@@ -260,6 +260,7 @@ fn read_text(path: &Path) -> Result<String, DataError> {
 pub fn import(path: &Path, format: Format, pick: impl Into<Pick>) -> Result<Imported, DataError> {
     let pick = pick.into();
     let file = path.display().to_string();
+    crate::data::check_file_name(&file)?;
     let text = read_text(path)?;
     let rows = match format {
         Format::Cornell => cornell_rows(&file, &text, pick)?,

@@ -468,6 +468,7 @@ pub fn share(problems: &[&Problem], own: &[FitOutcome]) -> (Vec<FitOutcome>, f64
                     at_cost_floor: best.1 <= floor,
                     not_converged: why_not.clone(),
                     sample: o.search.sample,
+                    on_search_box: Vec::new(),
                 },
                 seconds: o.seconds + seconds,
             }

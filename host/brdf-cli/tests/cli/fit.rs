@@ -988,6 +988,179 @@ fn a_known_column_in_another_case_is_refused_by_name() {
     }
 }
 
+/// Before: a near miss of an optional column (`samples`, `weights`, `wavelength_um`) was an
+/// extra column, ignored: two samples fitted as one material (reported converged), a
+/// weighted file fitted unweighted. It is refused like a column in another case, naming the
+/// file, the column, the spelling and how to keep an unrelated column, which is still
+/// ignored once renamed.
+#[test]
+fn a_near_miss_of_a_known_column_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, column: &str| {
+        let mut text = format!("theta_i,theta_r,phi,brdf,{column}\n");
+        for (k, (sample, value)) in [("1", 0.15), ("2", 1.5e3)].into_iter().enumerate() {
+            for tr in [0, 20, 40, 60] {
+                text.push_str(&format!("{},{tr},0,{value},{sample}\n", 10 * k));
+            }
+        }
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().to_owned()
+    };
+    for (column, spelt) in [
+        ("samples", "sample"),
+        ("weights", "weight"),
+        ("sigmas", "sigma"),
+        ("wavelength_um", "wavelength"),
+        ("wavelength (nm)", "wavelength"),
+        ("wavelenght", "wavelength"),
+        ("Samples", "sample"),
+    ] {
+        let path = write(&format!("{column}.csv"), column);
+        let out = brdf(&["fit", "--model", "lambert", &path]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{column}: accepted");
+        assert!(
+            err.contains(&path)
+                && err.contains(&format!("line 1: column `{column}` must be spelt `{spelt}`"))
+                && err.contains(&format!("rename it, e.g. `x_{column}`")),
+            "{column}: {err}"
+        );
+    }
+    // Renamed as suggested, or unlike any known name: ignored, one dataset of 8 points.
+    for column in ["x_samples", "operator"] {
+        let path = write(&format!("{column}.csv"), column);
+        let out = ok(&["fit", "--model", "lambert", "--json", &path]);
+        let r: serde_json::Value = serde_json::from_str(&out).unwrap();
+        assert_eq!(r["n"], 8, "{column}");
+    }
+    // Spelt right, the two samples are two fits.
+    let path = write("sample.csv", "sample");
+    let out = ok(&["fit", "--model", "lambert", "--json", &path]);
+    let r: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(r.as_array().map(Vec::len), Some(2), "{out}");
+}
+
+/// Before: files named `m[wavelength=0.5]` and `m[wavelength=0.6]` (two materials) fitted as
+/// datasets of those names, and `brdf pack` read them as two bands of one material `m`.
+/// A file name ending in `]` is refused, as a sample name holding the delimiters is.
+#[test]
+fn a_file_named_like_a_band_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = ok(&["synth", "--model", "lambert", "--params", "rho0=0.5"]);
+    let mut paths = Vec::new();
+    for band in ["0.5", "0.6"] {
+        let path = dir.path().join(format!("m[wavelength={band}]"));
+        std::fs::write(&path, &data).unwrap();
+        paths.push(path.to_str().unwrap().to_owned());
+    }
+    let out = brdf(&["fit", "--model", "lambert", "--json", &paths[0], &paths[1]]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "accepted: {}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    assert!(
+        err.contains(&paths[0]) && err.contains("a file name ending in `]` cannot name datasets"),
+        "{err}"
+    );
+    // A bracket elsewhere in the name is read as written.
+    let path = dir.path().join("m[1].csv");
+    std::fs::write(&path, &data).unwrap();
+    let out = ok(&["fit", "--model", "lambert", "--json", path.to_str().unwrap()]);
+    let r: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(r["dataset"], path.to_str().unwrap());
+}
+
+/// Before: the embedded engine held `kd` to [0, 10] in the data's own units without a word
+/// (its fit always reads "converged: false" for its fixed budget, so nothing told). Its box
+/// now bounds the weights relative to the largest reading, and a weight that ends on the
+/// bound is said in the text, on standard error, in the JSON and in the CSV flags.
+#[test]
+fn the_embedded_engine_says_when_a_weight_ends_on_its_search_bound() {
+    let dir = tempfile::tempdir().unwrap();
+    // Grazing only, c = 4: the diffuse term is tiny and kd must be far above the readings.
+    let all = ok(&[
+        "synth",
+        "--model",
+        "six",
+        "--params",
+        "kb=0,kr=21.8,b=-27.6,a=0.67,kd=0.5,c=4",
+        "--form",
+        "full",
+        "--theta-i",
+        "70,75",
+        "--step",
+        "2.5",
+        "--phi-step",
+        "45",
+    ]);
+    let mut lines = all.lines();
+    let mut text = format!("{}\n", lines.next().unwrap());
+    for l in lines {
+        let tr: f64 = l.split(',').nth(1).unwrap().parse().unwrap();
+        if tr >= 70.0 {
+            text.push_str(l);
+            text.push('\n');
+        }
+    }
+    let grazing = dir.path().join("grazing.csv");
+    std::fs::write(&grazing, text).unwrap();
+    let grazing = grazing.to_str().unwrap();
+    let out = brdf(&["fit", "--engine", "embedded", grazing]);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{stderr}");
+    let said = "is on the embedded engine's search bound (10 times the largest reading";
+    assert!(
+        stdout.contains("  on the search bound: kd = ") && stdout.contains(said),
+        "{stdout}"
+    );
+    assert!(
+        stderr.contains(&format!("warning: {grazing}: kd = ")) && stderr.contains(said),
+        "{stderr}"
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&ok(&["fit", "--engine", "embedded", "--json", grazing])).unwrap();
+    let notes = r["search"]["on_search_box"].as_array().expect("on_search_box");
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    let csv = dir.path().join("fits.csv");
+    ok(&[
+        "fit",
+        "--engine",
+        "embedded",
+        grazing,
+        "-o",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(std::fs::read_to_string(&csv).unwrap().contains(said));
+    // Nothing is said of a fit inside the box.
+    let full = dir.path().join("full.csv");
+    std::fs::write(
+        &full,
+        ok(&[
+            "synth",
+            "--model",
+            "six",
+            "--params",
+            KHAKI.as_str(),
+            "--form",
+            "full",
+        ]),
+    )
+    .unwrap();
+    let out = brdf(&["fit", "--engine", "embedded", full.to_str().unwrap()]);
+    assert!(
+        out.status.success() && out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("search bound:"));
+}
+
 /// Before: a file whose zeniths were written in radians was fitted as degrees without a
 /// word (35% off, exit 0). It is still read as written, with a warning; the same directions
 /// in degrees, and a set at normal incidence only, are not warned about.
