@@ -417,7 +417,7 @@ impl ImageCmd {
             .map(|(b, m)| b.sigma(&m.evaluator(), &mut Vec::new()))
             .fold(0.0, |s, x| s + x);
         eprintln_lossy!(
-            "{}: azimuth {}, elevation {}: {} x {} pixels of {:.4} m ({}x{} samples each) in {seconds:.2} s; \
+            "{}: azimuth {}, elevation {}: {} x {} pixels of {:.4e} m ({}x{} samples each) in {seconds:.2} s; \
              sigma {:.6e} m^2 by the area seen (sampling bound {:.2e}), {centroid:.6e} by facet centroids",
             self.scene.display(),
             aspect.azimuth_deg,

@@ -88,6 +88,14 @@ impl SelectCmd {
             ],
             &inputs,
         )?;
+        // Each band is selected on its own (a scene's materials too): shared bands would be
+        // ignored.
+        if self.engine.bands == Some(brdf_fit::spectral::BandShape::Shared) {
+            bail!(
+                "--bands shared: `brdf select` chooses each band's representation on its own \
+                 (one shape shared by the bands is a `brdf fit` option); it would be ignored"
+            );
+        }
         let Some(data) = self.data.clone() else {
             return self.run_scene();
         };

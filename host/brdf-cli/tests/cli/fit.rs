@@ -820,6 +820,10 @@ fn spectral_files_import_every_band_and_fit_dark_bands_with_a_noise_floor() {
             vec!["fit", "--bands", "shared", path.to_str().unwrap()],
             "no two datasets are bands",
         ),
+        (
+            vec!["select", "--bands", "shared", "--format", "cornell", &astm],
+            "it would be ignored",
+        ),
         (vec!["fit", "--bands", "both", path.to_str().unwrap()], "bands"),
         (vec!["fit", "--bands", "", path.to_str().unwrap()], "bands"),
         (
