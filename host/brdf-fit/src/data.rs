@@ -195,23 +195,17 @@ pub enum DataError {
         /// Column name.
         column: String,
     },
-    /// A header names a column of [`COLUMNS`] with a near miss ([`near_miss_column`]: in
-    /// another case, plural, with a unit, a letter off): column names are matched exactly,
-    /// so it would be missing or, for an optional column, silently ignored (`Sample` or
-    /// `samples`: samples 1e4 apart in brightness fitted as one; `weights`: an unweighted
-    /// fit).
-    #[error(
-        "{file}: line 1: column `{column}` must be spelt `{expected}` (column names are lower case, \
-         singular and without a unit, and any other column is ignored: if `{column}` is an \
-         unrelated column, rename it, e.g. `x_{column}`)"
-    )]
+    /// A header is a near miss of a column of [`COLUMNS`] ([`near_miss_column`]: in another
+    /// case, plural, with a unit, an optional column's name and more): column names are
+    /// matched exactly, so it would be missing or, for an optional column, silently ignored
+    /// (`Sample` or `sample_id`: samples 1e4 apart in brightness fitted as one; `weights`: an
+    /// unweighted fit; `wavelength_nm` renamed `wavelength`: bands 1000 times too long).
+    #[error("{file}: line 1: {miss}")]
     MisspeltColumn {
         /// File path.
         file: String,
-        /// The column as written.
-        column: String,
-        /// The column it names.
-        expected: &'static str,
+        /// The header, the column it misses and how.
+        miss: NearMiss,
     },
     /// The header has both `sigma` and `weight`, or both `theta_r` and `theta_s`.
     #[error("{file}: line 1: columns `{a}` and `{b}` cannot be used together")]
@@ -463,94 +457,206 @@ pub const COLUMNS: [&str; 9] = [
     "wavelength",
 ];
 
-/// The optional columns of [`COLUMNS`]: a header one letter off one of these is refused
-/// ([`near_miss_column`]), since the column would be ignored rather than missed.
-const OPTIONAL_COLUMNS: [&str; 4] = ["sigma", "weight", "sample", "wavelength"];
+/// The optional columns of [`COLUMNS`]: without them a file still fits, so a near miss of
+/// one is not caught as a missing column. A header that begins with one of these names and
+/// a separator (`sample_id`, `sigma_rel`, `wavelength in nm`) is refused unless the column
+/// itself is there too ([`near_miss_column`]).
+pub const OPTIONAL_COLUMNS: [&str; 4] = ["sigma", "weight", "sample", "wavelength"];
 
-/// Units a header may append to a column name (`wavelength_um`, `theta_i_deg`,
-/// `wavelength (nm)`, `brdf [1/sr]`).
-const UNIT_SUFFIXES: [&str; 22] = [
+/// The angle columns, in degrees.
+const ANGLE_COLUMNS: [&str; 4] = ["theta_i", "theta_r", "theta_s", "phi"];
+
+/// What may follow a column's name in a header that is that column with more after it
+/// (`sample_id`, `wavelength (nm)`, `wavelength/nm`, `weight.kg`).
+const SEPARATORS: [char; 7] = ['_', ' ', '-', '.', '/', '(', '['];
+
+const NANOMETRES: [&str; 5] = ["nm", "nanometre", "nanometres", "nanometer", "nanometers"];
+const MICROMETRES: [&str; 9] = [
     "um",
     "µm",
     "μm",
-    "nm",
-    "mm",
-    "m",
     "micron",
     "microns",
     "micrometre",
+    "micrometres",
     "micrometer",
-    "deg",
-    "degs",
-    "degree",
-    "degrees",
-    "rad",
-    "radian",
-    "radians",
-    "sr",
-    "1/sr",
-    "sr-1",
-    "sr^-1",
-    "persr",
+    "micrometers",
 ];
+const DEGREES: [&str; 5] = ["deg", "degs", "degree", "degrees", "°"];
+const RADIANS: [&str; 4] = ["rad", "rads", "radian", "radians"];
+const PER_SR: [&str; 7] = ["sr", "1/sr", "sr-1", "sr^-1", "persr", "per sr", "/sr"];
 
-/// The column of [`COLUMNS`] that `header` (trimmed) is a near miss of, when it is not one
-/// itself: the name in another case (`Sample`), plural (`samples`, `weights`), with a unit
-/// after `_`, `-`, a space or in brackets (`wavelength_um`, `theta_i_deg`,
-/// `wavelength (nm)`), or, for an optional column, one letter added, dropped, changed or two
-/// swapped after the same first letter (`sampel`, `wavelenght`; `height` is not `weight`).
-/// Such a column would be missing or, for an optional one, silently ignored, so `brdf fit`
-/// refuses it; any other extra column is ignored.
-pub fn near_miss_column(header: &str) -> Option<&'static str> {
+/// Why a header is refused ([`near_miss_column`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NearMiss {
+    /// The header as written (trimmed).
+    pub column: String,
+    /// The column of [`COLUMNS`] it names or begins with.
+    pub expected: &'static str,
+    /// How it misses.
+    pub kind: NearMissKind,
+}
+
+/// How a header misses a column of [`COLUMNS`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum NearMissKind {
+    /// Another case, plural, two neighbouring letters swapped, or with the unit the column
+    /// is in already (`Sample`, `weights`, `wavelenght`, `wavelength_um`, `theta_i_deg`).
+    Spelling,
+    /// `wavelength` in nanometres: renamed as it is, it would be read 1000 times too long.
+    Nanometres,
+    /// An angle in radians: the angle columns are degrees.
+    Radians,
+    /// The name of an optional column, a separator and more (`sample_id`, `sigma_rel`,
+    /// `wavelength_band`): what it holds is not known, and it would be ignored.
+    Prefix,
+}
+
+impl std::fmt::Display for NearMiss {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (c, e) = (&self.column, self.expected);
+        match self.kind {
+            NearMissKind::Spelling => write!(
+                f,
+                "column `{c}` must be spelt `{e}` (column names are matched exactly: lower case, \
+                 singular, without a unit)"
+            )?,
+            NearMissKind::Nanometres => write!(
+                f,
+                "column `{c}` is not read: the wavelength column is `wavelength`, in µm (divide \
+                 nm by 1000 and name the column `wavelength`)"
+            )?,
+            NearMissKind::Radians => write!(
+                f,
+                "column `{c}` is not read: the angle column is `{e}`, in degrees (convert with \
+                 degrees = radians * 180 / pi and name the column `{e}`)"
+            )?,
+            NearMissKind::Prefix => {
+                let what = match e {
+                    "sample" => "which splits a file into one dataset per sample",
+                    "wavelength" => "in µm, which splits a file into one dataset per band",
+                    "sigma" => "the 1-sigma uncertainty of brdf, in 1/sr",
+                    _ => "the weight of each reading's squared residual",
+                };
+                write!(
+                    f,
+                    "column `{c}` is not read, and its name begins with that of the optional \
+                     column `{e}` ({what}): column names are matched exactly and other columns \
+                     are ignored, so to use it, name it `{e}`"
+                )?
+            }
+        }
+        write!(
+            f,
+            "; if `{c}` is an unrelated column, rename it so that its name does not begin with \
+             `{e}`, e.g. `x_{c}`, or keep it beside a `{e}` column"
+        )
+    }
+}
+
+/// The near miss `header` is, or `None`; `present` tells whether a column of [`COLUMNS`] is
+/// in the header too. Column names are matched exactly, so a near miss would be missing or,
+/// for an optional column, silently ignored. Refused (trimmed; case ignored for matching):
+///
+/// - a column's name in another case or plural (`Sample`, `samples`, `Weights`), or with two
+///   neighbouring letters swapped for an optional column (`wavelenght`, `weigth`);
+/// - a column's name (or plural), a separator (`_`, space, `-`, `.`, `/`, `(`, `[`) and a
+///   unit: the column's own (`wavelength_um`, `theta_i_deg`, `brdf [1/sr]`), or the wrong
+///   one, said so (`wavelength (nm)`: in µm; `phi_rad`: in degrees);
+/// - an optional column's name, a separator and anything (`sample_id`, `sigma_rel`,
+///   `wavelength_band`, `weight in g`): it reads as that column, and would be ignored.
+///
+/// Not refused: any of these when the column it names is in the header too (then it is an
+/// annotation beside it), and names that only resemble one (`simple`, `sampled`, `sigma2`,
+/// `samples_taken`, `phi_i`, `brdf_model`, `height`).
+pub fn near_miss_column(header: &str, present: &dyn Fn(&str) -> bool) -> Option<NearMiss> {
     let header = header.trim();
     if COLUMNS.contains(&header) {
         return None;
     }
     let lower = header.to_lowercase();
-    let known = |name: &str| -> Option<&'static str> {
-        let singular = name.strip_suffix('s');
-        if let Some(&c) = COLUMNS.iter().find(|c| **c == name || singular == Some(**c)) {
-            return Some(c);
-        }
-        OPTIONAL_COLUMNS
-            .iter()
-            .find(|c| name.chars().next() == c.chars().next() && one_edit_apart(name, c))
-            .copied()
-    };
-    known(&lower).or_else(|| {
-        let (base, unit) = split_unit(&lower)?;
-        UNIT_SUFFIXES.contains(&unit).then(|| known(base)).flatten()
+    let (expected, kind) = whole_name_miss(&lower).or_else(|| suffixed_miss(&lower))?;
+    (!present(expected)).then(|| NearMiss {
+        column: header.to_owned(),
+        expected,
+        kind,
     })
 }
 
-/// `name` as (column, unit): `wavelength (nm)` and `wavelength[nm]` as (`wavelength`, `nm`),
-/// `theta_i_deg` as (`theta_i`, `deg`), split at the last `_`, `-` or space.
-fn split_unit(name: &str) -> Option<(&str, &str)> {
-    for (open, close) in [('(', ')'), ('[', ']')] {
-        if let Some(inner) = name.strip_suffix(close) {
-            let (base, unit) = inner.rsplit_once(open)?;
-            return Some((base.trim().trim_end_matches(['_', '-']), unit.trim()));
+/// Every header of a file checked with [`near_miss_column`]: the first near miss, if any.
+pub fn check_column_names(headers: &[&str]) -> Result<(), NearMiss> {
+    let present = |c: &str| headers.iter().any(|h| h.trim() == c);
+    for h in headers {
+        if let Some(miss) = near_miss_column(h, &present) {
+            return Err(miss);
         }
     }
-    let k = name.rfind(['_', '-', ' '])?;
-    Some((name[..k].trim_end(), &name[k + 1..]))
+    Ok(())
 }
 
-/// Whether `a` becomes `b` by one insertion, deletion, substitution or swap of neighbours.
-fn one_edit_apart(a: &str, b: &str) -> bool {
+/// `lower` as a whole: a column in another case, plural, or an optional one with two
+/// neighbouring letters swapped.
+fn whole_name_miss(lower: &str) -> Option<(&'static str, NearMissKind)> {
+    let singular = lower.strip_suffix('s');
+    COLUMNS
+        .iter()
+        .find(|c| **c == lower || singular == Some(**c))
+        .or_else(|| OPTIONAL_COLUMNS.iter().find(|c| swapped_neighbours(lower, c)))
+        .map(|c| (*c, NearMissKind::Spelling))
+}
+
+/// `lower` as a column's name (or its plural), a separator and more.
+fn suffixed_miss(lower: &str) -> Option<(&'static str, NearMissKind)> {
+    for c in COLUMNS {
+        for (base, plural) in [(c.to_owned(), false), (format!("{c}s"), true)] {
+            let Some(rest) = lower.strip_prefix(base.as_str()) else {
+                continue;
+            };
+            if !rest.starts_with(SEPARATORS) {
+                continue;
+            }
+            let unit = unit_of(rest);
+            let is = |units: &[&str]| units.contains(&unit);
+            let kind = match c {
+                "wavelength" if is(&NANOMETRES) => Some(NearMissKind::Nanometres),
+                "wavelength" if is(&MICROMETRES) => Some(NearMissKind::Spelling),
+                c if ANGLE_COLUMNS.contains(&c) && is(&RADIANS) => Some(NearMissKind::Radians),
+                c if ANGLE_COLUMNS.contains(&c) && is(&DEGREES) => Some(NearMissKind::Spelling),
+                "brdf" | "sigma" if is(&PER_SR) => Some(NearMissKind::Spelling),
+                // `samples_taken` is not `sample` and something: only a unit makes a plural
+                // a near miss.
+                c if OPTIONAL_COLUMNS.contains(&c) && !plural => Some(NearMissKind::Prefix),
+                _ => None,
+            };
+            if let Some(kind) = kind {
+                return Some((c, kind));
+            }
+        }
+    }
+    None
+}
+
+/// The unit in what follows a column's name: `_nm`, ` (nm)`, ` [nm]`, ` in nm`, `/nm` and
+/// `.nm` are all `nm`.
+fn unit_of(rest: &str) -> &str {
+    let trimmed = rest.trim_matches(|ch: char| SEPARATORS.contains(&ch) || ch == ')' || ch == ']');
+    let unit = trimmed.strip_prefix("in ").unwrap_or(trimmed).trim();
+    // `brdf_1/sr` keeps its `/`; `brdf/sr` is `sr`.
+    unit
+}
+
+/// Whether `a` is `b` (five letters or more) with two neighbouring letters swapped.
+fn swapped_neighbours(a: &str, b: &str) -> bool {
     let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
-    if a == b || a.len().abs_diff(b.len()) > 1 {
+    if a.len() != b.len() || b.len() < 5 || a == b {
         return false;
     }
     let first = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
-    let (ra, rb) = (&a[first..], &b[first..]);
-    match ra.len().cmp(&rb.len()) {
-        std::cmp::Ordering::Less => ra == &rb[1..],
-        std::cmp::Ordering::Greater => &ra[1..] == rb,
-        std::cmp::Ordering::Equal => {
-            ra[1..] == rb[1..] || (ra.len() >= 2 && ra[0] == rb[1] && ra[1] == rb[0] && ra[2..] == rb[2..])
-        }
-    }
+    first + 1 < a.len()
+        && a[first] == b[first + 1]
+        && a[first + 1] == b[first]
+        && a[first + 2..] == b[first + 2..]
 }
 
 /// Column positions of one file.
@@ -580,14 +686,11 @@ fn find_columns(file: &str, headers: &csv::StringRecord) -> Result<Columns, Data
                 column: h.to_owned(),
             });
         }
-        if let Some(expected) = near_miss_column(h) {
-            return Err(DataError::MisspeltColumn {
-                file: file.to_owned(),
-                column: h.to_owned(),
-                expected,
-            });
-        }
     }
+    check_column_names(&headers.iter().collect::<Vec<_>>()).map_err(|miss| DataError::MisspeltColumn {
+        file: file.to_owned(),
+        miss,
+    })?;
     let get = |name: &str| seen.get(name).copied();
     let need = |name: &'static str| {
         get(name).ok_or(DataError::MissingColumn {
@@ -1048,7 +1151,7 @@ mod tests {
         plural_weight: "theta_i,theta_r,phi,brdf,weights\n0,0,0,0.1,2\n" => "line 1: column `weights` must be spelt `weight`";
         plural_sigma: "theta_i,theta_r,phi,brdf,Sigmas\n0,0,0,0.1,0.01\n" => "line 1: column `Sigmas` must be spelt `sigma`";
         unit_suffix_wavelength: "theta_i,theta_r,phi,brdf,wavelength_um\n0,0,0,0.1,0.5\n" => "line 1: column `wavelength_um` must be spelt `wavelength`";
-        unit_suffix_in_brackets: "theta_i,theta_r,phi,brdf,wavelength (nm)\n0,0,0,0.1,500\n" => "line 1: column `wavelength (nm)` must be spelt `wavelength`";
+        unit_suffix_in_brackets: "theta_i,theta_r,phi,brdf,wavelength (nm)\n0,0,0,0.1,500\n" => "line 1: column `wavelength (nm)` is not read: the wavelength column is `wavelength`, in µm (divide nm by 1000";
         unit_suffix_angle: "theta_i_deg,theta_r,phi,brdf\n0,0,0,0.1\n" => "line 1: column `theta_i_deg` must be spelt `theta_i`";
         transposed_letters: "theta_i,theta_r,phi,brdf,wavelenght\n0,0,0,0.1,0.5\n" => "line 1: column `wavelenght` must be spelt `wavelength`";
         one_letter_off: "theta_i,theta_r,phi,brdf,sampel\n0,0,0,0.1,A\n" => "line 1: column `sampel` must be spelt `sample`";
@@ -1071,7 +1174,8 @@ mod tests {
                 "{name}: {e}"
             );
         }
-        for name in ["m[1].csv", "[draft] m.csv"] {
+        // A group in the middle of the name is read as written, never as a band.
+        for name in ["m[1].csv", "[draft] m.csv", "m[wavelength=0.5].csv"] {
             let path = dir.path().join(name);
             std::fs::write(&path, text).unwrap();
             let l = load_csv(&path, LoadOptions::default()).unwrap();
@@ -1100,6 +1204,159 @@ mod tests {
             let l = r.unwrap_or_else(|e| panic!("{extra}: {e}"));
             assert_eq!((l.datasets.len(), l.datasets[0].points.len()), (1, 2), "{extra}");
         }
+    }
+
+    /// The column rule as a table: each header alone beside the four required columns, or
+    /// beside the column it resembles. Refused: what reads as a known column and would be
+    /// ignored or misread, naming the column and the advice; accepted: what only resembles
+    /// one (a trailing digit or letter is no typo), and any of them beside the column itself.
+    #[test]
+    fn column_names_refused_and_accepted() {
+        let base = "theta_i,theta_r,phi,brdf";
+        let refused: &[(&str, &str, &str)] = &[
+            // Another case, plural, swapped letters, the column's own unit.
+            ("Sample", "sample", "must be spelt `sample`"),
+            ("samples", "sample", "must be spelt `sample`"),
+            ("Weights", "weight", "must be spelt `weight`"),
+            ("wavelenght", "wavelength", "must be spelt `wavelength`"),
+            ("sampel", "sample", "must be spelt `sample`"),
+            ("weigth", "weight", "must be spelt `weight`"),
+            ("wavelength_um", "wavelength", "must be spelt `wavelength`"),
+            ("wavelength [µm]", "wavelength", "must be spelt `wavelength`"),
+            ("wavelengths_um", "wavelength", "must be spelt `wavelength`"),
+            ("sigma (1/sr)", "sigma", "must be spelt `sigma`"),
+            // Nanometres: renamed `wavelength` as they are, bands 1000 times too long.
+            ("wavelength_nm", "wavelength", "in µm (divide nm by 1000"),
+            ("wavelength (nm)", "wavelength", "in µm (divide nm by 1000"),
+            ("Wavelength [nm]", "wavelength", "in µm (divide nm by 1000"),
+            ("wavelength in nm", "wavelength", "in µm (divide nm by 1000"),
+            ("wavelength/nm", "wavelength", "in µm (divide nm by 1000"),
+            ("wavelength.nm", "wavelength", "in µm (divide nm by 1000"),
+            ("wavelength_nanometres", "wavelength", "in µm (divide nm by 1000"),
+            // Radians: the angle columns are degrees.
+            (
+                "phi_rad",
+                "phi",
+                "in degrees (convert with degrees = radians * 180 / pi",
+            ),
+            ("phi (rad)", "phi", "in degrees"),
+            // An optional column's name and more: it reads as that column.
+            (
+                "sample_id",
+                "sample",
+                "begins with that of the optional column `sample`",
+            ),
+            (
+                "sample_name",
+                "sample",
+                "begins with that of the optional column `sample`",
+            ),
+            // No longer as a unit (`m` is no unit suffix: `phi_m` is accepted), but as a
+            // sample column and more, like `sample_id`.
+            (
+                "sample_m",
+                "sample",
+                "begins with that of the optional column `sample`",
+            ),
+            (
+                "Sample ID",
+                "sample",
+                "begins with that of the optional column `sample`",
+            ),
+            (
+                "wavelength_band",
+                "wavelength",
+                "begins with that of the optional column `wavelength`",
+            ),
+            (
+                "wavelength_mm",
+                "wavelength",
+                "begins with that of the optional column `wavelength`",
+            ),
+            ("sigma_rel", "sigma", "the 1-sigma uncertainty of brdf, in 1/sr"),
+            (
+                "sigma_brdf",
+                "sigma",
+                "begins with that of the optional column `sigma`",
+            ),
+            (
+                "sigma_note",
+                "sigma",
+                "begins with that of the optional column `sigma`",
+            ),
+            (
+                "weight_kg",
+                "weight",
+                "begins with that of the optional column `weight`",
+            ),
+        ];
+        for &(header, expected, says) in refused {
+            // An angle's near miss stands in for the angle; another's is a fifth column.
+            let line = match base.contains(expected) {
+                true => format!("{},x\n0,0,0,0.1,1\n", base.replace(expected, header)),
+                false => format!("{base},{header}\n0,0,0,0.1,1\n"),
+            };
+            let msg = err(&line);
+            assert!(
+                msg.contains(&format!("line 1: column `{header}`"))
+                    && msg.contains(says)
+                    && msg.contains(&format!("does not begin with `{expected}`, e.g. `x_{header}`")),
+                "{header}: {msg}"
+            );
+            // Beside the column it resembles, it is an annotation: accepted, unread.
+            let beside = match base.contains(expected) {
+                true => format!("{base},{header},x\n0,0,0,0.1,1,2\n0,10,0,0.2,1,2\n"),
+                false => format!("{base},{expected},{header}\n0,0,0,0.1,1,2\n0,10,0,0.2,1,2\n"),
+            };
+            let (_f, r) = load(&beside, LoadOptions::default());
+            r.unwrap_or_else(|e| panic!("{header} beside {expected}: {e}"));
+        }
+        let unit_of_angle = err("theta_i_deg,theta_r,phi,brdf\n0,0,0,0.1\n");
+        assert!(
+            unit_of_angle.contains("column `theta_i_deg` must be spelt `theta_i`"),
+            "{unit_of_angle}"
+        );
+        for header in [
+            "simple",
+            "sampled",
+            "sampler",
+            "sample2",
+            "weightx",
+            "weight2",
+            "sigma1",
+            "sigma2",
+            "phi_m",
+            "brdf_m",
+            "height",
+            "samples_taken",
+            "signal",
+            "sigmoid",
+            "brdf_sigma",
+            "x_sample_id",
+            "x_wavelength_nm",
+            "phi_i",
+            "brdf_model",
+            "operator",
+            "Unnamed: 0",
+            "index",
+        ] {
+            let (_f, r) = load(
+                &format!("{base},{header}\n0,0,0,0.1,7\n0,10,0,0.2,8\n"),
+                LoadOptions::default(),
+            );
+            let l = r.unwrap_or_else(|e| panic!("{header}: {e}"));
+            assert_eq!((l.datasets.len(), l.datasets[0].points.len()), (1, 2), "{header}");
+        }
+        // `wavelength` and `wavelength_nm` both: the bands are `wavelength`'s, in µm.
+        let (_f, r) = load(
+            &format!("{base},wavelength,wavelength_nm\n0,0,0,0.1,0.5,500\n0,10,0,0.2,0.5,500\n"),
+            LoadOptions::default(),
+        );
+        let names: Vec<String> = r.unwrap().datasets.into_iter().map(|d| d.name).collect();
+        assert!(
+            names.len() == 1 && names[0].ends_with("[wavelength=0.5]"),
+            "{names:?}"
+        );
     }
 
     /// Few distinct incidences are one group each; continuous ones are 1-degree bins; every
