@@ -164,6 +164,24 @@ impl ModelKind {
         }
     }
 
+    /// Indices (in [`ModelKind::param_names`] order) of the parameters the model is linear
+    /// in, [`Model::LINEAR`]: the weights, which scale with the readings' unit (`kb`, `kd`;
+    /// `rho0`; `ks`, `kd`). The five-parameter `kd` is not one: it is the diffuse part's
+    /// ratio inside `kb`, and the same in any unit. The one place this is said: the embedded
+    /// engine scales these, the energy check scales them into range, the fitter searches the
+    /// others.
+    pub const fn linear_params(self) -> &'static [usize] {
+        use crate::{FiveParam, Ggx, Lambert, Minnaert, SixParam, SixParamCos2};
+        match self {
+            ModelKind::Six => <SixParam<f64> as Model<f64>>::LINEAR,
+            ModelKind::SixCos2 => <SixParamCos2<f64> as Model<f64>>::LINEAR,
+            ModelKind::Five => <FiveParam<f64> as Model<f64>>::LINEAR,
+            ModelKind::Minnaert => <Minnaert<f64> as Model<f64>>::LINEAR,
+            ModelKind::Ggx => <Ggx<f64> as Model<f64>>::LINEAR,
+            ModelKind::Lambert => <Lambert<f64> as Model<f64>>::LINEAR,
+        }
+    }
+
     /// Number of parameters.
     pub const fn param_count(self) -> usize {
         self.param_names().len()

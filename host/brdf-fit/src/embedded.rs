@@ -1,8 +1,9 @@
 //! The on-sensor annealer of `brdf-core` (f32, fixed memory, fixed budget) run on the host,
 //! with results in the same form as the full engine's, so the two compare side by side.
 //!
-//! **Units.** The annealer's search box bounds the linear weights (`kb` to 1e4, `kd` to 10,
-//! `rho0` to 100: [`SearchBox::for_kind`]) and squares readings over their sum in f32, so on
+//! **Units.** The annealer's search box bounds the linear weights (`kb` and `ks` to 1e4, `kd`
+//! to 10, `rho0` to 100: [`SearchBox::for_kind`]; the five-parameter `kd` is a ratio, not a
+//! weight, [`ModelKind::linear_params`]) and squares readings over their sum in f32, so on
 //! readings as given its answer depended on their unit (`kd` = 20 fitted as 9.92; readings
 //! of 1e-20 fitted an all-zero model, of 1e-60 were refused). The model is linear in those
 //! weights and the cost is relative, so the host divides the readings by the largest (in
@@ -12,11 +13,13 @@
 //! ([`crate::fit::SearchSummary::on_search_box`]): the best fit may lie beyond it. The device's
 //! FIT fits the readings it is sent as they are, its box in their unit (documented with
 //! [`SearchBox`]); a host sending readings of unit size gets the answer this engine gives.
+//! Readings spanning more than [`MAX_READING_SPREAD`] overflow the f32 search even so, and
+//! are refused.
 
 use std::time::Instant;
 
 use brdf_core::anneal::{anneal_kind, AnnealConfig, AnnealError, SampleError, Samples, SearchBox};
-use brdf_core::{Model, ModelKind, MAX_PARAMS};
+use brdf_core::{ModelKind, MAX_PARAMS};
 use rand_core::SeedableRng;
 use rand_pcg::Pcg32;
 use thiserror::Error;
@@ -57,6 +60,28 @@ pub enum EmbeddedError {
         /// Reason.
         reason: String,
     },
+    /// The readings span more than [`MAX_READING_SPREAD`] (largest over smallest): the f32
+    /// search would overflow at the smallest.
+    #[error(
+        "{dataset}: the readings span a factor of {} (largest {}, smallest {}), beyond the {:e} \
+         the embedded engine's f32 search can weigh (it squares the model over each reading, \
+         which overflows f32 at the smallest and left an all-zero model): fit this dataset \
+         with the full engine (the default; no such limit)",
+        brdf_core::Compact(*.spread),
+        brdf_core::Compact(*.largest),
+        brdf_core::Compact(*.smallest),
+        MAX_READING_SPREAD
+    )]
+    ReadingSpread {
+        /// Dataset name.
+        dataset: String,
+        /// Largest reading over smallest.
+        spread: f64,
+        /// Largest reading.
+        largest: f64,
+        /// Smallest reading.
+        smallest: f64,
+    },
     /// The annealer's own error.
     #[error("{dataset}: {source}")]
     Anneal {
@@ -67,19 +92,14 @@ pub enum EmbeddedError {
     },
 }
 
-/// The parameters `kind` is linear in ([`Model::LINEAR`]): the weights the embedded engine
-/// scales with the readings.
-pub fn linear_params(kind: ModelKind) -> &'static [usize] {
-    use brdf_core::{FiveParam, Ggx, Lambert, Minnaert, SixParam, SixParamCos2};
-    match kind {
-        ModelKind::Six => <SixParam<f32> as Model<f32>>::LINEAR,
-        ModelKind::SixCos2 => <SixParamCos2<f32> as Model<f32>>::LINEAR,
-        ModelKind::Five => <FiveParam<f32> as Model<f32>>::LINEAR,
-        ModelKind::Minnaert => <Minnaert<f32> as Model<f32>>::LINEAR,
-        ModelKind::Ggx => <Ggx<f32> as Model<f32>>::LINEAR,
-        ModelKind::Lambert => <Lambert<f32> as Model<f32>>::LINEAR,
-    }
-}
+/// Largest spread of one dataset's readings (largest over smallest) the embedded engine
+/// fits. Its f32 search sums squares of each basis over its reading, `(B / y)^2`, over up to
+/// [`HOST_CAPACITY`] readings: with the largest reading 1, a basis of up to 1e2 and 4096
+/// readings at the smallest, f32's 3.4e38 is reached at a spread of about 3e15 (a Lambertian
+/// dataset with half its readings 1e20 below the rest fitted an all-zero model at
+/// rms_rel 1.0). No measurement of one surface spans this much; the full engine, in f64,
+/// fits such data.
+pub const MAX_READING_SPREAD: f64 = 1e15;
 
 /// Fits `kind` to `data` with the embedded f32 annealer and `budget` evaluations, on the
 /// readings divided by the largest and the linear weights multiplied back (module docs:
@@ -109,6 +129,15 @@ pub fn fit_embedded(
     } else {
         1.0
     };
+    let smallest = data.points.iter().map(|p| p.brdf).fold(f64::INFINITY, f64::min);
+    if smallest > 0.0 && largest / smallest > MAX_READING_SPREAD {
+        return Err(EmbeddedError::ReadingSpread {
+            dataset: data.name.clone(),
+            spread: largest / smallest,
+            largest,
+            smallest,
+        });
+    }
     let mut samples: Box<Samples<f32, HOST_CAPACITY>> = Box::default();
     for p in &data.points {
         let y = (p.brdf / scale) as f32;
@@ -142,7 +171,8 @@ pub fn fit_embedded(
     // The weights in the readings' unit; a weight on the box's upper bound (the solved
     // weight clamped to it) is said, never silently kept.
     let search_box = SearchBox::<f32>::for_kind(kind);
-    let linear = linear_params(kind);
+    // The weights the model is linear in scale with the readings; the rest do not.
+    let linear = kind.linear_params();
     let mut on_search_box = Vec::new();
     let natural: Vec<f64> = params[..kind.param_count()]
         .iter()

@@ -209,15 +209,38 @@ pub fn bounds(kind: ModelKind) -> ([f64; MAX_PARAMS], [f64; MAX_PARAMS]) {
     }
 }
 
-/// Indices of the nonlinear parameters (see [`crate::kernel::bases`]) in the internal vector.
-pub fn nonlinear_indices(kind: ModelKind) -> &'static [usize] {
+/// Parameters variable projection solves from its linear coefficients although the model is
+/// not linear in them: the five-parameter `kd`, the ratio of the coefficients `(kb, kb kd)`
+/// of its two bases ([`crate::kernel::bases`], [`crate::kernel::assemble`]). With the
+/// weights ([`ModelKind::linear_params`]) they are what a fit solves per dataset, and per
+/// band in a shared-shape fit ([`crate::spectral::share`]).
+pub fn projected_ratios(kind: ModelKind) -> &'static [usize] {
     match kind {
-        ModelKind::Six | ModelKind::SixCos2 => &[1, 2, 3, 5],
-        ModelKind::Five => &[1, 2, 3],
-        ModelKind::Ggx => &[1, 2],
-        ModelKind::Minnaert => &[1],
-        ModelKind::Lambert => &[],
+        ModelKind::Five => &[4],
+        _ => &[],
     }
+}
+
+/// Indices of the nonlinear parameters (see [`crate::kernel::bases`]) in the internal vector:
+/// every parameter but the weights ([`ModelKind::linear_params`], the one statement of them)
+/// and the [`projected_ratios`].
+pub fn nonlinear_indices(kind: ModelKind) -> &'static [usize] {
+    static TABLE: std::sync::OnceLock<Vec<Vec<usize>>> = std::sync::OnceLock::new();
+    let table = TABLE.get_or_init(|| {
+        ModelKind::ALL
+            .iter()
+            .map(|&k| {
+                (0..k.param_count())
+                    .filter(|i| !k.linear_params().contains(i) && !projected_ratios(k).contains(i))
+                    .collect()
+            })
+            .collect()
+    });
+    let at = ModelKind::ALL
+        .iter()
+        .position(|&k| k == kind)
+        .expect("ModelKind::ALL lists every kind");
+    &table[at]
 }
 
 /// A prepared least-squares problem: cost `0.5 * sum r_i^2`.

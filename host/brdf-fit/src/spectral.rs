@@ -662,12 +662,15 @@ pub struct Spectrum {
 }
 
 impl Spectrum {
-    /// Indices of the parameters the model is linear in (the weights: `kb`, `kd`; `rho0`),
-    /// which carry a surface's colour; the others are its shape.
+    /// Indices of the parameters each band has its own of in a shared-shape fit ([`share`]),
+    /// which carry a surface's colour; the others are its shape. They are the weights the
+    /// model is linear in ([`ModelKind::linear_params`]: `kb`, `kd`; `rho0`; `ks`, `kd`) and,
+    /// for the five-parameter model, `kd`, the diffuse part's ratio inside `kb`: the shared
+    /// fit solves `kb` and `kb kd` per band ([`crate::problem::projected_ratios`]).
     pub fn weight_indices(&self) -> Vec<usize> {
-        let shape = nonlinear_indices(self.model);
+        let ratios = crate::problem::projected_ratios(self.model);
         (0..self.model.param_count())
-            .filter(|i| !shape.contains(i))
+            .filter(|i| self.model.linear_params().contains(i) || ratios.contains(i))
             .collect()
     }
 }

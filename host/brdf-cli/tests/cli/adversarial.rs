@@ -750,7 +750,7 @@ fn fits_pack_and_check_takes_blobs_at_the_range_corners() {
                     // The linear weights are bounded only below (a bound above would make a
                     // fit depend on the data's units); a fit beyond their range is named in
                     // its report (`outside_ranges`) and refused by pack.
-                    let linear = !brdf_fit::problem::nonlinear_indices(kind).contains(&j);
+                    let linear = kind.linear_params().contains(&j);
                     if linear && v.is_infinite() {
                         continue;
                     }

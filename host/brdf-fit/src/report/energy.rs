@@ -130,15 +130,15 @@ pub fn energy(model: &AnyModel<f64>, incidences: &[f64]) -> Energy {
 /// scales the results back.
 pub fn energy_of(kind: ModelKind, params: &[f64], incidences: &[f64]) -> Energy {
     let ranges = kind.ranges();
-    let linear: Vec<usize> = (0..params.len())
-        .filter(|i| !crate::problem::nonlinear_indices(kind).contains(i))
-        .collect();
+    // The weights alone: the model, and so the bound and every albedo, is linear in them
+    // (the five-parameter `kd` is a ratio inside `kb`, and scaled with it changed the model).
+    let linear = kind.linear_params();
     let scale = linear
         .iter()
         .map(|&i| params[i] / f64::from(ranges[i].max))
         .fold(1.0_f64, f64::max);
     let mut scaled = params.to_vec();
-    for &i in &linear {
+    for &i in linear {
         // `min`: only the division's rounding can carry the largest weight past its bound.
         scaled[i] = (scaled[i] / scale).min(f64::from(ranges[i].max));
     }
@@ -158,6 +158,36 @@ pub fn energy_of(kind: ModelKind, params: &[f64], incidences: &[f64]) -> Energy 
 #[cfg(test)]
 mod incidence_tests {
     use super::*;
+
+    /// The energy check scales the weights a model is linear in into their ranges and the
+    /// albedo back. Before, the five-parameter `kd` (the diffuse part's ratio inside `kb`,
+    /// not a weight) was scaled with `kb`: a fit in a unit that put `kb` above 1e4 reported
+    /// an albedo that was not the model's. The albedo is linear in the weights alone.
+    #[test]
+    fn the_albedo_of_a_weight_beyond_its_range_is_the_model_s() {
+        for (kind, p) in [
+            (ModelKind::Five, vec![0.5, 1.0, -5.0, 1.0, 0.4]),
+            (ModelKind::Six, vec![0.5, 2.0, -5.0, 1.0, 0.4, 1.0]),
+            (ModelKind::Ggx, vec![0.5, 0.3, 0.5, 0.4]),
+        ] {
+            let at = checked_incidences(&[0.0, 0.5]);
+            let unit = energy_of(kind, &p, &at);
+            let factor = 1e6;
+            let mut big = p.clone();
+            for &i in kind.linear_params() {
+                big[i] *= factor;
+            }
+            let scaled = energy_of(kind, &big, &at);
+            for (a, b) in unit.albedo.iter().zip(&scaled.albedo) {
+                assert!(
+                    (b.albedo - factor * a.albedo).abs() <= 1e-9 * b.albedo,
+                    "{kind}: {} against {} x {factor:e}",
+                    b.albedo,
+                    a.albedo
+                );
+            }
+        }
+    }
 
     /// Cornell's 30 degrees written to six decimals of a radian was listed beside the fixed 30.
     #[test]

@@ -206,3 +206,46 @@ fn a_weight_on_the_embedded_search_bound_is_reported() {
         emb.search.on_search_box
     );
 }
+
+/// Before: readings of one dataset spanning 1e20 (largest over smallest) fitted an all-zero
+/// model at rms_rel 1.0 and reported success: the f32 search squares each basis over its
+/// reading, and at the smallest readings that overflowed. Such data are refused for the
+/// embedded engine, naming the dataset and the spread and pointing to the full engine,
+/// which fits them; a spread within the limit is fitted as before.
+#[test]
+fn readings_spanning_beyond_f32_are_refused_by_the_embedded_engine() {
+    let base = synth::hemisphere(ModelKind::Lambert, &[0.5], &[0.0, 20.0, 40.0], 10.0, 45.0, 0.0, 5).unwrap();
+    let spread_by = |factor: f64| {
+        let mut d = base.clone();
+        d.name = format!("spread {factor:e}");
+        for p in d.points.iter_mut().step_by(2) {
+            p.brdf /= factor;
+        }
+        d
+    };
+    let d = spread_by(1e20);
+    let problem = Problem::from_dataset(ModelKind::Lambert, Residual::Relative, &d);
+    let e = fit_embedded(ModelKind::Lambert, &d, &problem, DEFAULT_BUDGET, 1)
+        .map(|o| o.params[0])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("spread 1e20: ")
+            && e.contains("span a factor of 1e20")
+            && e.contains("the full engine"),
+        "{e}"
+    );
+    // The full engine fits them: half the readings at rho0 / pi, half 1e20 below.
+    let full = fit(&problem, &FitOptions::default());
+    assert!(full.params[0] > 0.0, "{:?}", full.params);
+    // Within the limit the embedded engine fits what the full one does.
+    let d = spread_by(1e14);
+    let problem = Problem::from_dataset(ModelKind::Lambert, Residual::Relative, &d);
+    let emb = fit_embedded(ModelKind::Lambert, &d, &problem, DEFAULT_BUDGET, 1).unwrap();
+    let full = fit(&problem, &FitOptions::default());
+    let (e, f) = (rms(&problem, &d, &emb.q), rms(&problem, &d, &full.q));
+    assert!(
+        e <= f * (1.0 + EMBEDDED_UNIT_SCALE_REL) && e < 1.0,
+        "embedded {e}, full {f}"
+    );
+}

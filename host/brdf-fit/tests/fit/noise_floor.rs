@@ -345,3 +345,51 @@ fn the_bands_of_a_spectral_file_share_one_shape() {
     let e = FitSettings::from_options(&log).unwrap_err().to_string();
     assert!(e.contains("bands shared") && e.contains("ignored"), "{e}");
 }
+
+/// The five-parameter model's `kd` is the diffuse part's ratio inside `kb`, not a weight
+/// (`ModelKind::linear_params`), yet the shared-shape fit solves `kb` and `kb kd` per band:
+/// each band keeps its own `kd`, and the spectrum table marks `kd` as per band
+/// (`Spectrum::weight_indices`), as the fit has it. The shape `kr, b, a` is one.
+#[test]
+fn the_five_parameter_shared_fit_keeps_kd_per_band() {
+    use brdf_fit::spectral::BandShape;
+    let bands: Vec<Dataset> = [(0.5, 0.2), (0.6, 0.6)]
+        .into_iter()
+        .map(|(um, kd)| {
+            let p = [0.3, 1.8, -20.0, 0.7, kd];
+            let mut d =
+                brdf_fit::synth::hemisphere(ModelKind::Five, &p, &[0.0, 20.0, 40.0], 10.0, 45.0, 0.0, 3)
+                    .unwrap();
+            d.name = format!("five[wavelength={um}]");
+            d
+        })
+        .collect();
+    let settings = FitSettings {
+        bands: BandShape::Shared,
+        ..FitSettings::new(ModelKind::Five)
+    };
+    let shared: Vec<_> = brdf_fit::fit_streamed(&settings, &bands, |_, _| {})
+        .into_iter()
+        .map(Result::unwrap)
+        .collect();
+    let p: Vec<Vec<f64>> = shared
+        .iter()
+        .map(|r| r.params_array().unwrap()[..5].to_vec())
+        .collect();
+    assert_eq!(p[0][1..4], p[1][1..4], "one shape: {p:?}");
+    for (got, kd) in p.iter().zip([0.2, 0.6]) {
+        assert!(
+            (got[4] - kd).abs() < 1e-3 * kd,
+            "kd {} against {kd}: {p:?}",
+            got[4]
+        );
+    }
+    let spectrum = &brdf_fit::spectral::spectra(&shared)[0];
+    assert_eq!(spectrum.weight_indices(), vec![0, 4]);
+    assert_eq!(ModelKind::Five.linear_params(), &[0]);
+    assert_eq!(brdf_fit::problem::nonlinear_indices(ModelKind::Five), &[1, 2, 3]);
+    assert_eq!(
+        brdf_fit::problem::nonlinear_indices(ModelKind::Six),
+        &[1, 2, 3, 5]
+    );
+}
