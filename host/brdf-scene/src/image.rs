@@ -227,6 +227,8 @@ pub struct RasterMesh {
     /// Material (scene order).
     material: Vec<u32>,
     clusters: Vec<Cluster>,
+    /// The facets with an edge no one other facet shares ([`seam_bound`]).
+    open_edged: Vec<u32>,
 }
 
 /// Facets per [`RasterMesh`] cluster at most: small enough that a cluster along the outline
@@ -353,6 +355,9 @@ impl RasterMesh {
             normal,
             closed: mesh.closed.clone(),
             clusters,
+            open_edged: (0..mesh.facets.len() as u32)
+                .filter(|&k| mesh.neighbours[k as usize].contains(&u32::MAX))
+                .collect(),
         }
     }
 }
@@ -1116,6 +1121,37 @@ fn seam_bound(scene: &Scene, scratch: &Scratch, receiver: [f64; 3], area: f64) -
             let c = mesh.corners[f as usize];
             let (p, q) = (projected[c[e] as usize], projected[c[(e + 1) % 3] as usize]);
             bound += ((p[0] - q[0]).abs() + (p[1] - q[1]).abs() + 2.0) * area * dg;
+        }
+    }
+    // Facets of open shells facing away from the receiver are drawn, hiding what lies behind
+    // them, with no σ of their own: along their edges no other facet shares, a sample may be
+    // off by the largest term, and one no sample holds may hide that much over its projected
+    // area (thin one-sided strips seen from behind, between the samples, above a bright
+    // plate: 5 times outside the bound).
+    let away: Vec<u32> = mesh
+        .open_edged
+        .iter()
+        .copied()
+        .filter(|&f| v3::dot(mesh.normal[f as usize], receiver) <= 0.0)
+        .collect();
+    if away.is_empty() || largest == 0.0 {
+        return bound;
+    }
+    let mut held = vec![false; mesh.corners.len()];
+    for s in &scratch.receiver.samples {
+        if s.facet != u32::MAX {
+            held[s.facet as usize] = true;
+        }
+    }
+    for f in away {
+        let k = f as usize;
+        if !held[k] {
+            bound += -v3::dot(mesh.normal[k], receiver) * mesh.area[k] * largest;
+        }
+        let c = mesh.corners[k];
+        for e in (0..3).filter(|&e| scene.mesh.neighbours[k][e] == u32::MAX) {
+            let (p, q) = (projected[c[e] as usize], projected[c[(e + 1) % 3] as usize]);
+            bound += ((p[0] - q[0]).abs() + (p[1] - q[1]).abs() + 2.0) * area * largest;
         }
     }
     bound

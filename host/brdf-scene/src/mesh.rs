@@ -222,7 +222,7 @@ pub const CRACKED_SHELL_VECTOR_AREA: f64 = 1e-6;
 /// Points of a group wound inside out (facet centroids, spread over it in file order) that
 /// the other groups must all wind about for it to be a cavity ([`Mesh::check_winding`]),
 /// besides its facets farthest out each way along [`EXTREME_DIRECTIONS`].
-const CAVITY_POINTS: usize = 16;
+pub const CAVITY_POINTS: usize = 16;
 
 /// The axes and the diagonals of a box.
 const EXTREME_DIRECTIONS: [[f64; 3]; 7] = [

@@ -1419,11 +1419,12 @@ fn walls_narrower_than_the_source_samples_keep_their_shadow_in_the_bound() {
 }
 
 /// 32 dark strips (rho 0.01) 5 cm above a bright plate (rho 0.9), seen from straight above at
-/// the default 128 pixels, each 0.8 of a sample wide: at some phases every strip lies between two rows of sample
-/// centres, no sample sees one, and the plate's σ counted for what they hide. Counted in the
-/// bound by their own σ only, the error was ten times the stated bound; each such facet now
-/// counts as its projected area times the most a sample can be off by. Eight phases, an
-/// eighth of a sample apart.
+/// the default 128 pixels, each 0.8 of a sample wide: at some phases every strip lies between
+/// two rows of sample centres, no sample sees one, and the plate's σ counted for what they
+/// hide. Counted in the bound by their own σ only, the error was ten times the stated bound;
+/// each such facet now counts as its projected area times the most a sample can be off by.
+/// Strips facing away (one-sided, seen from behind) were not counted at all: five times
+/// outside. Eight phases, an eighth of a sample apart.
 #[test]
 fn thin_strips_between_the_samples_stay_within_the_bound() {
     use brdf_scene::image::{image, ImageOptions};
@@ -1448,21 +1449,23 @@ fn thin_strips_between_the_samples_stay_within_the_bound() {
     let options = ImageOptions { pixels, supersample };
     let step = image(&plate, &plate.aspects()[0], &options).unwrap().pixel_m / supersample as f64;
     let (n, width) = (32, 0.8 * step);
-    for phase in 0..8 {
-        let s = scene_with(&|b| {
-            for k in 0..n {
-                let y = 0.1 + (4 * k) as f64 * step + phase as f64 * step / 8.0;
-                b.plate(
-                    [0.05, y, 0.05],
-                    [0.9, 0.0, 0.0],
-                    [0.0, width, 0.0],
-                    (1, 1),
-                    "strips",
-                );
-            }
-        });
-        let covered = n as f64 * 0.9 * width;
-        let exact = 4.0 * (0.9 * (1.0 - covered) + 0.01 * covered);
-        image_within_bound(&s, exact, pixels, supersample, &format!("phase {phase}/8"));
+    // Facing the sensor, and facing away (seen from behind: no σ of their own, and they hide
+    // the plate all the same).
+    for facing in [true, false] {
+        for phase in 0..8 {
+            let s = scene_with(&|b| {
+                for k in 0..n {
+                    let y = 0.1 + (4 * k) as f64 * step + phase as f64 * step / 8.0;
+                    let (u, v) = ([0.9, 0.0, 0.0], [0.0, width, 0.0]);
+                    let (u, v) = if facing { (u, v) } else { (v, u) };
+                    b.plate([0.05, y, 0.05], u, v, (1, 1), "strips");
+                }
+            });
+            let covered = n as f64 * 0.9 * width;
+            let strips = if facing { 0.01 } else { 0.0 };
+            let exact = 4.0 * (0.9 * (1.0 - covered) + strips * covered);
+            let what = format!("facing {facing}, phase {phase}/8");
+            image_within_bound(&s, exact, pixels, supersample, &what);
+        }
     }
 }
