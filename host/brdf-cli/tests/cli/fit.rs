@@ -1011,14 +1011,22 @@ fn a_near_miss_of_a_known_column_is_refused_by_name() {
         std::fs::write(&path, text).unwrap();
         path.to_str().unwrap().to_owned()
     };
-    for (column, spelt) in [
-        ("samples", "sample"),
-        ("weights", "weight"),
-        ("sigmas", "sigma"),
-        ("wavelength_um", "wavelength"),
-        ("wavelength (nm)", "wavelength"),
-        ("wavelenght", "wavelength"),
-        ("Samples", "sample"),
+    let spelt = |c: &str| format!("must be spelt `{c}`");
+    let nm = "`wavelength`, in µm (divide nm by 1000".to_owned();
+    let begins = |c: &str| format!("begins with that of the optional column `{c}`");
+    for (column, expected, says) in [
+        ("samples", "sample", spelt("sample")),
+        ("weights", "weight", spelt("weight")),
+        ("sigmas", "sigma", spelt("sigma")),
+        ("wavelength_um", "wavelength", spelt("wavelength")),
+        ("wavelenght", "wavelength", spelt("wavelength")),
+        ("Samples", "sample", spelt("sample")),
+        // Renamed `wavelength` as the refusal once said, bands of nm read as µm.
+        ("wavelength (nm)", "wavelength", nm.clone()),
+        ("wavelength_nanometres", "wavelength", nm.clone()),
+        // Read as nothing, two samples fitted as one.
+        ("sample_id", "sample", begins("sample")),
+        ("wavelength_band", "wavelength", begins("wavelength")),
     ] {
         let path = write(&format!("{column}.csv"), column);
         let out = brdf(&["fit", "--model", "lambert", &path]);
@@ -1026,13 +1034,24 @@ fn a_near_miss_of_a_known_column_is_refused_by_name() {
         assert!(!out.status.success(), "{column}: accepted");
         assert!(
             err.contains(&path)
-                && err.contains(&format!("line 1: column `{column}` must be spelt `{spelt}`"))
-                && err.contains(&format!("rename it, e.g. `x_{column}`")),
+                && err.contains(&format!("line 1: column `{column}` "))
+                && err.contains(&says)
+                && err.contains(&format!(
+                    "rename it so that its name does not begin with `{expected}`, e.g. `x_{column}`"
+                )),
             "{column}: {err}"
         );
     }
-    // Renamed as suggested, or unlike any known name: ignored, one dataset of 8 points.
-    for column in ["x_samples", "operator"] {
+    // Renamed as suggested, or unlike any known name, or only like one: ignored, one
+    // dataset of 8 points.
+    for column in [
+        "x_samples",
+        "operator",
+        "x_sample_id",
+        "simple",
+        "sample2",
+        "phi_m",
+    ] {
         let path = write(&format!("{column}.csv"), column);
         let out = ok(&["fit", "--model", "lambert", "--json", &path]);
         let r: serde_json::Value = serde_json::from_str(&out).unwrap();
