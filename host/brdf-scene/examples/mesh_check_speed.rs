@@ -2,7 +2,9 @@
 //! grid in levels, `mesh::coincidence_grid`): a 327,680-facet sphere beside one facet 1e9 m
 //! away and above a 2 km ground plate; a flat ground of 720,000 facets with 691,200 facets of
 //! building walls standing on it; a tube of 80,000 full-length slivers beside small facets;
-//! a 1,310,720-facet sphere alone; and 4,000 stacked copies of a box (refused). Prints each time; asserts nothing about time.
+//! a 1,310,720-facet sphere alone; 4,000 stacked copies of a box (refused); and, read from an
+//! OBJ written to six decimals, an 81,920-facet sphere at survey coordinates (5e6 m out).
+//! Prints each time; asserts nothing about time.
 //!
 //!     cargo run --release -p brdf-scene --example mesh_check_speed
 
@@ -103,4 +105,45 @@ fn main() {
         b.cuboid([0.0; 3], [1.0; 3], [1, 1, 1], &format!("box{k}"));
     }
     time("4,000 stacked copies of a box", &b);
+
+    // A sphere of 2 m radius 5e6 m out, written to six decimals as a survey export would be,
+    // then read and checked (the in-plane tolerance comes from the digits: about 1e-5 m).
+    let mut b = MeshBuilder::new();
+    b.icosphere(2.0, 6, "ball");
+    let mut text = Vec::new();
+    b.write_obj(&mut text, "").expect("writing to memory");
+    let offset = [5e6 + 0.123457, 4.2e6 + 0.654321, 3.3e6 + 0.271828];
+    let text: String = String::from_utf8(text)
+        .expect("OBJ text")
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(c) => {
+                let c: Vec<f64> = c.split(' ').map(|x| x.parse().expect("a coordinate")).collect();
+                format!(
+                    "v {:.6} {:.6} {:.6}\n",
+                    c[0] + offset[0],
+                    c[1] + offset[1],
+                    c[2] + offset[2]
+                )
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let path = dir.path().join("survey.obj");
+    std::fs::write(&path, text).expect("writing the OBJ");
+    let t = Instant::now();
+    let result = brdf_scene::mesh::Mesh::load(&path);
+    let seconds = t.elapsed().as_secs_f64();
+    println!(
+        "sphere (level 6) 5e6 m out, read from six decimals: {seconds:.2} s, {}",
+        match result {
+            Ok(m) => format!(
+                "accepted, {} facets, tolerance from {:?}",
+                m.facets.len(),
+                m.precision
+            ),
+            Err(e) => format!("refused: {e}"),
+        }
+    );
 }
