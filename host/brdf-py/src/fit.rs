@@ -240,6 +240,16 @@ pub(crate) fn band_of(name: &str) -> Option<f64> {
     brdf_fit::data::split_wavelength(name).map(|(_, um)| um)
 }
 
+/// The first near miss among an array dataset's field names, as the message a CSV header
+/// gets (`brdf_fit::data::check_column_names`: the one column rule), or `None`.
+#[pyfunction]
+pub(crate) fn column_near_miss(names: Vec<String>) -> Option<String> {
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    brdf_fit::data::check_column_names(&names)
+        .err()
+        .map(|miss| miss.to_string())
+}
+
 /// The name of an array dataset of wavelength `um` µm: `name[wavelength=um]`, or `name` when
 /// it names that band already (a dataset of `brdf.read`); refused when it names another, or
 /// `um` is not a wavelength.

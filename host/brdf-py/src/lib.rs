@@ -125,6 +125,7 @@ fn _brdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(band_of, m)?)?;
     m.add_function(wrap_pyfunction!(check_fit, m)?)?;
     m.add_function(wrap_pyfunction!(named_band, m)?)?;
+    m.add_function(wrap_pyfunction!(column_near_miss, m)?)?;
     m.add_function(wrap_pyfunction!(pack, m)?)?;
     m.add_function(wrap_pyfunction!(select_path, m)?)?;
     m.add_function(wrap_pyfunction!(select_arrays, m)?)?;

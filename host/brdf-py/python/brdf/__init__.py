@@ -513,8 +513,6 @@ def _text(name: str, v) -> str:
     return v
 
 
-_DATA_KEYS = ("theta_i", "theta_r", "phi", "brdf", "sigma", "weight", "name", "wavelength")
-
 def _split_advice(column: str, each: str, alone: str) -> str:
     """What to do with a field that would split a file into datasets (a CSV file's ``sample``
     or ``wavelength`` column, which ``brdf fit`` splits by): arrays are one dataset."""
@@ -526,40 +524,34 @@ def _split_advice(column: str, each: str, alone: str) -> str:
 
 
 def _data_fields(data):
-    """The fields of an array dataset, as ``(names, get)``: a mapping's keys; a structured
-    array's or record array's fields (``dtype.names``); a data frame's columns (pandas or
-    polars: a ``columns`` attribute of its class, columns by name); a named tuple's or a
-    dataclass's fields; another object's public attributes (``vars()``). ``get(name)`` reads
-    one of them.
-
-    Fields must be listed to be checked (an unknown one, such as ``Sigma`` or ``sample``,
-    would be ignored): an object whose fields cannot be (``__slots__``, attributes computed on
-    access) is refused with TypeError."""
+    """The fields of an array dataset, as ``(names, get)``. ``get(name)`` reads one field, or
+    gives None when the dataset has none of that name: a mapping's key, a structured or record
+    array's field, a data frame's column (pandas or polars: a ``columns`` attribute of its
+    class, columns by name), or another object's attribute (``getattr``: a property, a slot,
+    a dataclass's or named tuple's field). ``names`` lists the fields, only to find near
+    misses of the known ones (``Sigma``, ``sigmas``, ``sample_id``) and a ``sample``: a
+    mapping's keys, ``dtype.names``, the columns, a named tuple's or dataclass's fields, or
+    another object's public attributes other than methods (``dir()``)."""
     if isinstance(data, Mapping):
-        return list(data), data.get
+        return list(data), lambda k: data.get(k)
     if isinstance(data, np.ndarray) and data.dtype.names is not None:
-        return list(data.dtype.names), lambda k: data[k]
+        fields = list(data.dtype.names)
+        return fields, lambda k: data[k] if k in fields else None
     if isinstance(data, np.ndarray):
         raise TypeError(
             f"data: an array of dtype {data.dtype} has no named columns; pass a dict of arrays "
             "theta_i, theta_r, phi, brdf (or a structured array with those fields)"
         )
     if hasattr(type(data), "columns") and hasattr(data, "__getitem__"):
-        return list(data.columns), lambda k: data[k]
+        columns = list(data.columns)
+        return columns, lambda k: data[k] if k in columns else None
+    get = lambda k: getattr(data, k, None)  # noqa: E731
     if isinstance(data, tuple) and isinstance(getattr(data, "_fields", None), tuple):
-        return list(data._fields), lambda k: getattr(data, k)
+        return list(data._fields), get
     if dataclasses.is_dataclass(data) and not isinstance(data, type):
-        # Its fields, with or without __slots__.
-        return [f.name for f in dataclasses.fields(data)], lambda k: getattr(data, k)
-    try:
-        names = [k for k in vars(data) if not k.startswith("_")]
-    except TypeError:
-        raise TypeError(
-            f"data: the fields of a {type(data).__name__} cannot be listed; pass a dict of arrays "
-            "theta_i, theta_r, phi, brdf (optional sigma or weight, name, wavelength), or an "
-            "object with those attributes"
-        ) from None
-    return names, lambda k: getattr(data, k)
+        return [f.name for f in dataclasses.fields(data)], get
+    names = [k for k in dir(data) if not k.startswith("_") and not callable(getattr(type(data), k, None))]
+    return names, get
 
 
 def _data_name(data, given):
@@ -568,12 +560,12 @@ def _data_name(data, given):
     dataset's ``wavelength`` (µm, one number; None for none) as its band,
     ``NAME[wavelength=…]``, as a spectral file's datasets are named (so that the fit carries
     it)."""
-    names, get = _data_fields(data)
-    field = get("name") if "name" in names else None
+    _, get = _data_fields(data)
+    field = get("name")
     if field is not None and not isinstance(field, str):
         raise TypeError(f"data: `name` must be a string (the dataset's name), not {type(field).__name__}")
     name = given if given is not None else (field if field is not None else "arrays")
-    um = get("wavelength") if "wavelength" in names else None
+    um = get("wavelength")
     if um is None:
         return name
     if np.ndim(um) != 0:
@@ -589,30 +581,34 @@ def _array_columns(data):
     :func:`_data_fields`), flattened.
 
     One value per measurement: every column has the same shape (none is broadcast, so a
-    column of shape (N, 1) beside ones of shape (N,) is an error, not N^2 points), and the
-    dataset holds no other field (a typo such as ``sigmas`` would drop the uncertainties; a
-    ``sample`` column would merge the samples into one fit)."""
+    column of shape (N, 1) beside ones of shape (N,) is an error, not N^2 points). Fields are
+    checked by the CSV reader's column rule (``brdf_fit::data::check_column_names``, through
+    the binding: one rule): a near miss of a known one is refused (``Sigma``, ``sigmas``,
+    ``sample_id``, ``wavelength_nm``: it would be ignored), any other field ignored
+    (``index``, ``operator``, ``units``). A ``sample`` field would merge the samples into one
+    fit, and ``theta_s`` is read from files only: both are refused."""
     names, get = _data_fields(data)
+    miss = _brdf.column_near_miss([str(k) for k in names])
+    if miss is not None:
+        raise ValueError(f"data: {miss}")
     if "sample" in names:
         raise ValueError(
             "data: `sample`: the samples would be merged into one fit: "
             + _split_advice("sample", "sample", "its rows, without the `sample` field")
         )
-    unknown = [k for k in names if k not in _DATA_KEYS]
-    if unknown:
-        what = "key(s)" if isinstance(data, Mapping) else "field(s)"
-        of = "" if isinstance(data, Mapping) else f" of {type(data).__name__}"
+    if "theta_s" in names:
         raise ValueError(
-            f"data: unknown {what} {', '.join(map(repr, unknown))}{of} (known: {', '.join(_DATA_KEYS)})"
+            "data: `theta_s`: arrays take theta_r and phi (degrees); the signed in-plane form "
+            "theta_i, theta_s, brdf is read from files only (pass the path of a CSV file)"
         )
     cols = {}
     for k in ("theta_i", "theta_r", "phi", "brdf"):
-        v = get(k) if k in names else None
+        v = get(k)
         if v is None:
             raise ValueError(f"data: missing `{k}` (need theta_i, theta_r, phi, brdf; optional sigma or weight)")
         cols[k] = _real(k, v)
     for k in ("sigma", "weight"):
-        v = get(k) if k in names else None
+        v = get(k)
         if v is not None:
             cols[k] = _real(k, v)
     names = list(cols)
@@ -651,10 +647,13 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
     a structured or record array, a data frame (pandas, polars) or an object with attributes
     (``types.SimpleNamespace``, a dataclass, a named tuple), holding ``theta_i``,
     ``theta_r``, ``phi`` (degrees), ``brdf`` (1/sr) and optionally ``sigma`` or ``weight``,
-    ``name`` (a string) and ``wavelength`` (one number, µm: the fit is of that band). Any
-    other key, field or column is refused (ValueError: a misspelt ``sigmas`` would drop the
-    uncertainties), and so is an object whose fields cannot be listed (TypeError: pass a
-    dict). A ``sample`` column, or a wavelength per point, is refused with advice rather than
+    ``name`` (a string) and ``wavelength`` (one number, µm: the fit is of that band). Other
+    keys, fields and columns are treated as a CSV file's columns are (one rule, the
+    library's): a near miss of a known one is refused with what to do (ValueError: ``Sigma``,
+    ``sigmas``, ``sample_id``, ``wavelength_nm``; a misspelt ``sigmas`` would drop the
+    uncertainties) and any other is ignored (``index``, ``operator``, a data frame's
+    ``Unnamed: 0``). Fields are read by name (properties too). A ``sample`` column, or a
+    wavelength per point, is refused with advice rather than
     split: arrays are one dataset, so fit each sample (or band) on its own, or pass the path of
     a CSV file, whose datasets are split by ``sample`` and ``wavelength`` as ``brdf fit``
     splits them. Zeniths that all look like radians are warned of as for a file; the
@@ -670,7 +669,9 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
     datasets are named by the file: refused with a path).
 
     Returns a :class:`FitResult` for one dataset, a list of them for several (a file with
-    ``sample``/``wavelength`` columns, or several files).
+    ``sample``/``wavelength`` columns, or several files). What ``brdf fit`` warns of on
+    standard error comes as warnings: a doubtful estimated noise floor, and with
+    ``engine='embedded'`` a weight that ended on the engine's search bound.
     """
     name = options.pop("name", None)
     s = _settings(model, seed, residual, engine, options)
@@ -700,10 +701,12 @@ def fit(data, model: str = "six", *, seed: int = 1, residual: str = "relative", 
 
 def _noted(r: "FitResult") -> "FitResult":
     """``r``, after warning of what ``brdf fit`` warns of on standard error (a doubtful
-    estimated noise floor)."""
+    estimated noise floor; a weight the embedded engine left on its search bound)."""
     floor = r.report.get("noise_floor")
     if floor is not None and floor.get("note"):
         warnings.warn(f"{r.dataset}: {floor['note']}", stacklevel=3)
+    for note in (r.report.get("search") or {}).get("on_search_box") or ():
+        warnings.warn(f"{r.dataset}: {note}", stacklevel=3)
     return r
 
 
@@ -771,8 +774,9 @@ def select(
     ``data`` is one dataset: a path to any file ``brdf fit`` reads (``format=`` and
     ``channel=`` as for :func:`fit`) or arrays ``theta_i``, ``theta_r``, ``phi`` (degrees),
     ``brdf`` (1/sr) and optionally ``sigma`` or ``weight``, held and checked as for
-    :func:`fit` (a dict, a structured array, a data frame or an object with attributes; any
-    other field refused, a ``sample`` column with advice: select each sample on its own).
+    :func:`fit` (a dict, a structured array, a data frame or an object with attributes; a
+    near miss of a known field refused, other fields ignored, a ``sample`` column refused with
+    advice: select each sample on its own).
     ``bands='shared'`` is refused (one dataset is no bands of a measurement; it would be
     ignored). ``budget`` is
     the largest acceptable RMS relative error (a fraction: 0.02 is 2%; at most 1); the domain keeps the
