@@ -65,7 +65,7 @@ pub enum EmbeddedError {
     #[error(
         "{dataset}: the readings span a factor of {} (largest {}, smallest {}), beyond the {:e} \
          the embedded engine's f32 search can weigh (it squares the model over each reading, \
-         which overflows f32 at the smallest and left an all-zero model): fit this dataset \
+         which overflows f32 at the smallest readings and gives an all-zero model): fit this dataset \
          with the full engine (the default; no such limit)",
         brdf_core::Compact(*.spread),
         brdf_core::Compact(*.largest),
