@@ -194,11 +194,12 @@ pub const OVERLAP_REL: f64 = 1e-3;
 
 /// Two facets facing the same way lie in one plane when the smaller's vertices are within
 /// this fraction of its size (the square root of its area) of the larger's plane, besides
-/// the in-plane tolerance from the coordinates' precision ([`COINCIDENT_ABS_M`]): a decal
-/// computed in f32 on a tilted hull and written with more digits than f32 holds sits off
-/// the hull by the f32's rounding, which the digits do not show. A decal lifted by more (1 mm
-/// for one 10 m wide) is apart from the hull, and occludes it.
-pub const COPLANAR_REL: f64 = 1e-4;
+/// the in-plane tolerance from the coordinates' precision ([`COINCIDENT_ABS_M`]): a few
+/// steps of an f32 of the part's own size, which a decal computed in f32 in its part's frame
+/// and written with more digits than f32 holds is off by, the digits not showing it. A
+/// plate lifted by more (20 µm for one 20 m wide) is apart from the hull, and occludes it (at
+/// 1e-4, a 1 mm thick 20 m plate's two sides were refused as lying on each other).
+pub const COPLANAR_REL: f64 = 1e-6;
 
 /// A vertex of at least this many facets is a hub (the centre of a fan), whose facets are
 /// compared by their wedges around it instead of pairwise through the grid.
@@ -219,21 +220,10 @@ pub const FLAT_SHELL_VOLUME: f64 = 1e-9;
 /// is below 1e-9 of the area.
 pub const CRACKED_SHELL_VECTOR_AREA: f64 = 1e-6;
 
-/// Points of a group wound inside out (facet centroids, spread over it in file order) that
-/// the other groups must all wind about for it to be a cavity ([`Mesh::check_winding`]),
-/// besides its facets farthest out each way along [`EXTREME_DIRECTIONS`].
-pub const CAVITY_POINTS: usize = 16;
-
-/// The axes and the diagonals of a box.
-const EXTREME_DIRECTIONS: [[f64; 3]; 7] = [
-    [1.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0],
-    [0.0, 0.0, 1.0],
-    [1.0, 1.0, 1.0],
-    [1.0, 1.0, -1.0],
-    [1.0, -1.0, 1.0],
-    [-1.0, 1.0, 1.0],
-];
+/// The directions along which a group wound inside out has its farthest facets each way
+/// tested, besides its first, for being inside the other groups (a cavity,
+/// [`Mesh::check_winding`]): 7 points, each a pass over the groups around it.
+pub const EXTREME_DIRECTIONS: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
 /// An open shell whose openings (summed by their vector areas, [`Mesh::openings`]) are at
 /// most this fraction of its own area, and whose volume is negative whatever closes them (by
@@ -1384,10 +1374,10 @@ impl Mesh {
     /// is checked when it is closed (no facet in `open_facet`), unless `open_only`, or when it
     /// has openings that are only cracks ([`CRACKED_SHELL_VECTOR_AREA`]) or too small to make
     /// its volume positive. A cavity (a hollow in a solid, its faces turned into the hollow)
-    /// encloses a negative volume rightly: a group is one when the other enclosing groups wind
-    /// about points of it ([`CAVITY_POINTS`]) at least once each ([`winding_number`]); only
-    /// groups whose boxes hold its box are summed, so a solid with cavities costs up to
-    /// `CAVITY_POINTS` passes over its facets per cavity.
+    /// encloses a negative volume rightly: a group is one when the other enclosing groups (closed
+    /// or nearly, facing out) wind about points of it ([`EXTREME_DIRECTIONS`]) at least once
+    /// each ([`winding_number`]); only groups whose boxes hold its box are summed, so a solid
+    /// with cavities costs up to 7 passes over its facets per cavity.
     fn inward_group(
         &self,
         group: &[usize],
@@ -1428,7 +1418,13 @@ impl Mesh {
             }
             open[r] |= open_facet[k];
         }
-        let encloses = |k: usize| !open[k] || openings[k] <= CRACKED_SHELL_VECTOR_AREA * area[k];
+        // Closed, cracked only, or with small openings and a positive volume (the outer wall
+        // of a hollow with a port, its inner wall facing into the hollow a cavity of it).
+        let encloses = |k: usize| {
+            !open[k]
+                || openings[k] <= CRACKED_SHELL_VECTOR_AREA * area[k]
+                || (openings[k] <= SMALL_OPENING * area[k] && volume[k] > 0.0)
+        };
         // Open, but inside out whatever closes it: any surface spanning open edges of length
         // `P` (a cone from one of their vertices) has an area below `P^2 / 4`, and changes the
         // volume about a point of the group by at most a third of that times the group's
@@ -1463,22 +1459,20 @@ impl Mesh {
                 return None;
             }
             // The first facet of the group in file order is named. A cavity lies inside the
-            // other groups all over: the first facet's centroid and those of up to
-            // CAVITY_POINTS more, spread over the group in file order, must be enclosed (a fin
-            // wound inside out and pushed through a hull was taken for a cavity when its first
-            // facet lay inside the hull).
+            // other groups all over, not only at its first facet (a fin wound inside out and
+            // pushed through a hull was taken for a cavity so).
             let members = &members_of[k];
             let first = members[0];
-            // Its points: spread in file order, and its facets farthest out along the axes
-            // and the box's diagonals (a finely cut fin pushed through a hull, 10% of it
-            // outside, had 16 points in file order all inside).
-            let step = members.len().div_ceil(CAVITY_POINTS).max(1);
-            let mut points: Vec<usize> = members.iter().copied().step_by(step).collect();
+            // Its points: its first facet's, and its facets' farthest out each way along the
+            // axes (a fin pushed through a hull, its top outside, had its first facet inside).
+            let mut points = vec![first];
             for d in EXTREME_DIRECTIONS {
                 let along = |j: &usize| v3::dot(self.facets[*j].centroid, d);
                 points.extend(members.iter().max_by(|x, y| along(x).total_cmp(&along(y))));
                 points.extend(members.iter().min_by(|x, y| along(x).total_cmp(&along(y))));
             }
+            points.sort_unstable();
+            points.dedup();
             // The groups around it hold its box.
             let holds = |r: usize| (0..3).all(|c| lo[r][c] <= lo[k][c] && hi[k][c] <= hi[r][c]);
             let around: Vec<usize> = roots
@@ -3252,12 +3246,61 @@ mod tests {
         };
         obj(&nozzle(true)).unwrap();
         obj(&nozzle(false)).unwrap();
+        // A hollow ball with a 10 degree port, its walls not joined at the port: the inner
+        // wall, facing into the hollow, is a cavity of the outer; alone, it is refused.
+        let shell = |r: f64, inward: bool| -> String {
+            let mut b = crate::shapes::MeshBuilder::new();
+            b.icosphere(r, 3, if inward { "inner" } else { "outer" });
+            let mut w = Vec::new();
+            b.write_obj(&mut w, "").unwrap();
+            let w = String::from_utf8(w).unwrap();
+            let v: Vec<[f64; 3]> = w
+                .lines()
+                .filter_map(|l| l.strip_prefix("v "))
+                .map(|c| {
+                    let c: Vec<f64> = c.split(' ').map(|x| x.parse().unwrap()).collect();
+                    [c[0], c[1], c[2]]
+                })
+                .collect();
+            w.lines()
+                .filter_map(|l| match l.strip_prefix("f ") {
+                    None => Some(format!("{l}\n")),
+                    Some(ids) => {
+                        let ids: Vec<usize> = ids.split(' ').map(|i| i.parse().unwrap()).collect();
+                        let z = ids.iter().map(|&i| v[i - 1][2]).sum::<f64>() / 3.0;
+                        (z < r * 10f64.to_radians().cos()).then(|| {
+                            if inward {
+                                format!("f {} {} {}\n", ids[2], ids[1], ids[0])
+                            } else {
+                                format!("f {} {} {}\n", ids[0], ids[1], ids[2])
+                            }
+                        })
+                    }
+                })
+                .collect()
+        };
+        let inner = shell(0.98, true);
+        let shifted: String = inner
+            .lines()
+            .map(|l| match l.strip_prefix("f ") {
+                Some(ids) => {
+                    let ids: Vec<usize> = ids
+                        .split(' ')
+                        .map(|i| i.parse::<usize>().unwrap() + 642)
+                        .collect();
+                    format!("f {} {} {}\n", ids[0], ids[1], ids[2])
+                }
+                None => format!("{l}\n"),
+            })
+            .collect();
+        obj(&format!("{}{shifted}", shell(1.0, false))).expect("a hollow ball with a port");
+        let e = obj(&inner).unwrap_err().to_string();
+        assert!(e.contains("negative volume") && e.contains("part `inner`"), "{e}");
         let e = obj(&inward_without(&|z| z > 0.99)).unwrap_err().to_string();
         assert!(e.contains("negative volume"), "{e}");
         // An L-shaped solid (its cap a six-sided face) holding a fin wound inside out in its
         // lower arm, whose top sticks out of the arm into the notch, within the L's box: the
-        // 16 points spread over the fin in file order all lie inside the arm; its highest
-        // facet does not.
+        // fin's first facet lies inside the arm; its highest facet does not.
         let l_shape = "o hull\nv 0 0 0\nv 4 0 0\nv 4 0 1\nv 1 0 1\nv 1 0 4\nv 0 0 4\n\
                        v 0 1 0\nv 4 1 0\nv 4 1 1\nv 1 1 1\nv 1 1 4\nv 0 1 4\n\
                        f 1 2 3 4 5 6\nf 12 11 10 9 8 7\nf 1 7 8 2\nf 2 8 9 3\nf 3 9 10 4\n\
@@ -3630,6 +3673,21 @@ mod coincident_tests {
             "{:?}",
             mesh.precision
         );
+    }
+
+    #[test]
+    fn a_large_panel_a_millimetre_proud_is_apart() {
+        // An 18 m panel 1 mm above a 20 m plate: 6e-5 of its size, apart (it occludes the
+        // plate); lying on it, refused.
+        let text = |z: f64| {
+            format!(
+                "v 0 0 0\nv 20 0 0\nv 20 20 0\nv 0 20 0\nv 1 1 {z}\nv 19 1 {z}\nv 19 19 {z}\nv 1 19 {z}\n\
+                 o plate\nf 1 2 3\nf 1 3 4\no panel\nf 5 6 7\nf 5 7 8\n"
+            )
+        };
+        obj(&text(1e-3)).unwrap();
+        let e = obj(&text(0.0)).unwrap_err().to_string();
+        assert!(e.contains("lie on each other"), "{e}");
     }
 
     #[test]
