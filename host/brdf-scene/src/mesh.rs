@@ -222,10 +222,10 @@ pub const CRACKED_SHELL_VECTOR_AREA: f64 = 1e-6;
 
 /// The directions along which a group wound inside out has its farthest facets each way
 /// tested, besides its first, for being inside the other groups (a cavity,
-/// [`Mesh::check_winding`]): 7 points, each a pass over the groups around it.
+/// `Mesh::check_winding`): 7 points, each a pass over the groups around it.
 pub const EXTREME_DIRECTIONS: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
-/// An open shell whose openings (summed by their vector areas, [`Mesh::openings`]) are at
+/// An open shell whose openings (summed by their vector areas, `Mesh::openings`) are at
 /// most this fraction of its own area, and whose volume is negative whatever closes them (by
 /// a bound from their rim's length), is refused as inside out: a hull with a few facets
 /// missing. Larger openings are a mouth (the inner surface of an exhaust or a bowl, facing
