@@ -33,7 +33,7 @@ pub const DEGENERATE_SINE: f64 = 1e-10;
 /// the pair's in-plane tolerance of the larger's plane: the sum of each facet's
 /// `abs_m + rel * scale` ([`Precision`] of the mesh's coordinates; `scale` is the facet's
 /// largest coordinate magnitude plus its longest edge), plus a few roundings of f64
-/// ([`ARITHMETIC_REL`]). The precision is read from the file: what it writes is one step of
+/// ([`ARITHMETIC_REL`]) and [`COPLANAR_REL`] of the smaller facet's size. The precision is read from the file: what it writes is one step of
 /// the format, and never looser than this (six decimals in metres: rounded by up to 5e-7 m,
 /// so a decal on a tilted hull sits up to 1e-6 m off it) and [`COINCIDENT_REL`] (six
 /// significant digits, `%g`: 5e-6 of the coordinate). Both are far below a modelled offset: a
@@ -56,9 +56,9 @@ pub const ARITHMETIC_REL: f64 = 16.0 * f64::EPSILON;
 /// A text mesh's is read from its digits ([`Precision::of_text`]): the most decimals and the
 /// most significant digits any coordinate is written with, never looser than
 /// [`Precision::WRITTEN`] (a file of round numbers keeps that) and never finer than one step
-/// of f32 where every coordinate could have been written from an f32 (at most nine
-/// significant digits, or exactly an f32's value: exporters that widen f32 to f64 write 17
-/// digits of it). So survey coordinates written to six decimals, 5e6 m from the origin, are
+/// of f32 where every coordinate could have been written from an f32 (each lies within half
+/// its last written digit of an f32: an f32's shortest decimals, all 17 digits of one widened
+/// to f64, or one written to a fixed count of decimals). So survey coordinates written to six decimals, 5e6 m from the origin, are
 /// compared within about 1e-5 m, not the 50 m that six significant digits would allow there (a
 /// 0.5 m decal lying on a 1 m facet was accepted, and counted twice); written from an f32, they
 /// are within about 1 m there, which is what an f32 resolves.
