@@ -1080,6 +1080,12 @@ fn seam_bound(scene: &Scene, scratch: &Scratch, receiver: [f64; 3], area: f64) -
         .iter()
         .map(|&f| scratch.terms[f as usize].g)
         .fold(0.0, f64::max);
+    // The samples edge `e` of facet `f` crosses (`lx + ly + 2` for an edge `lx` by `ly`).
+    let crossed = |f: usize, e: usize| {
+        let c = mesh.corners[f];
+        let (p, q) = (projected[c[e] as usize], projected[c[(e + 1) % 3] as usize]);
+        (p[0] - q[0]).abs() + (p[1] - q[1]).abs() + 2.0
+    };
     let mut bound = 0.0;
     for &f in &scratch.touched {
         let tf = &scratch.terms[f as usize];
@@ -1094,10 +1100,7 @@ fn seam_bound(scene: &Scene, scratch: &Scratch, receiver: [f64; 3], area: f64) -
                 // sample it crosses may be off by as much as its facet's term differs from
                 // any other's, at most the larger of `g` and `largest - g`.
                 if tf.seen {
-                    let c = mesh.corners[f as usize];
-                    let (p, q) = (projected[c[e] as usize], projected[c[(e + 1) % 3] as usize]);
-                    let cells = (p[0] - q[0]).abs() + (p[1] - q[1]).abs() + 2.0;
-                    bound += cells * area * tf.g.max(largest - tf.g);
+                    bound += crossed(f as usize, e) * area * tf.g.max(largest - tf.g);
                 }
                 continue;
             }
@@ -1118,9 +1121,7 @@ fn seam_bound(scene: &Scene, scratch: &Scratch, receiver: [f64; 3], area: f64) -
             if dg == 0.0 {
                 continue;
             }
-            let c = mesh.corners[f as usize];
-            let (p, q) = (projected[c[e] as usize], projected[c[(e + 1) % 3] as usize]);
-            bound += ((p[0] - q[0]).abs() + (p[1] - q[1]).abs() + 2.0) * area * dg;
+            bound += crossed(f as usize, e) * area * dg;
         }
     }
     // Facets of open shells facing away from the receiver are drawn, hiding what lies behind
@@ -1148,10 +1149,8 @@ fn seam_bound(scene: &Scene, scratch: &Scratch, receiver: [f64; 3], area: f64) -
         if !held[k] {
             bound += -v3::dot(mesh.normal[k], receiver) * mesh.area[k] * largest;
         }
-        let c = mesh.corners[k];
         for e in (0..3).filter(|&e| scene.mesh.neighbours[k][e] == u32::MAX) {
-            let (p, q) = (projected[c[e] as usize], projected[c[(e + 1) % 3] as usize]);
-            bound += ((p[0] - q[0]).abs() + (p[1] - q[1]).abs() + 2.0) * area * largest;
+            bound += crossed(k, e) * area * largest;
         }
     }
     bound
