@@ -484,7 +484,7 @@ const MICROMETRES: [&str; 9] = [
 ];
 const DEGREES: [&str; 5] = ["deg", "degs", "degree", "degrees", "°"];
 const RADIANS: [&str; 4] = ["rad", "rads", "radian", "radians"];
-const PER_SR: [&str; 7] = ["sr", "1/sr", "sr-1", "sr^-1", "persr", "per sr", "/sr"];
+const PER_SR: [&str; 6] = ["sr", "1/sr", "sr-1", "sr^-1", "persr", "per sr"];
 
 /// Why a header is refused ([`near_miss_column`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -641,9 +641,8 @@ fn suffixed_miss(lower: &str) -> Option<(&'static str, NearMissKind)> {
 /// `.nm` are all `nm`.
 fn unit_of(rest: &str) -> &str {
     let trimmed = rest.trim_matches(|ch: char| SEPARATORS.contains(&ch) || ch == ')' || ch == ']');
-    let unit = trimmed.strip_prefix("in ").unwrap_or(trimmed).trim();
     // `brdf_1/sr` keeps its `/`; `brdf/sr` is `sr`.
-    unit
+    trimmed.strip_prefix("in ").unwrap_or(trimmed).trim()
 }
 
 /// Whether `a` is `b` (five letters or more) with two neighbouring letters swapped.

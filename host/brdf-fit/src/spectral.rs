@@ -668,9 +668,9 @@ impl Spectrum {
     /// for the five-parameter model, `kd`, the diffuse part's ratio inside `kb`: the shared
     /// fit solves `kb` and `kb kd` per band ([`crate::problem::projected_ratios`]).
     pub fn weight_indices(&self) -> Vec<usize> {
-        let ratios = crate::problem::projected_ratios(self.model);
+        let shape = crate::problem::nonlinear_indices(self.model);
         (0..self.model.param_count())
-            .filter(|i| self.model.linear_params().contains(i) || ratios.contains(i))
+            .filter(|i| !shape.contains(i))
             .collect()
     }
 }

@@ -140,8 +140,9 @@ fn embedded_fit_does_not_depend_on_the_units_of_the_data() {
     for scale in [100.0, 1e-20, 1e-60, 1e20] {
         let (p, e) = run(scale);
         for j in 0..6 {
-            // kb and kd scale with the data; kr, b, a, c do not.
-            let want = if j == 0 || j == 4 { p1[j] * scale } else { p1[j] };
+            // The weights (kb, kd) scale with the data; kr, b, a, c do not.
+            let weight = ModelKind::Six.linear_params().contains(&j);
+            let want = if weight { p1[j] * scale } else { p1[j] };
             assert!(
                 (p[j] - want).abs() <= EMBEDDED_UNIT_SCALE_REL * want.abs(),
                 "x{scale:e}: parameter {j} is {} against {want}",
@@ -238,7 +239,8 @@ fn readings_spanning_beyond_f32_are_refused_by_the_embedded_engine() {
     // The full engine fits them: half the readings at rho0 / pi, half 1e20 below.
     let full = fit(&problem, &FitOptions::default());
     assert!(full.params[0] > 0.0, "{:?}", full.params);
-    // Within the limit the embedded engine fits what the full one does.
+    // Within the limit the embedded engine fits what the full one does: Lambert's one weight,
+    // scaled out, is the same to rounding (as between units, EMBEDDED_UNIT_SCALE_REL).
     let d = spread_by(1e14);
     let problem = Problem::from_dataset(ModelKind::Lambert, Residual::Relative, &d);
     let emb = fit_embedded(ModelKind::Lambert, &d, &problem, DEFAULT_BUDGET, 1).unwrap();

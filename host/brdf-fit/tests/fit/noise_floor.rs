@@ -349,7 +349,8 @@ fn the_bands_of_a_spectral_file_share_one_shape() {
 /// The five-parameter model's `kd` is the diffuse part's ratio inside `kb`, not a weight
 /// (`ModelKind::linear_params`), yet the shared-shape fit solves `kb` and `kb kd` per band:
 /// each band keeps its own `kd`, and the spectrum table marks `kd` as per band
-/// (`Spectrum::weight_indices`), as the fit has it. The shape `kr, b, a` is one.
+/// (`Spectrum::weight_indices`), as the fit has it. The shape `kr, b, a` is one. (This pins
+/// behaviour the release before had too, now that the weights are stated in one place.)
 #[test]
 fn the_five_parameter_shared_fit_keeps_kd_per_band() {
     use brdf_fit::spectral::BandShape;
